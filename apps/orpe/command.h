@@ -1,0 +1,31 @@
+// Subcommand registry of the `orpe` CLI. Each cmd_*.cpp registers itself with a static
+// CommandRegistrar, so adding a subcommand touches no shared file.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "orpe/pipeline/config.h"
+
+namespace orpe::cli {
+
+using CommandSetup = std::function<void(CLI::App& root)>;
+
+/// Registers `setup`, called once on the root app; `order` sorts the --help listing.
+struct CommandRegistrar {
+  CommandRegistrar(int order, CommandSetup setup);
+};
+std::vector<std::pair<int, CommandSetup>>& command_registry();
+
+/// --config FILE and --set section.key=value, shared by every command that runs a stage.
+struct ConfigOptions {
+  std::string config_file;
+  std::vector<std::string> overrides;
+};
+void add_config_options(CLI::App& app, ConfigOptions& options);
+/// Defaults, then the file, then the overrides; validated. Throws ConfigError / IoError.
+OrpeConfig resolve_config(const ConfigOptions& options);
+
+}  // namespace orpe::cli

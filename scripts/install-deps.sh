@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs every build and run dependency of orpe from Debian's archive. Idempotent: a machine that
+# already has everything is left alone (one dpkg query, no network).
+set -euo pipefail
+PACKAGES=(
+  build-essential cmake ninja-build ccache pkg-config git
+  libeigen3-dev libopencv-dev libopencv-contrib-dev
+  libmatio-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
+  libnanoflann-dev libtbb-dev libgtest-dev libgmock-dev libbenchmark-dev
+)
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" != 0 ]; then SUDO=sudo; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

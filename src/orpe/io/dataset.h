@@ -1,0 +1,102 @@
+// One interface over the dataset layouts orpe reads: a random-access sequence of RGB-D frames plus
+// whatever ground truth the dataset has. Readers convert to library conventions at this edge:
+// depth in metres (per-dataset depth scale), colour RGB8, poses as T_world_cam / T_cam_obj in metres.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "orpe/core/frame.h"
+
+namespace orpe {
+
+/// Dataset selection and per-dataset overrides. Zero / empty means "use the layout's preset".
+struct DatasetParams {
+  std::string format = "auto";  ///< auto | tum | 7scenes | ycbv | bop
+  int first_frame = 0;          ///< index into the layout's frame list (after sorting), inclusive
+  int last_frame = -1;          ///< inclusive; -1 = to the end
+  int stride = 1;               ///< take every stride-th frame
+  double depth_units_per_m = 0;  ///< raw depth units per metre; 0 = preset (TUM 5000, 7-Scenes 1000, ...)
+  double fx = 0, fy = 0, cx = 0, cy = 0;  ///< intrinsics override, pixels; 0 = preset / from files
+  double max_depth_m = 0;  ///< depth beyond this is marked invalid on read; 0 = keep all
+  std::string scene;       ///< YCB-Video video ("0001") or BOP scene ("000000"); empty = first found
+
+  template <class V>
+  void visit(V&& v) {
+    v("format", format, "Dataset layout: auto | tum | 7scenes | ycbv | bop");
+    v("first_frame", first_frame, "First frame (index into the sorted frame list), inclusive");
+    v("last_frame", last_frame, "Last frame, inclusive; -1 = to the end");
+    v("stride", stride, "Take every stride-th frame (>= 1)");
+    v("depth_units_per_m", depth_units_per_m,
+      "Raw depth units per metre; 0 = the layout's preset (TUM 5000, 7-Scenes 1000, YCB meta.mat, BOP json)");
+    v("fx", fx, "Focal length x override (pixels); 0 = from the dataset / preset");
+    v("fy", fy, "Focal length y override (pixels); 0 = from the dataset / preset");
+    v("cx", cx, "Principal point x override (pixels); 0 = from the dataset / preset");
+    v("cy", cy, "Principal point y override (pixels); 0 = from the dataset / preset");
+    v("max_depth_m", max_depth_m, "Depth beyond this is marked invalid on read (m); 0 = keep all");
+    v("scene", scene, "YCB-Video video (e.g. 0001) or BOP scene (e.g. 000000); empty = first found");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+/// Static facts about an opened dataset.
+struct DatasetInfo {
+  std::string format;  ///< tum | 7scenes | ycbv | bop
+  std::string root;    ///< the folder that was opened
+  int scene_id = 0;    ///< YCB video number / BOP scene id (for BOP result rows)
+  PinholeIntrinsics intrinsics;  ///< of the first frame (frames may carry their own)
+  double depth_units_per_m = 0;  ///< the scale actually used
+  std::map<int, std::string> class_names;  ///< class id -> name (YCB: classes.txt; BOP: obj_XXXXXX)
+  std::map<int, std::string> model_points_paths;  ///< class id -> points file (YCB points.xyz, BOP ply)
+  std::map<int, std::string> model_mesh_paths;    ///< class id -> mesh (OBJ/PLY), when present
+  std::vector<int> symmetric_classes;             ///< classes scored with ADD-S in ADD(-S)
+  double model_units_per_m = 1.0;                 ///< model files' units (BOP: 1000 = mm)
+};
+
+/// A timestamped camera pose, T_world_cam.
+struct StampedPose {
+  double timestamp_s = 0;
+  SE3 T_world_cam;
+};
+
+class DatasetReader {
+ public:
+  virtual ~DatasetReader() = default;
+  virtual const DatasetInfo& info() const = 0;
+  /// Number of frames after the first/last/stride selection.
+  virtual size_t size() const = 0;
+  /// Reads frame i (0 <= i < size()). Throws IoError naming the file for a bad frame
+  /// (missing/corrupt file, colour/depth size mismatch, ...).
+  virtual RgbdFrame read(size_t i) const = 0;
+  /// Ground-truth camera trajectory of the selected frames, when the dataset has one.
+  virtual std::vector<StampedPose> ground_truth_trajectory() const { return {}; }
+};
+
+/// Detects the layout of `path` ("tum", "7scenes", "ycbv", "bop"), or throws IoError explaining what
+/// was looked for.
+std::string detect_dataset_format(const std::string& path);
+
+/// Opens a dataset folder. Throws IoError / ConfigError with a message naming the path and problem.
+std::unique_ptr<DatasetReader> open_dataset(const std::string& path, const DatasetParams& params);
+
+/// Iterates a reader, skipping bad frames: each is logged (file and problem) and counted.
+class FrameStream {
+ public:
+  explicit FrameStream(const DatasetReader& reader) : reader_(reader) {}
+  /// Reads the next good frame into `frame`; false at the end.
+  bool next(RgbdFrame& frame);
+  size_t skipped() const { return skipped_.size(); }
+  /// (frame position, message) of each skipped frame.
+  const std::vector<std::pair<size_t, std::string>>& skipped_frames() const { return skipped_; }
+
+ private:
+  const DatasetReader& reader_;
+  size_t pos_ = 0;
+  std::vector<std::pair<size_t, std::string>> skipped_;
+};
+
+}  // namespace orpe

@@ -1,0 +1,34 @@
+// The effective configuration of a run: every stage's Params, loaded from defaults, a JSON config
+// file and `--set section.key=value` overrides, in that order. Echoed into every run summary.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "orpe/core/params.h"
+#include "orpe/io/dataset.h"
+
+namespace orpe {
+
+struct OrpeConfig {
+  DatasetParams dataset;
+
+  /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
+  template <class V>
+  void visit_sections(V&& v) {
+    v("dataset", dataset);
+  }
+
+  bool IsValid(std::string* why) const;
+};
+
+/// Applies a JSON config file ({"section": {"key": value}}). Throws IoError / ConfigError.
+void load_config_file(OrpeConfig& config, const std::string& path);
+/// Applies one "section.key=value" override. Throws ConfigError for unknown keys or bad values.
+void apply_config_override(OrpeConfig& config, const std::string& assignment);
+/// Every parameter with its current value and documentation.
+std::vector<ParamDoc> describe_config(const OrpeConfig& config);
+/// The configuration as pretty-printed JSON.
+std::string config_to_json(const OrpeConfig& config);
+
+}  // namespace orpe

@@ -1,0 +1,74 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "orpe/core/error.h"
+#include "orpe/pipeline/config.h"
+#include "support/test_data.h"
+
+namespace orpe {
+namespace {
+
+TEST(Config, OverridesSetTypedFields) {
+  OrpeConfig c;
+  apply_config_override(c, "dataset.stride=3");
+  apply_config_override(c, "dataset.format=tum");
+  apply_config_override(c, "dataset.max_depth_m=4.5");
+  EXPECT_EQ(c.dataset.stride, 3);
+  EXPECT_EQ(c.dataset.format, "tum");
+  EXPECT_DOUBLE_EQ(c.dataset.max_depth_m, 4.5);
+}
+
+TEST(Config, BadOverridesNameTheKey) {
+  OrpeConfig c;
+  try {
+    apply_config_override(c, "dataset.stride=abc");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("dataset.stride"), std::string::npos);
+  }
+  EXPECT_THROW(apply_config_override(c, "dataset.nope=1"), ConfigError);
+  EXPECT_THROW(apply_config_override(c, "nosection.x=1"), ConfigError);
+  EXPECT_THROW(apply_config_override(c, "stride=1"), ConfigError);
+}
+
+TEST(Config, FileRoundTripAndUnknownKeys) {
+  OrpeConfig c;
+  c.dataset.stride = 7;
+  const std::string dir = test::scratch_dir("cfg");
+  {
+    std::ofstream os(dir + "/c.json");
+    os << config_to_json(c);
+  }
+  OrpeConfig d;
+  load_config_file(d, dir + "/c.json");
+  EXPECT_EQ(d.dataset.stride, 7);
+  {
+    std::ofstream os(dir + "/bad.json");
+    os << R"({"dataset": {"strid": 2}})";
+  }
+  try {
+    load_config_file(d, dir + "/bad.json");
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("dataset.strid"), std::string::npos);
+  }
+}
+
+TEST(Config, ValidityCheckNamesSection) {
+  OrpeConfig c;
+  c.dataset.stride = 0;
+  std::string why;
+  EXPECT_FALSE(c.IsValid(&why));
+  EXPECT_NE(why.find("dataset"), std::string::npos);
+}
+
+TEST(Config, DescribeListsEveryKeyWithDocs) {
+  const auto docs = describe_config(OrpeConfig{});
+  ASSERT_FALSE(docs.empty());
+  for (const auto& d : docs) EXPECT_FALSE(d.doc.empty()) << d.key;
+}
+
+}  // namespace
+}  // namespace orpe

@@ -355,12 +355,22 @@ TEST(PoseResults, ReadsGroundTruthAndModelsFromTheDataset) {
   EXPECT_NEAR(ev.all.add_s_auc, ycb_auc_percent({0.01, 0.0}), 1e-9);
 
   DatasetInfo no_model = info;
-  no_model.model_points_paths.clear();
+  no_model.model_points_paths.erase(5);
+  no_model.model_points_paths[6] = dir + "/cube_mm.xyz";
   try {
     evaluate_pose_results(FakeReader(no_model, frames), {}, {});
     FAIL();
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("class 5"), std::string::npos) << e.what();
+  }
+  DatasetInfo no_models_at_all = info;
+  no_models_at_all.model_points_paths.clear();
+  no_models_at_all.format = "tum";
+  try {
+    evaluate_pose_results(FakeReader(no_models_at_all, frames), {}, {});
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("no object models"), std::string::npos) << e.what();
   }
   DatasetInfo missing_file = info;
   missing_file.model_points_paths[5] = dir + "/nope.xyz";

@@ -295,6 +295,11 @@ PoseEvaluation evaluate_pose_results(const DatasetReader& reader,
                                      const std::vector<PoseResultRow>& rows,
                                      const PoseMetricsParams& params) {
   const DatasetInfo& info = reader.info();
+  // Fail before reading every frame when the layout cannot have object ground truth (TUM, 7-Scenes).
+  if (info.model_points_paths.empty())
+    throw IoError(info.root, fmt::format("the dataset ({}) has no object models, so no object pose "
+                                         "ground truth to evaluate against",
+                                         info.format));
   std::vector<PoseGroundTruthInstance> gt;
   for (size_t i = 0; i < reader.size(); ++i) {
     const RgbdFrame frame = reader.read(i);

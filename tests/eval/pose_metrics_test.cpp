@@ -382,5 +382,67 @@ TEST(PoseResults, ReadsGroundTruthAndModelsFromTheDataset) {
   }
 }
 
+TEST(PoseResults, KeyframeFilterAndSeveralScenes) {
+  const std::string dir = test::scratch_dir("kf");
+  {
+    std::ofstream os(dir + "/cube.xyz");
+    for (const Vec3& c : cube_corners(0.05)) os << c.x() << " " << c.y() << " " << c.z() << "\n";
+  }
+  auto make_info = [&](int scene) {
+    DatasetInfo info;
+    info.root = dir;
+    info.format = "ycbv";
+    info.scene_id = scene;
+    info.model_points_paths[1] = dir + "/cube.xyz";
+    return info;
+  };
+  std::vector<RgbdFrame> frames(3);
+  for (int i = 0; i < 3; ++i) {
+    frames[i].index = i + 1;
+    ObjectGroundTruth o;
+    o.class_id = 1;
+    o.T_cam_obj = SE3(Mat3::Identity(), Vec3(0, 0, 1));
+    frames[i].objects_gt.push_back(o);
+  }
+  const FakeReader a(make_info(48), frames), b(make_info(49), frames);
+  // Scene 48 frame 2 is estimated 1 cm off; everything else is missed.
+  PoseResultRow r = row(2, 1, 1.0, SE3(Mat3::Identity(), Vec3(0.01, 0, 1)));
+  const auto all = evaluate_pose_results({&a, &b}, {r}, {});
+  EXPECT_EQ(all.all.instances, 6u);
+  EXPECT_EQ(all.all.estimated, 1u);
+  const FrameSet keyframes{{48, 2}, {49, 3}, {50, 1}};
+  const auto kf = evaluate_pose_results({&a, &b}, {r}, {}, &keyframes);
+  EXPECT_EQ(kf.all.instances, 2u);
+  EXPECT_EQ(kf.all.estimated, 1u);
+  EXPECT_NEAR(kf.all.adds_auc, ycb_auc_percent({0.01, kInf}), 1e-9);
+  EXPECT_NE(kf.to_json().find("\"instances\""), std::string::npos);
+}
+
+TEST(KeyframeList, ReadsYcbFormatAndRejectsBadLines) {
+  const std::string dir = test::scratch_dir("kl");
+  std::ofstream(dir + "/kf.txt") << "0048/000001\r\n# comment\n\n0059/001234\n";
+  const FrameSet kf = read_keyframe_list(dir + "/kf.txt");
+  EXPECT_EQ(kf, (FrameSet{{48, 1}, {59, 1234}}));
+  std::ofstream(dir + "/bad.txt") << "0048/000001\n0048-000002\n";
+  try {
+    read_keyframe_list(dir + "/bad.txt");
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad.txt"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir + "/empty.txt") << "# nothing\n";
+  EXPECT_THROW(read_keyframe_list(dir + "/empty.txt"), IoError);
+  EXPECT_THROW(read_keyframe_list(dir + "/missing.txt"), IoError);
+}
+
+TEST(KeyframeList, SharedYcbKeyframesParse) {
+  ORPE_REQUIRE_DATA(data, "ycbv/keyframe.txt");
+  const FrameSet kf = read_keyframe_list(data + "/ycbv/keyframe.txt");
+  EXPECT_EQ(kf.size(), 2949u);  // the official YCB-Video test keyframes (README)
+  EXPECT_EQ(kf.begin()->first, 48);
+  EXPECT_EQ(kf.rbegin()->first, 59);
+}
+
 }  // namespace
 }  // namespace orpe

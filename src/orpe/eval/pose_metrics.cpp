@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cctype>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <nanoflann.hpp>
 #include <nlohmann/json.hpp>
@@ -291,34 +293,83 @@ PoseEvaluation evaluate_pose_results(const std::vector<PoseGroundTruthInstance>&
   return ev;
 }
 
-PoseEvaluation evaluate_pose_results(const DatasetReader& reader,
+FrameSet read_keyframe_list(const std::string& path) {
+  std::ifstream is(path);
+  if (!is) throw IoError(path, "cannot open keyframe list");
+  FrameSet frames;
+  std::string line;
+  int line_no = 0;
+  while (std::getline(is, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const auto slash = line.find('/', first);
+    const auto end = line.find_last_not_of(" \t");
+    auto all_digits = [&](size_t a, size_t b) {
+      if (a >= b) return false;
+      for (size_t i = a; i < b; ++i)
+        if (!std::isdigit(static_cast<unsigned char>(line[i]))) return false;
+      return true;
+    };
+    if (slash == std::string::npos || !all_digits(first, slash) || !all_digits(slash + 1, end + 1) ||
+        end + 1 - (slash + 1) > 9 || slash - first > 9)
+      throw IoError(path, fmt::format("line {}: expected 'video/frame' such as 0048/000001", line_no));
+    frames.emplace(std::stoi(line.substr(first, slash - first)),
+                   std::stoi(line.substr(slash + 1, end - slash)));
+  }
+  if (frames.empty()) throw IoError(path, "no keyframes listed");
+  return frames;
+}
+
+PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& readers,
                                      const std::vector<PoseResultRow>& rows,
-                                     const PoseMetricsParams& params) {
-  const DatasetInfo& info = reader.info();
-  // Fail before reading every frame when the layout cannot have object ground truth (TUM, 7-Scenes).
-  if (info.model_points_paths.empty())
-    throw IoError(info.root, fmt::format("the dataset ({}) has no object models, so no object pose "
-                                         "ground truth to evaluate against",
-                                         info.format));
+                                     const PoseMetricsParams& params,
+                                     const FrameSet* only_frames) {
   std::vector<PoseGroundTruthInstance> gt;
-  for (size_t i = 0; i < reader.size(); ++i) {
-    const RgbdFrame frame = reader.read(i);
-    for (const auto& o : frame.objects_gt) gt.push_back({info.scene_id, frame.index, o.class_id, o.T_cam_obj});
+  std::map<int, std::string> model_paths, class_names;
+  std::map<int, double> model_units;
+  std::vector<int> symmetric;
+  for (const DatasetReader* reader : readers) {
+    const DatasetInfo& info = reader->info();
+    // Fail before reading every frame when the layout has no object ground truth (TUM, 7-Scenes).
+    if (info.model_points_paths.empty())
+      throw IoError(info.root, fmt::format("the dataset ({}) has no object models, so no object "
+                                           "pose ground truth to evaluate against",
+                                           info.format));
+    for (const auto& [c, path] : info.model_points_paths)
+      if (model_paths.emplace(c, path).second) model_units[c] = info.model_units_per_m;
+    class_names.insert(info.class_names.begin(), info.class_names.end());
+    if (symmetric.empty()) symmetric = info.symmetric_classes;
+    for (size_t i = 0; i < reader->size(); ++i) {
+      const RgbdFrame frame = reader->read(i);
+      if (only_frames && !only_frames->count({info.scene_id, frame.index})) continue;
+      for (const auto& o : frame.objects_gt)
+        gt.push_back({info.scene_id, frame.index, o.class_id, o.T_cam_obj});
+    }
   }
   std::map<int, ModelPoints> models;
   for (const auto& g : gt) {
     if (models.count(g.class_id)) continue;
-    const auto it = info.model_points_paths.find(g.class_id);
-    if (it == info.model_points_paths.end())
-      throw IoError(info.root, fmt::format("no model points file for class {} in the dataset",
-                                           g.class_id));
+    const auto it = model_paths.find(g.class_id);
+    if (it == model_paths.end())
+      throw IoError(readers.front()->info().root,
+                    fmt::format("no model points file for class {} in the dataset", g.class_id));
     const std::string ext = std::filesystem::path(it->second).extension().string();
     if (ext != ".xyz" && ext != ".txt")
       throw IoError(it->second, "model points must be an 'x y z' text file (.xyz); other formats are "
                                 "not supported by orpe eval yet");
-    models.emplace(g.class_id, ModelPoints(read_xyz_points(it->second, info.model_units_per_m)));
+    models.emplace(g.class_id, ModelPoints(read_xyz_points(it->second, model_units[g.class_id])));
   }
-  return evaluate_pose_results(gt, rows, models, info.symmetric_classes, info.class_names, params);
+  return evaluate_pose_results(gt, rows, models, symmetric, class_names, params);
+}
+
+PoseEvaluation evaluate_pose_results(const DatasetReader& reader,
+                                     const std::vector<PoseResultRow>& rows,
+                                     const PoseMetricsParams& params,
+                                     const FrameSet* only_frames) {
+  return evaluate_pose_results(std::vector<const DatasetReader*>{&reader}, rows, params,
+                               only_frames);
 }
 
 std::string PoseEvaluation::report() const {
@@ -368,6 +419,16 @@ std::string PoseEvaluation::to_json() const {
   j["result_rows"] = result_rows;
   j["unmatched_rows"] = unmatched_rows;
   j["other_scene_rows"] = other_scene_rows;
+  // Per instance, so that runs over several scenes can be pooled later; misses have null distances.
+  j["instances"] = nlohmann::json::array();
+  for (const auto& p : instances) {
+    nlohmann::json i = {{"scene_id", p.scene_id}, {"im_id", p.im_id}, {"class_id", p.class_id},
+                        {"estimated", p.estimated}};
+    i["score"] = p.estimated ? nlohmann::json(p.score) : nlohmann::json(nullptr);
+    i["add_m"] = p.estimated ? nlohmann::json(p.add_m) : nlohmann::json(nullptr);
+    i["adds_m"] = p.estimated ? nlohmann::json(p.adds_m) : nlohmann::json(nullptr);
+    j["instances"].push_back(i);
+  }
   return j.dump(2);
 }
 

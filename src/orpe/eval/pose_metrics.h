@@ -16,7 +16,9 @@
 
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "orpe/core/se3.h"
@@ -139,11 +141,26 @@ PoseEvaluation evaluate_pose_results(const std::vector<PoseGroundTruthInstance>&
                                      const std::map<int, std::string>& class_names,
                                      const PoseMetricsParams& params);
 
-/// Reads every frame's objects_gt from `reader`, the model points of the classes present (from
-/// DatasetInfo.model_points_paths, divided by model_units_per_m), and scores `rows`.
-/// Throws IoError naming the file for an unreadable frame or model, or a class without model points.
+/// (scene_id, im_id) pairs to evaluate, e.g. the YCB-Video test keyframes.
+using FrameSet = std::set<std::pair<int, int>>;
+
+/// Reads a YCB-Video keyframe list (`keyframe.txt`: one `SSSS/NNNNNN` per line, video and frame
+/// number). Throws IoError naming the file and line for a malformed line or an empty list.
+FrameSet read_keyframe_list(const std::string& path);
+
+/// Reads the objects_gt of every frame of every reader (scene_id from DatasetInfo, im_id =
+/// frame.index), keeping only the frames in `only_frames` when it is given, loads the model points
+/// of the classes present (DatasetInfo.model_points_paths, divided by model_units_per_m; class
+/// names and symmetric classes from the first reader that has them), and scores `rows`.
+/// Throws IoError naming the file for an unreadable frame or model, a class without model points,
+/// or a dataset without object models.
+PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& readers,
+                                     const std::vector<PoseResultRow>& rows,
+                                     const PoseMetricsParams& params,
+                                     const FrameSet* only_frames = nullptr);
 PoseEvaluation evaluate_pose_results(const DatasetReader& reader,
                                      const std::vector<PoseResultRow>& rows,
-                                     const PoseMetricsParams& params);
+                                     const PoseMetricsParams& params,
+                                     const FrameSet* only_frames = nullptr);
 
 }  // namespace orpe

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cctype>
-#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <nanoflann.hpp>
@@ -355,11 +354,8 @@ PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& re
     if (it == model_paths.end())
       throw IoError(readers.front()->info().root,
                     fmt::format("no model points file for class {} in the dataset", g.class_id));
-    const std::string ext = std::filesystem::path(it->second).extension().string();
-    if (ext != ".xyz" && ext != ".txt")
-      throw IoError(it->second, "model points must be an 'x y z' text file (.xyz); other formats are "
-                                "not supported by orpe eval yet");
-    models.emplace(g.class_id, ModelPoints(read_xyz_points(it->second, model_units[g.class_id])));
+    // YCB points.xyz (metres) or a BOP model PLY's vertices (mm), by extension.
+    models.emplace(g.class_id, ModelPoints(read_model_points(it->second, model_units[g.class_id])));
   }
   return evaluate_pose_results(gt, rows, models, symmetric, class_names, params);
 }

@@ -150,7 +150,8 @@ FrameSet read_keyframe_list(const std::string& path);
 
 /// Reads the objects_gt of every frame of every reader (scene_id from DatasetInfo, im_id =
 /// frame.index), keeping only the frames in `only_frames` when it is given, loads the model points
-/// of the classes present (DatasetInfo.model_points_paths, divided by model_units_per_m; class
+/// of the classes present (DatasetInfo.model_points_paths: .xyz text or PLY vertices, divided by
+/// model_units_per_m; class
 /// names and symmetric classes from the first reader that has them), and scores `rows`.
 /// Throws IoError naming the file for an unreadable frame or model, a class without model points,
 /// or a dataset without object models.

@@ -1,6 +1,6 @@
 // End-to-end tests of `orpe eval` (the built binary, ORPE_CLI_PATH).
-#include <gtest/gtest.h>
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <Eigen/Eigenvalues>
@@ -78,10 +78,13 @@ void write_pair(const std::string& gt_path, const std::string& est_path, int n) 
   const SE3 offset = SE3::exp((Vec6() << 1, -2, 0.5, 0.3, -1.0, 2.0).finished());
   for (int i = 0; i < n; ++i) {
     T = T * SE3::exp((Vec6() << 0.02 * g(rng), 0.02 * g(rng), 0.02 * g(rng), 0.02 * g(rng),
-                      0.02 * g(rng), 0.02 * g(rng)).finished());
+                      0.02 * g(rng), 0.02 * g(rng))
+                         .finished());
     gt.push_back({100.0 + i / 30.0, T});
-    SE3 p = offset * T * SE3::exp((Vec6() << 0.01 * g(rng), 0.01 * g(rng), 0.01 * g(rng),
-                                   0.005 * g(rng), 0.005 * g(rng), 0.005 * g(rng)).finished());
+    SE3 p = offset * T *
+            SE3::exp((Vec6() << 0.01 * g(rng), 0.01 * g(rng), 0.01 * g(rng), 0.005 * g(rng),
+                      0.005 * g(rng), 0.005 * g(rng))
+                         .finished());
     p.translation() += Vec3(0.001 * i, 0, 0);
     est.push_back({100.0 + i / 30.0 + 0.003, p});
   }
@@ -92,10 +95,11 @@ void write_pair(const std::string& gt_path, const std::string& est_path, int n) 
 TEST(CliEvalTraj, PrintsTheDefinitionsAte) {
   const std::string dir = test::scratch_dir("traj");
   write_pair(dir + "/gt.txt", dir + "/est.txt", 150);
-  const auto r = run_cli("eval traj " + dir + "/gt.txt " + dir + "/est.txt --json " + dir +
-                         "/out/ate.json");
+  const auto r =
+      run_cli("eval traj " + dir + "/gt.txt " + dir + "/est.txt --json " + dir + "/out/ate.json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  // Independent computation from the files as written (all poses pair up: 3 ms apart, 33 ms spacing).
+  // Independent computation from the files as written (all poses pair up: 3 ms apart, 33 ms
+  // spacing).
   const auto gt = read_tum_trajectory(dir + "/gt.txt");
   const auto est = read_tum_trajectory(dir + "/est.txt");
   std::vector<Vec3> g, e;
@@ -223,8 +227,8 @@ TEST(CliEvalPoses, RealYcbVideoScene) {
     });
     ASSERT_NE(it, written.end());
     const auto pts = read_xyz_points(info.model_points_paths.at(g.class_id));
-    const bool symmetric = std::count(info.symmetric_classes.begin(), info.symmetric_classes.end(),
-                                      g.class_id) > 0;
+    const bool symmetric =
+        std::count(info.symmetric_classes.begin(), info.symmetric_classes.end(), g.class_id) > 0;
     expected_add_s.push_back(symmetric ? adds_distance_brute_force(pts, g.T_cam_obj, it->T_cam_obj)
                                        : add_distance(pts, g.T_cam_obj, it->T_cam_obj));
     if (!symmetric) {

@@ -7,16 +7,28 @@
 
 #include "orpe/core/params.h"
 #include "orpe/io/dataset.h"
+#include "orpe/slam/slam_system.h"
 
 namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  slam::SlamOptions slam;                 ///< dense SLAM system options
+  slam::PreprocessParams slam_preprocess; ///< SLAM depth filter / pyramids
+  slam::TrackerParams slam_tracking;      ///< SLAM frame-to-model tracking
+  slam::FusionParams slam_fusion;         ///< SLAM surfel fusion
+
+  /// The SLAM system's parameters assembled from the slam* sections.
+  slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("slam", slam);
+    v("slam_preprocess", slam_preprocess);
+    v("slam_tracking", slam_tracking);
+    v("slam_fusion", slam_fusion);
   }
 
   bool IsValid(std::string* why) const;

@@ -7,16 +7,19 @@
 
 #include "orpe/core/params.h"
 #include "orpe/io/dataset.h"
+#include "orpe/semantic/segmenter.h"
 
 namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  SegmentationParams segmentation;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("segmentation", segmentation);
   }
 
   bool IsValid(std::string* why) const;

@@ -25,6 +25,7 @@ SegmentationParams boundary_only_params(int shift_px) {
   p.gt_spurious_per_frame = 0;
   p.gt_boundary_shift_min_px = shift_px;
   p.gt_boundary_shift_max_px = shift_px;
+  p.gt_boundary_jitter_px = 0;
   return p;
 }
 

@@ -8,18 +8,21 @@
 #include "orpe/core/params.h"
 #include "orpe/io/dataset.h"
 #include "orpe/semantic/segmenter.h"
+#include "orpe/semantic/semantic_fusion.h"
 
 namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
   SegmentationParams segmentation;
+  SemanticParams semantic;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
     v("segmentation", segmentation);
+    v("semantic", semantic);
   }
 
   bool IsValid(std::string* why) const;

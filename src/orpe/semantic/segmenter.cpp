@@ -28,6 +28,8 @@ bool SegmentationParams::IsValid(std::string* why) const {
     return fail("gt_boundary_shift_min_px must be <= gt_boundary_shift_max_px");
   if (std::abs(gt_boundary_shift_min_px) > 50 || std::abs(gt_boundary_shift_max_px) > 50)
     return fail("gt_boundary_shift_*_px must be within [-50, 50]");
+  if (gt_boundary_jitter_px < 0 || gt_boundary_jitter_px > 20)
+    return fail("gt_boundary_jitter_px must be in [0, 20]");
   if (!(gt_band_min_probability > 0 && gt_band_min_probability < mask_threshold))
     return fail("gt_band_min_probability must be in (0, mask_threshold)");
   if (!(gt_core_probability > mask_threshold && gt_core_probability <= 1))

@@ -33,8 +33,13 @@ struct SegmentationParams {
   bool gt_degrade = true;               ///< false = exact ground-truth masks (probability 1 / 0)
   int seed = 7;                         ///< seed of every random choice of the degradation
   int gt_min_visible_px = 100;          ///< objects with fewer visible pixels are never detected
-  int gt_boundary_shift_min_px = -1;    ///< per-detection boundary shift, uniform integer in [min, max];
-  int gt_boundary_shift_max_px = 4;     ///<   > 0 erodes (object edge pixels fall below 0.5), < 0 dilates
+  /// Boundary shift of an object's masks: a per-object base, uniform integer in [min, max] and the
+  /// same in every frame (a detector errs systematically on an object's outline), plus a per-frame
+  /// jitter, uniform integer in [-jitter, jitter]. > 0 erodes (object edge pixels fall just below
+  /// 0.5), < 0 dilates.
+  int gt_boundary_shift_min_px = 0;
+  int gt_boundary_shift_max_px = 3;
+  int gt_boundary_jitter_px = 1;
   double gt_band_min_probability = 0.42;  ///< eroded object pixels get [this, 0.5): "slightly below 0.5"
   double gt_core_probability = 0.95;      ///< probability deep inside the mask
   double gt_core_ramp_px = 3;             ///< distance over which 0.5 rises to the core probability
@@ -64,9 +69,11 @@ struct SegmentationParams {
     v("seed", seed, "gt back-end: seed of the degradation (deterministic per seed and frame index)");
     v("gt_min_visible_px", gt_min_visible_px, "gt back-end: objects with fewer visible pixels are missed");
     v("gt_boundary_shift_min_px", gt_boundary_shift_min_px,
-      "gt back-end: boundary shift per detection, lower bound (px; < 0 dilates)");
+      "gt back-end: per-object boundary shift (same in every frame), lower bound (px; < 0 dilates)");
     v("gt_boundary_shift_max_px", gt_boundary_shift_max_px,
-      "gt back-end: boundary shift per detection, upper bound (px; > 0 erodes)");
+      "gt back-end: per-object boundary shift (same in every frame), upper bound (px; > 0 erodes)");
+    v("gt_boundary_jitter_px", gt_boundary_jitter_px,
+      "gt back-end: per-frame jitter added to the boundary shift, uniform in [-jitter, jitter] (px)");
     v("gt_band_min_probability", gt_band_min_probability,
       "gt back-end: eroded object pixels get probabilities in [this, 0.5)");
     v("gt_core_probability", gt_core_probability, "gt back-end: probability deep inside a mask");

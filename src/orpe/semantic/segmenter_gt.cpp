@@ -1,6 +1,7 @@
 // The gt back-end: ground-truth masks, optionally degraded like a real detector.
 //
-// Soft-mask model (per detection, boundary shift e px drawn uniformly in [shift_min, shift_max]):
+// Soft-mask model (per detection, boundary shift e = per-object base in [shift_min, shift_max], the
+// same in every frame, + per-frame jitter in [-jitter, jitter], px):
 // with d_in the Euclidean distance of an object pixel to the nearest background pixel (>= 1) and
 // d_out that of a background pixel to the nearest object pixel (>= 1),
 //   object pixel, d_in > e       -> 0.5 + (core - 0.5) * min(1, (d_in - e) / ramp)   (kept, >= 0.5)
@@ -58,6 +59,7 @@ class Rng {
 };
 
 constexpr std::uint64_t kSpuriousStream = 0x5b0c1e5ULL;
+constexpr std::uint64_t kObjectStream = 0xfffffffff0b1ec75ULL;  // never a frame index
 
 /// Writes the soft mask of `object` (a 0/1 full-size mask whose non-zero pixels lie in `box`) into
 /// `probability`, with boundary shift `shift_px`.
@@ -155,10 +157,14 @@ std::vector<Detection> GroundTruthSegmenter::detect(const RgbdFrame& frame) cons
       for (size_t i = 0; i < labels.size(); ++i)
         if (labels[i] == k) det.probability[i] = 1.0f;
     } else {
-      Rng rng(seed, frame_key, 0x1000000ULL + static_cast<std::uint64_t>(object.instance_id));
+      const auto object_key = 0x1000000ULL + static_cast<std::uint64_t>(object.instance_id);
+      Rng object_rng(seed, kObjectStream, object_key);  // same in every frame
+      const int base_shift =
+          object_rng.uniform_int(params_.gt_boundary_shift_min_px, params_.gt_boundary_shift_max_px);
+      Rng rng(seed, frame_key, object_key);
       if (rng.bernoulli(params_.gt_miss_rate)) continue;
-      const int shift =
-          rng.uniform_int(params_.gt_boundary_shift_min_px, params_.gt_boundary_shift_max_px);
+      const int shift = base_shift + rng.uniform_int(-params_.gt_boundary_jitter_px,
+                                                     params_.gt_boundary_jitter_px);
       det.score = static_cast<float>(rng.uniform(0.8, 1.0));
       if (rng.bernoulli(params_.gt_wrong_class_rate)) {
         std::vector<int> others;

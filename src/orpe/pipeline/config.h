@@ -9,18 +9,30 @@
 #include "orpe/io/dataset.h"
 #include "orpe/semantic/segmenter.h"
 #include "orpe/semantic/semantic_fusion.h"
+#include "orpe/slam/slam_system.h"
 
 namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
-  SegmentationParams segmentation;
-  SemanticParams semantic;
+  slam::SlamOptions slam;                 ///< dense SLAM system options
+  slam::PreprocessParams slam_preprocess; ///< SLAM depth filter / pyramids
+  slam::TrackerParams slam_tracking;      ///< SLAM frame-to-model tracking
+  slam::FusionParams slam_fusion;         ///< SLAM surfel fusion
+
+  /// The SLAM system's parameters assembled from the slam* sections.
+  slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
+  SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
+  SemanticParams semantic;          ///< instance-aware semantic fusion
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("slam", slam);
+    v("slam_preprocess", slam_preprocess);
+    v("slam_tracking", slam_tracking);
+    v("slam_fusion", slam_fusion);
     v("segmentation", segmentation);
     v("semantic", semantic);
   }

@@ -33,6 +33,21 @@ void SurfelMap::reserve(size_t n) {
   for_each_array(*this, [n](auto& a) { a.reserve(n); });
 }
 
+void SurfelMap::resize(size_t n) {
+  position_world.resize(n, Vec3f::Zero());
+  normal_world.resize(n, Vec3f::Zero());
+  color.resize(n);
+  radius_m.resize(n, 0.0f);
+  confidence.resize(n, 0.0f);
+  init_time.resize(n, 0);
+  last_seen_time.resize(n, 0);
+  instance_id.resize(n, 0);
+  p_object.resize(n, 0.0f);
+  boundary_counter.resize(n, 0);
+  object_obs_count.resize(n, 0);
+  always_active.resize(n, 0);
+}
+
 size_t SurfelMap::push_back(const Surfel& s) {
   position_world.push_back(s.position_world);
   normal_world.push_back(s.normal_world);

@@ -74,6 +74,8 @@ class SurfelMap {
   bool empty() const { return position_world.empty(); }
   void clear();
   void reserve(size_t n);
+  /// Resizes every array; new surfels are all zero (including the normal: set it).
+  void resize(size_t n);
 
   /// Appends one surfel; returns its index.
   size_t push_back(const Surfel& s);

@@ -1,0 +1,334 @@
+#include "orpe/slam/fusion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "orpe/core/error.h"
+
+namespace orpe::slam {
+namespace {
+
+constexpr std::int32_t kNoAssoc = -1;
+constexpr std::int32_t kNewSurfel = -2;
+
+inline Rgb8 blend(const Rgb8& a, float wa, const Rgb8& b, float wb) {
+  const float s = 1.0f / (wa + wb);
+  auto mix = [&](std::uint8_t x, std::uint8_t y) {
+    return static_cast<std::uint8_t>(std::clamp((wa * x + wb * y) * s + 0.5f, 0.0f, 255.0f));
+  };
+  return Rgb8{mix(a.r, b.r), mix(a.g, b.g), mix(a.b, b.b)};
+}
+
+}  // namespace
+
+bool FusionParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(max_depth_m > 0)) return fail("max_depth_m must be positive");
+  if (!(assoc_max_depth_diff_m > 0)) return fail("assoc_max_depth_diff_m must be positive");
+  if (!(assoc_max_normal_angle_rad > 0 && assoc_max_normal_angle_rad <= M_PI))
+    return fail("assoc_max_normal_angle_rad must be in (0, pi]");
+  if (!(stable_confidence > 0)) return fail("stable_confidence must be positive");
+  if (!(confidence_sigma > 0)) return fail("confidence_sigma must be positive");
+  if (confidence_radius_px < 0) return fail("confidence_radius_px must be >= 0");
+  if (!(max_radius_growth >= 1)) return fail("max_radius_growth must be >= 1");
+  if (unstable_max_age_frames < 0) return fail("unstable_max_age_frames must be >= 0");
+  if (index_supersample < 1 || index_supersample > 4) return fail("index_supersample must be in 1..4");
+  if (!(free_space_margin_m > 0)) return fail("free_space_margin_m must be positive");
+  if (!(merge_max_distance_factor > 0 && merge_max_distance_factor <= 2))
+    return fail("merge_max_distance_factor must be in (0, 2]");
+  if (!(merge_max_normal_angle_rad > 0)) return fail("merge_max_normal_angle_rad must be positive");
+  return true;
+}
+
+SurfelFusion::SurfelFusion(const FusionParams& params) : params_(params) {
+  std::string why;
+  if (!params_.IsValid(&why)) throw ConfigError("slam_fusion: " + why);
+}
+
+FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam, std::int32_t now,
+                               SurfelMap* map, IndexImage* pixel_surfel) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FusionStats stats;
+  const FrameLevel& L0 = frame.levels.at(0);
+  const PinholeIntrinsics& K = L0.K;
+  const int W = K.width, H = K.height;
+  const int s = params_.index_supersample;
+
+  RenderOptions opt;
+  opt.active_window_frames = params_.active_window_frames;
+  opt.now = now;
+  opt.far_m = static_cast<float>(params_.max_depth_m + params_.assoc_max_depth_diff_m);
+  renderer_.render_index_map(*map, T_world_cam, K, s, opt, &index_map_);
+
+  const Eigen::Matrix3f R_wc = T_world_cam.rotation().cast<float>();
+  const Eigen::Vector3f t_wc = T_world_cam.translation().cast<float>();
+  const SE3 T_cam_world = T_world_cam.inverse();
+  const Eigen::Matrix3f R_cw = T_cam_world.rotation().cast<float>();
+  const Eigen::Vector3f t_cw = T_cam_world.translation().cast<float>();
+  const float fx = static_cast<float>(K.fx), fy = static_cast<float>(K.fy);
+  const float cx = static_cast<float>(K.cx), cy = static_cast<float>(K.cy);
+  const float f_mean = 0.5f * (fx + fy);
+  const float max_z = static_cast<float>(params_.max_depth_m);
+  const float max_dz = static_cast<float>(params_.assoc_max_depth_diff_m);
+  const float min_cos = static_cast<float>(std::cos(params_.assoc_max_normal_angle_rad));
+  const float g_norm = params_.confidence_radius_px > 0
+                           ? static_cast<float>(params_.confidence_radius_px)
+                           : 0.5f * std::sqrt(static_cast<float>(W) * W + static_cast<float>(H) * H);
+  const float inv_2sig2 = static_cast<float>(1.0 / (2.0 * params_.confidence_sigma * params_.confidence_sigma));
+  const float growth = static_cast<float>(params_.max_radius_growth);
+  const float kSqrt2 = std::sqrt(2.0f);
+
+  // Observation of pixel (u, v): world point, world normal, weight, radius. False if unusable.
+  auto observe = [&](int u, int v, Vec3f* p_w, Vec3f* n_w, float* a, float* r) {
+    const float z = frame.raw_depth.at(u, v);
+    if (z <= 0.0f || z > max_z) return false;
+    const Vec3f& n_c = L0.normal.at(u, v);
+    if (n_c.z() == 0.0f && n_c.x() == 0.0f && n_c.y() == 0.0f) return false;
+    const Vec3f p_c((static_cast<float>(u) - cx) * z / fx, (static_cast<float>(v) - cy) * z / fy, z);
+    *p_w = R_wc * p_c + t_wc;
+    *n_w = R_wc * n_c;
+    const float du = static_cast<float>(u) - cx, dv = static_cast<float>(v) - cy;
+    const float g2 = (du * du + dv * dv) / (g_norm * g_norm);
+    *a = std::exp(-g2 * inv_2sig2);
+    *r = kSqrt2 * z / f_mean * std::min(1.0f / std::max(std::fabs(n_c.z()), 1e-6f), 2.0f);
+    return true;
+  };
+
+  // ---- association ----
+  if (assoc_.width() != W || assoc_.height() != H) assoc_ = IndexImage(W, H, kNoAssoc);
+  const SurfelMap& cmap = *map;
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      std::int32_t& out = assoc_.at(u, v);
+      out = kNoAssoc;
+      const float z = frame.raw_depth.at(u, v);
+      if (z <= 0.0f || z > max_z) continue;
+      const Vec3f& n_c = L0.normal.at(u, v);
+      if (n_c.z() == 0.0f && n_c.x() == 0.0f && n_c.y() == 0.0f) continue;
+      const Vec3f n_w = R_wc * n_c;
+      const Vec3f ray = Vec3f((static_cast<float>(u) - cx) / fx, (static_cast<float>(v) - cy) / fy, 1.0f)
+                            .normalized();
+      std::int32_t best = kNewSurfel;
+      float best_d2 = 0.0f, best_conf = 0.0f;
+      for (int y = v * s; y < v * s + s; ++y) {
+        for (int x = u * s; x < u * s + s; ++x) {
+          const std::int32_t idx = index_map_.surfel_index.at(x, y);
+          if (idx < 0) continue;
+          if (std::fabs(index_map_.depth.at(x, y) - z) >= max_dz) continue;
+          if (cmap.normal_world[idx].dot(n_w) < min_cos) continue;
+          const Vec3f q = R_cw * cmap.position_world[idx] + t_cw;
+          const float along = q.dot(ray);
+          const float d2 = q.squaredNorm() - along * along;  // squared distance from the ray
+          const float c = cmap.confidence[idx];
+          if (best < 0 || d2 < best_d2 || (d2 == best_d2 && c > best_conf)) {
+            best = idx;
+            best_d2 = d2;
+            best_conf = c;
+          }
+        }
+      }
+      out = best;
+    }
+  }
+
+  // ---- updates (each surfel has at most one associated pixel: no races) ----
+  size_t updated = 0;
+#pragma omp parallel for schedule(static) reduction(+ : updated)
+  for (int v = 0; v < H; ++v) {
+    for (int u = 0; u < W; ++u) {
+      const std::int32_t i = assoc_.at(u, v);
+      if (i < 0) continue;
+      Vec3f p_w, n_w;
+      float a, r;
+      if (!observe(u, v, &p_w, &n_w, &a, &r)) continue;
+      const float c = map->confidence[i];
+      if (r < growth * map->radius_m[i]) {
+        const float inv = 1.0f / (c + a);
+        map->position_world[i] = (c * map->position_world[i] + a * p_w) * inv;
+        Vec3f n = c * map->normal_world[i] + a * n_w;
+        const float len = n.norm();
+        if (len > 1e-6f) map->normal_world[i] = n / len;
+        map->color[i] = blend(map->color[i], c, frame.color.at(u, v), a);
+        map->radius_m[i] = (c * map->radius_m[i] + a * r) * inv;
+      }
+      map->confidence[i] = c + a;
+      map->last_seen_time[i] = now;
+      ++updated;
+    }
+  }
+  stats.updated = updated;
+
+  // ---- new surfels: row counts, prefix sum, parallel fill (deterministic order) ----
+  const size_t old_size = map->size();
+  if (params_.add_new_surfels) {
+    row_counts_.assign(static_cast<size_t>(H) + 1, 0);
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < H; ++v) {
+      std::uint32_t n = 0;
+      for (int u = 0; u < W; ++u) n += assoc_.at(u, v) == kNewSurfel;
+      row_counts_[static_cast<size_t>(v) + 1] = n;
+    }
+    for (int v = 0; v < H; ++v) row_counts_[static_cast<size_t>(v) + 1] += row_counts_[static_cast<size_t>(v)];
+    const size_t added = row_counts_[static_cast<size_t>(H)];
+    map->resize(old_size + added);
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < H; ++v) {
+      size_t k = old_size + row_counts_[static_cast<size_t>(v)];
+      for (int u = 0; u < W; ++u) {
+        if (assoc_.at(u, v) != kNewSurfel) continue;
+        Vec3f p_w, n_w;
+        float a, r;
+        observe(u, v, &p_w, &n_w, &a, &r);  // true: checked during association
+        map->position_world[k] = p_w;
+        map->normal_world[k] = n_w;
+        map->color[k] = frame.color.at(u, v);
+        map->radius_m[k] = r;
+        map->confidence[k] = a;
+        map->init_time[k] = now;
+        map->last_seen_time[k] = now;
+        assoc_.at(u, v) = static_cast<std::int32_t>(k);
+        ++k;
+      }
+    }
+    stats.created = added;
+  }
+
+  // ---- cleaning ----
+  const size_t n_all = map->size();
+  std::vector<std::uint8_t> removed(n_all, 0);
+  const float stable = static_cast<float>(params_.stable_confidence);
+  const int max_age = params_.unstable_max_age_frames;
+  size_t removed_unstable = 0;
+#pragma omp parallel for schedule(static) reduction(+ : removed_unstable)
+  for (long i = 0; i < static_cast<long>(n_all); ++i) {
+    if (map->confidence[i] < stable && now - map->init_time[i] > max_age) {
+      removed[i] = 1;
+      ++removed_unstable;
+    }
+  }
+  stats.removed_unstable = removed_unstable;
+
+  const int IW = W * s, IH = H * s;
+  if (params_.remove_free_space_violations) {
+    const float margin = static_cast<float>(params_.free_space_margin_m);
+    size_t fs = 0;
+#pragma omp parallel for schedule(static) reduction(+ : fs)
+    for (int y = 0; y < IH; ++y) {
+      for (int x = 0; x < IW; ++x) {
+        const std::int32_t i = index_map_.surfel_index.at(x, y);
+        if (i < 0 || removed[i] || map->confidence[i] >= stable || map->always_active[i]) continue;
+        const float z_live = frame.raw_depth.at(x / s, y / s);
+        if (z_live <= 0.0f || z_live > max_z) continue;
+        if (index_map_.depth.at(x, y) < z_live - margin) {
+          removed[i] = 1;
+          ++fs;
+        }
+      }
+    }
+    stats.removed_free_space = fs;
+  }
+
+  if (params_.merge_duplicates) {
+    // Phase 1 (parallel, read-only): each visible surfel looks for a dominating neighbour in the
+    // surrounding index cells (higher confidence, ties to the lower index) close enough to merge into.
+    if (merge_target_.size() < static_cast<size_t>(IW) * IH) merge_target_.resize(static_cast<size_t>(IW) * IH);
+    const float factor = static_cast<float>(params_.merge_max_distance_factor);
+    const float merge_cos = static_cast<float>(std::cos(params_.merge_max_normal_angle_rad));
+#pragma omp parallel for schedule(static)
+    for (int y = 0; y < IH; ++y) {
+      for (int x = 0; x < IW; ++x) {
+        std::int32_t& target = merge_target_[static_cast<size_t>(y) * IW + x];
+        target = -1;
+        const std::int32_t i = index_map_.surfel_index.at(x, y);
+        if (i < 0 || removed[i]) continue;
+        const Vec3f& pi = map->position_world[i];
+        const float ci = map->confidence[i];
+        float best_d2 = 0.0f;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            if ((dx == 0 && dy == 0) || x + dx < 0 || y + dy < 0 || x + dx >= IW || y + dy >= IH) continue;
+            const std::int32_t j = index_map_.surfel_index.at(x + dx, y + dy);
+            if (j < 0 || removed[j]) continue;
+            const float cj = map->confidence[j];
+            if (!(cj > ci || (cj == ci && j < i))) continue;
+            const float lim = factor * std::min(map->radius_m[i], map->radius_m[j]);
+            const float d2 = (map->position_world[j] - pi).squaredNorm();
+            if (d2 >= lim * lim) continue;
+            if (map->normal_world[j].dot(map->normal_world[i]) < merge_cos) continue;
+            if (target < 0 || d2 < best_d2) {
+              target = j;
+              best_d2 = d2;
+            }
+          }
+        }
+      }
+    }
+    // Phase 2 (sequential, in cell order): merge unless either side was removed meanwhile.
+    size_t merged = 0;
+    merges_.clear();
+    for (size_t k = 0; k < static_cast<size_t>(IW) * IH; ++k) {
+      const std::int32_t j = merge_target_[k];
+      if (j < 0) continue;
+      const std::int32_t i = index_map_.surfel_index[k];
+      if (removed[i] || removed[j]) continue;
+      const float ci = map->confidence[i], cj = map->confidence[j];
+      const float inv = 1.0f / (ci + cj);
+      map->position_world[j] = (cj * map->position_world[j] + ci * map->position_world[i]) * inv;
+      const Vec3f n = cj * map->normal_world[j] + ci * map->normal_world[i];
+      if (n.norm() > 1e-6f) map->normal_world[j] = n.normalized();
+      map->color[j] = blend(map->color[j], cj, map->color[i], ci);
+      map->radius_m[j] = (cj * map->radius_m[j] + ci * map->radius_m[i]) * inv;
+      map->confidence[j] = ci + cj;
+      map->init_time[j] = std::min(map->init_time[j], map->init_time[i]);
+      map->last_seen_time[j] = std::max(map->last_seen_time[j], map->last_seen_time[i]);
+      map->always_active[j] = static_cast<std::uint8_t>(map->always_active[j] | map->always_active[i]);
+      removed[i] = 1;
+      merges_.emplace_back(i, j);  // a pixel that updated i now points at j
+      ++merged;
+    }
+    stats.merged = merged;
+  }
+
+  // ---- removal ----
+  if (!params_.merge_duplicates) merges_.clear();
+  std::vector<std::uint32_t> removal_list;
+  for (size_t i = 0; i < n_all; ++i)
+    if (removed[i]) removal_list.push_back(static_cast<std::uint32_t>(i));
+  std::vector<std::uint32_t> moved_from;
+  if (pixel_surfel && !removal_list.empty()) {
+    // Where each removed surfel went: merged ones live on in their target.
+    std::vector<std::int32_t> redirect(n_all);
+    for (size_t i = 0; i < n_all; ++i) redirect[i] = removed[i] ? -1 : static_cast<std::int32_t>(i);
+    for (const auto& [from, to] : merges_) redirect[from] = to;
+    auto resolve = [&](std::int32_t i) {
+      while (i >= 0 && redirect[i] != i) i = redirect[i];  // follow merge chains
+      return i;
+    };
+    map->remove(removal_list, &moved_from);
+    std::vector<std::int32_t> old_to_new(n_all, -1);
+    for (size_t i = 0; i < moved_from.size(); ++i) old_to_new[moved_from[i]] = static_cast<std::int32_t>(i);
+    if (pixel_surfel->width() != W || pixel_surfel->height() != H) *pixel_surfel = IndexImage(W, H, -1);
+#pragma omp parallel for schedule(static)
+    for (long k = 0; k < static_cast<long>(W) * H; ++k) {
+      const std::int32_t i = assoc_[k];
+      const std::int32_t r = i < 0 ? -1 : resolve(i);
+      (*pixel_surfel)[k] = r < 0 ? -1 : old_to_new[r];
+    }
+  } else {
+    if (!removal_list.empty()) map->remove(removal_list);
+    if (pixel_surfel) {
+      *pixel_surfel = assoc_;
+      for (auto& i : *pixel_surfel) i = std::max(i, -1);
+    }
+  }
+  stats.surfels = map->size();
+  stats.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return stats;
+}
+
+}  // namespace orpe::slam

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <fmt/format.h>
+#include <limits>
 #include <numeric>
 
 #include "orpe/core/error.h"
@@ -197,9 +198,63 @@ void SemanticFusion::merge_into(int keep, int absorb, slam::SurfelMap& map) {
   instances_.erase(absorb);
 }
 
+void SemanticFusion::UpdateCounts::add(const UpdateCounts& o) {
+  observed += o.observed;
+  labelled += o.labelled;
+  released += o.released;
+  candidates += o.candidates;
+  joined += o.joined;
+}
+
+void SemanticFusion::update_surfel(std::int32_t i, int u, int v,
+                                   const ObjectNeighbourhood& neighbourhood, slam::SurfelMap& map,
+                                   UpdateCounts& counts) const {
+  ++counts.observed;
+  const float p = pixel_probability_.at(u, v);
+  const int label = detection_labels_.at(u, v);
+  // p_o: running average over the segmented frames that observed the surfel.
+  const std::uint16_t n = map.object_obs_count[i];
+  const float p_o = (map.p_object[i] * n + p) / (n + 1.0f);
+  map.p_object[i] = p_o;
+  if (n < std::numeric_limits<std::uint16_t>::max()) map.object_obs_count[i] = n + 1;
+  std::int32_t& instance = map.instance_id[i];
+  if (p_o <= static_cast<float>(params_.release_probability)) {
+    if (instance > 0) ++counts.released;
+    instance = 0;
+  } else if (label > 0 && instance == 0) {
+    instance = label;
+    ++counts.labelled;
+  }
+  // Boundary refinement; window length and count packed in one byte (high / low nibble).
+  std::uint8_t& packed = map.boundary_counter[i];
+  if (instance == 0 && p_o > static_cast<float>(params_.boundary_low_probability) &&
+      p_o < static_cast<float>(params_.boundary_high_probability)) {
+    ++counts.candidates;
+    int window = (packed >> 4) + 1, count = packed & 0x0f;
+    if (p > static_cast<float>(params_.boundary_pixel_min_probability) &&
+        neighbourhood.has_object_pixel(u, v))
+      ++count;
+    if (window >= params_.boundary_window_frames) {
+      if (count >= params_.boundary_min_count) {
+        const int nearest = neighbourhood.nearest_label(u, v);
+        if (nearest > 0) {
+          instance = nearest;
+          ++counts.joined;
+        }
+      }
+      window = count = 0;
+    }
+    packed = static_cast<std::uint8_t>((window << 4) | count);
+  } else {
+    packed = 0;
+  }
+  if (params_.always_active_objects) map.always_active[i] = instance > 0 ? 1 : 0;
+}
+
 SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
                                               const std::vector<Detection>& detections,
-                                              const SE3& T_world_cam, slam::SurfelMap& map) {
+                                              const SE3& T_world_cam, slam::SurfelMap& map,
+                                              const slam::IndexImage* pixel_surfel) {
   const auto t_start = Clock::now();
   SemanticFrameReport rep;
   rep.frame_index = frame.index;
@@ -314,71 +369,50 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   }
   rep.associate_ms = ms_since(t0);
 
-  // 3. Surfel updates through the supersampled index map (each surfel at most once per frame).
+  // 3. Surfel updates: the surfels this frame observed, each once.
   t0 = Clock::now();
-  slam::RenderOptions points;
-  renderer_.render_index_map(map, T_world_cam, K, params_.index_supersample, points, &index_map_);
   const ObjectNeighbourhood neighbourhood(detection_labels_, params_.boundary_neighbourhood_px);
-  const int s = index_map_.supersample;
-  const int Ws = W * s;
-  const long cells = static_cast<long>(index_map_.surfel_index.size());
-  const float release = static_cast<float>(params_.release_probability);
-  const float low = static_cast<float>(params_.boundary_low_probability);
-  const float high = static_cast<float>(params_.boundary_high_probability);
-  const float pixel_min = static_cast<float>(params_.boundary_pixel_min_probability);
-  const int window_n = params_.boundary_window_frames, sigma = params_.boundary_min_count;
-  int observed = 0, labelled = 0, released = 0, candidates = 0, joined = 0;
-#pragma omp parallel for schedule(static) reduction(+ : observed, labelled, released, candidates, joined)
-  for (long c = 0; c < cells; ++c) {
-    const std::int32_t i = index_map_.surfel_index[c];
-    if (i < 0) continue;
-    const int u = static_cast<int>(c % Ws) / s, v = static_cast<int>(c / Ws) / s;
-    const float z_frame = frame.depth.at(u, v);
-    if (z_frame <= 0.0f) continue;
-    const double tol = std::max(params_.surfel_depth_tolerance_m, params_.surfel_depth_tolerance_rel * z_frame);
-    if (std::abs(index_map_.depth[c] - z_frame) > tol) continue;
-    ++observed;
-    const float p = pixel_probability_.at(u, v);
-    const int label = detection_labels_.at(u, v);
-    const std::uint16_t n = map.object_obs_count[i];
-    const float p_o = (map.p_object[i] * n + p) / (n + 1.0f);
-    map.p_object[i] = p_o;
-    if (n < std::numeric_limits<std::uint16_t>::max()) map.object_obs_count[i] = n + 1;
-    std::int32_t& instance = map.instance_id[i];
-    if (p_o <= release) {
-      if (instance > 0) ++released;
-      instance = 0;
-    } else if (label > 0 && instance == 0) {
-      instance = label;
-      ++labelled;
-    }
-    // Boundary refinement (window length and count packed in one byte: high / low nibble).
-    std::uint8_t& packed = map.boundary_counter[i];
-    if (instance == 0 && p_o > low && p_o < high) {
-      ++candidates;
-      int window = (packed >> 4) + 1, count = packed & 0x0f;
-      if (p > pixel_min && neighbourhood.has_object_pixel(u, v)) ++count;
-      if (window >= window_n) {
-        if (count >= sigma) {
-          const int nearest = neighbourhood.nearest_label(u, v);
-          if (nearest > 0) {
-            instance = nearest;
-            ++joined;
-          }
-        }
-        window = count = 0;
+  UpdateCounts counts;
+  if (pixel_surfel) {
+    if (pixel_surfel->width() != W || pixel_surfel->height() != H)
+      throw ConfigError(fmt::format("semantic fusion: pixel->surfel image is {}x{}, the frame {}x{}",
+                                    pixel_surfel->width(), pixel_surfel->height(), W, H));
+    const auto n = static_cast<std::int32_t>(map.size());
+    for (int v = 0; v < H; ++v)  // serial: robust even if a surfel were listed twice
+      for (int u = 0; u < W; ++u) {
+        const std::int32_t i = pixel_surfel->at(u, v);
+        if (i >= 0 && i < n) update_surfel(i, u, v, neighbourhood, map, counts);
       }
-      packed = static_cast<std::uint8_t>((window << 4) | count);
-    } else {
-      packed = 0;
+  } else {
+    slam::RenderOptions points;
+    renderer_.render_index_map(map, T_world_cam, K, params_.index_supersample, points, &index_map_);
+    const int s = index_map_.supersample;
+    const int Ws = W * s;
+    const long cells = static_cast<long>(index_map_.surfel_index.size());
+#pragma omp parallel
+    {
+      UpdateCounts local;
+#pragma omp for schedule(static)
+      for (long c = 0; c < cells; ++c) {  // each surfel lies in at most one cell: no write conflicts
+        const std::int32_t i = index_map_.surfel_index[c];
+        if (i < 0) continue;
+        const int u = static_cast<int>(c % Ws) / s, v = static_cast<int>(c / Ws) / s;
+        const float z_frame = frame.depth.at(u, v);
+        if (z_frame <= 0.0f) continue;
+        const double tol =
+            std::max(params_.surfel_depth_tolerance_m, params_.surfel_depth_tolerance_rel * z_frame);
+        if (std::abs(index_map_.depth[c] - z_frame) > tol) continue;
+        update_surfel(i, u, v, neighbourhood, map, local);
+      }
+#pragma omp critical
+      counts.add(local);
     }
-    if (params_.always_active_objects) map.always_active[i] = instance > 0 ? 1 : 0;
   }
-  rep.surfels_observed = observed;
-  rep.surfels_labelled = labelled;
-  rep.surfels_released = released;
-  rep.boundary_candidates = candidates;
-  rep.boundary_joined = joined;
+  rep.surfels_observed = counts.observed;
+  rep.surfels_labelled = counts.labelled;
+  rep.surfels_released = counts.released;
+  rep.boundary_candidates = counts.candidates;
+  rep.boundary_joined = counts.joined;
   rep.update_ms = ms_since(t0);
 
   // 4. Spurious instances: detected rarely and now repeatedly visible without a detection.

@@ -5,10 +5,11 @@
 // just below 0.5 join the closest instance when a sequence of frames supports it.
 //
 // Choices where the paper is silent (docs/SEMANTIC.md has the full rationale):
-//  - Which surfels a frame updates: the surfels whose centres the supersampled index map puts in a
-//    pixel (one pixel per surfel and frame) and whose depth agrees with the frame's measured depth,
-//    i.e. the surfels this frame observed (fused into). Splatted rendering is used only for the
-//    association masks M^ and the per-instance outputs.
+//  - Which surfels a frame updates: the surfels this frame's pixels fused into. Given the SLAM's
+//    pixel -> surfel image (SlamSystem::last_pixel_surfel()), exactly those; otherwise the surfels whose
+//    centres the supersampled index map puts in a pixel (one pixel per surfel and frame) and whose
+//    depth agrees with the frame's measured depth. Splatted rendering is used only for the association
+//    masks M^ and the per-instance outputs.
 //  - Ownership: an unlabelled surfel takes the instance of the detection covering its pixel
 //    (probability >= 0.5, highest probability wins between overlapping detections); a labelled surfel
 //    keeps its instance (first come) until its p_o falls to <= release_probability (0.4: clearly
@@ -176,8 +177,11 @@ class SemanticFusion {
 
   /// Fuses one keyframe's detections into `map`, which already holds this frame's geometry (call after
   /// tracking and geometric fusion). `frame` provides intrinsics, depth (observation test) and index.
+  /// `pixel_surfel` (optional, frame-sized): per pixel the surfel this frame fused the pixel into
+  /// (-1 none), e.g. SlamSystem::last_pixel_surfel(); without it the surfels are found by rendering.
   SemanticFrameReport integrate(const RgbdFrame& frame, const std::vector<Detection>& detections,
-                                const SE3& T_world_cam, slam::SurfelMap& map);
+                                const SE3& T_world_cam, slam::SurfelMap& map,
+                                const slam::IndexImage* pixel_surfel = nullptr);
   /// End of the run: removes instances detected in too few keyframes or with too few surfels.
   /// Returns the number removed.
   int finalize(slam::SurfelMap& map);
@@ -193,6 +197,13 @@ class SemanticFusion {
 
  private:
   void merge_into(int keep, int absorb, slam::SurfelMap& map);
+  struct UpdateCounts {
+    int observed = 0, labelled = 0, released = 0, candidates = 0, joined = 0;
+    void add(const UpdateCounts& o);
+  };
+  /// The per-surfel rules for surfel i observed at pixel (u, v).
+  void update_surfel(std::int32_t i, int u, int v, const class ObjectNeighbourhood& neighbourhood,
+                     slam::SurfelMap& map, UpdateCounts& counts) const;
 
   SemanticParams params_;
   std::map<int, InstanceInfo> instances_;

@@ -62,7 +62,7 @@ SemanticMapper::SemanticMapper(std::unique_ptr<Segmenter> segmenter,
     : segmenter_(std::move(segmenter)), keyframe_selector_(segmentation), fusion_(semantic) {}
 
 const SemanticStep& SemanticMapper::process(const RgbdFrame& frame, const SE3& T_world_cam,
-                                            slam::SurfelMap& map) {
+                                            slam::SurfelMap& map, const slam::IndexImage* pixel_surfel) {
   ++frames_;
   step_ = SemanticStep{};
   step_.keyframe = keyframe_selector_.is_keyframe(T_world_cam);
@@ -72,7 +72,7 @@ const SemanticStep& SemanticMapper::process(const RgbdFrame& frame, const SE3& T
   step_.detections = segmenter_->detect(frame);
   segment_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   detections_ += static_cast<int>(step_.detections.size());
-  step_.report = fusion_.integrate(frame, step_.detections, T_world_cam, map);
+  step_.report = fusion_.integrate(frame, step_.detections, T_world_cam, map, pixel_surfel);
   fuse_ms_ += step_.report.total_ms;
   return step_;
 }

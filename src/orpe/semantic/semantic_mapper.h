@@ -60,8 +60,10 @@ class SemanticMapper {
   SemanticMapper(std::unique_ptr<Segmenter> segmenter, const SegmentationParams& segmentation,
                  const SemanticParams& semantic);
 
-  /// Call once per frame, after tracking and geometric fusion of `frame` into `map`.
-  const SemanticStep& process(const RgbdFrame& frame, const SE3& T_world_cam, slam::SurfelMap& map);
+  /// Call once per frame, after tracking and geometric fusion of `frame` into `map`. `pixel_surfel`:
+  /// optional per-pixel surfel the frame was fused into (SlamSystem::last_pixel_surfel()).
+  const SemanticStep& process(const RgbdFrame& frame, const SE3& T_world_cam, slam::SurfelMap& map,
+                              const slam::IndexImage* pixel_surfel = nullptr);
   /// End of the run: removes spurious instances. Returns how many were removed.
   int finalize(slam::SurfelMap& map) { return fusion_.finalize(map); }
 

@@ -415,11 +415,16 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   rep.boundary_joined = counts.joined;
   rep.update_ms = ms_since(t0);
 
-  // 4. Spurious instances: detected rarely and now repeatedly visible without a detection.
+  // 4. Spurious instances: detected rarely and now repeatedly visible without a detection; and
+  // instances left without surfels (all released), which can never be rendered or matched again.
+  std::map<int, int> surfel_count;
+  for (const auto id : map.instance_id)
+    if (id > 0) ++surfel_count[id];
   std::vector<int> doomed;
   for (const auto& [id, info] : instances_)
-    if (info.detections < params_.min_instance_detections &&
-        info.consecutive_misses >= params_.prune_missed_keyframes)
+    if ((info.detections < params_.min_instance_detections &&
+         info.consecutive_misses >= params_.prune_missed_keyframes) ||
+        !surfel_count.count(id))
       doomed.push_back(id);
   for (int id : doomed) remove_instance(id, map);
   rep.pruned_instances = static_cast<int>(doomed.size());

@@ -24,8 +24,9 @@
 //    so n and sigma are at most 15.
 //  - Spurious instances die: an instance detected in fewer than min_instance_detections keyframes is
 //    removed once it was visible but undetected in prune_missed_keyframes keyframes in a row, and at
-//    finalize(); an instance with fewer than min_instance_surfels surfels is removed at finalize().
-//    Removing an instance unlabels its surfels.
+//    finalize(); an instance left without surfels (all released) is removed at once; one with fewer
+//    than min_instance_surfels surfels is removed at finalize(). Removing an instance unlabels its
+//    surfels.
 #pragma once
 
 #include <array>

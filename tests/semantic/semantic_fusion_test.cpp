@@ -271,7 +271,9 @@ TEST(SemanticFusion, SpuriousInstancesArePrunedAndFinalizeRemovesRareOnes) {
 
 TEST(SemanticFusion, InstancesWhoseSurfelsWereAllReleasedAreRemoved) {
   test::PlanarSetup s;
-  SemanticFusion fusion(SemanticParams{});
+  SemanticParams p;
+  p.skip_missed_instances = false;  // let the undetected blob's surfels fall to background
+  SemanticFusion fusion(p);
   const int W = s.K.width, H = s.K.height;
   const auto object = test::rect_detection(W, H, 1, 0.95f, 5, 5, 24, 24);
   fusion.integrate(s.frame(0), {object, test::rect_detection(W, H, 7, 0.6f, 50, 30, 59, 39)}, SE3(), s.map,
@@ -284,6 +286,32 @@ TEST(SemanticFusion, InstancesWhoseSurfelsWereAllReleasedAreRemoved) {
   EXPECT_EQ(rep.pruned_instances, 1);
   ASSERT_EQ(fusion.instances().size(), 1u);
   EXPECT_EQ(fusion.instances().begin()->second.argmax_class(), 1);
+}
+
+TEST(SemanticFusion, AMissedDetectionDoesNotPullSurfelsTowardsBackground) {
+  for (bool skip : {true, false}) {
+    test::PlanarSetup s;
+    SemanticParams p = no_pruning();
+    p.skip_missed_instances = skip;
+    SemanticFusion fusion(p);
+    const int W = s.K.width, H = s.K.height;
+    const auto object = test::rect_detection(W, H, 1, 0.95f, 10, 10, 29, 29, 0.6f, 0.0f);
+    fusion.integrate(s.frame(0), {object}, SE3(), s.map, &s.pixel_surfel);
+    const auto rep = fusion.integrate(s.frame(1), {}, SE3(), s.map, &s.pixel_surfel);  // missed
+    EXPECT_EQ(rep.missed_instances, 1);
+    const auto inside = s.surfel(20, 20), near = s.surfel(33, 20), far = s.surfel(60, 50);
+    if (skip) {
+      EXPECT_NEAR(s.map.p_object[inside], 0.6f, 1e-6);
+      EXPECT_EQ(s.map.object_obs_count[inside], 1);
+      EXPECT_EQ(s.map.object_obs_count[near], 1);  // within 6 px of the projection: skipped too
+      EXPECT_EQ(rep.surfels_skipped, 32 * 32);  // the 20x20 projection dilated by 6 px (square window)
+      EXPECT_EQ(s.map.instance_id[inside], fusion.instances().begin()->first);
+    } else {
+      EXPECT_NEAR(s.map.p_object[inside], 0.3f, 1e-6);
+      EXPECT_EQ(s.map.instance_id[inside], 0);  // released: p_o 0.3 <= 0.4
+    }
+    EXPECT_EQ(s.map.object_obs_count[far], 2);
+  }
 }
 
 TEST(SemanticFusion, SameClassInstancesOverlappedByOneDetectionMerge) {

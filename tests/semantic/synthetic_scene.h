@@ -115,10 +115,11 @@ struct SyntheticScene {
     return f;
   }
 
-  /// Index of the object whose surface is within `tolerance_m` of p (nearest), or -1.
+  /// Index of the object whose surface is within `tolerance_m` of p and nearer than the table plane,
+  /// or -1 (background).
   int object_at(const Vec3& p, double tolerance_m) const {
     int best = -1;
-    double best_d = tolerance_m;
+    double best_d = std::min(tolerance_m, std::abs(p.z()));
     for (size_t k = 0; k < objects.size(); ++k) {
       const double dist = objects[k].surface_distance(p);
       if (dist < best_d) {

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 #include "orpe/core/error.h"
 
@@ -44,6 +45,8 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (boundary_min_count < 1 || boundary_min_count > boundary_window_frames)
     return fail("boundary_min_count must be in [1, boundary_window_frames]");
   if (index_supersample < 1 || index_supersample > 8) return fail("index_supersample must be in [1, 8]");
+  if (!(mask_splat_radius_px >= 0.5 && mask_splat_radius_px <= 50))
+    return fail("mask_splat_radius_px must be in [0.5, 50]");
   if (!(surfel_depth_tolerance_m > 0) || !(surfel_depth_tolerance_rel >= 0))
     return fail("surfel_depth_tolerance_m must be > 0 and surfel_depth_tolerance_rel >= 0");
   if (min_visible_area_px < 1) return fail("min_visible_area_px must be >= 1");
@@ -86,11 +89,11 @@ std::map<int, InstanceGeometry> instance_geometry(const slam::SurfelMap& map) {
 
 std::string SemanticFrameReport::report() const {
   return fmt::format(
-      "semantic frame {}: {} detections ({} associated, {} new, {} merged, {} pruned instances); "
-      "surfels: {} observed, {} labelled, {} released, {} boundary candidates, {} joined; "
-      "{:.1f} ms (render {:.1f}, associate {:.1f}, update {:.1f})",
+      "semantic frame {}: {} detections ({} associated, {} new, {} merged, {} pruned, {} missed "
+      "instances); surfels: {} observed, {} skipped, {} labelled, {} released, {} boundary candidates, "
+      "{} joined; {:.1f} ms (render {:.1f}, associate {:.1f}, update {:.1f})",
       frame_index, detections, associated, new_instances, merged_instances, pruned_instances,
-      surfels_observed, surfels_labelled, surfels_released, boundary_candidates, boundary_joined,
+      missed_instances, surfels_observed, surfels_skipped, surfels_labelled, surfels_released, boundary_candidates, boundary_joined,
       total_ms, render_ms, associate_ms, update_ms);
 }
 
@@ -200,6 +203,7 @@ void SemanticFusion::merge_into(int keep, int absorb, slam::SurfelMap& map) {
 
 void SemanticFusion::UpdateCounts::add(const UpdateCounts& o) {
   observed += o.observed;
+  skipped += o.skipped;
   labelled += o.labelled;
   released += o.released;
   candidates += o.candidates;
@@ -207,8 +211,13 @@ void SemanticFusion::UpdateCounts::add(const UpdateCounts& o) {
 }
 
 void SemanticFusion::update_surfel(std::int32_t i, int u, int v,
-                                   const ObjectNeighbourhood& neighbourhood, slam::SurfelMap& map,
+                                   const ObjectNeighbourhood& neighbourhood,
+                                   const ObjectNeighbourhood* missed, slam::SurfelMap& map,
                                    UpdateCounts& counts) const {
+  if (missed && missed->has_object_pixel(u, v)) {
+    ++counts.skipped;
+    return;
+  }
   ++counts.observed;
   const float p = pixel_probability_.at(u, v);
   const int label = detection_labels_.at(u, v);
@@ -275,6 +284,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   slam::RenderOptions splat;
   splat.want_vertex = splat.want_normal = splat.want_color = false;
   splat.want_instance = true;
+  splat.max_splat_radius_px = static_cast<float>(params_.mask_splat_radius_px);
   renderer_.render(map, T_world_cam, K, splat, &view_);
   rep.render_ms = ms_since(t0);
 
@@ -337,11 +347,24 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   std::map<int, int> rendered_area;
   for (const auto id : view_.instance_id)
     if (id > 0) ++rendered_area[resolve(id)];
+  std::vector<int> missed;
   for (const auto& [id, area] : rendered_area) {
     auto it = instances_.find(id);
     if (it == instances_.end() || area < params_.min_visible_area_px) continue;
     ++it->second.visible_keyframes;
-    if (!frame_classes.count(id)) ++it->second.consecutive_misses;
+    if (!frame_classes.count(id)) {
+      ++it->second.consecutive_misses;
+      missed.push_back(id);
+    }
+  }
+  rep.missed_instances = static_cast<int>(missed.size());
+  const bool skip_missed = params_.skip_missed_instances && !missed.empty();
+  if (skip_missed) {
+    missed_labels_ = LabelImage(W, H, 0);
+    for (size_t k = 0; k < missed_labels_.size(); ++k) {
+      const int id = view_.instance_id[k] > 0 ? resolve(view_.instance_id[k]) : 0;
+      if (id > 0 && std::binary_search(missed.begin(), missed.end(), id)) missed_labels_[k] = id;
+    }
   }
 
   // Per-pixel fused segmentation: the highest-probability detection above threshold labels a pixel
@@ -372,6 +395,9 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   // 3. Surfel updates: the surfels this frame observed, each once.
   t0 = Clock::now();
   const ObjectNeighbourhood neighbourhood(detection_labels_, params_.boundary_neighbourhood_px);
+  std::optional<ObjectNeighbourhood> missed_zone;
+  if (skip_missed) missed_zone.emplace(missed_labels_, params_.boundary_neighbourhood_px);
+  const ObjectNeighbourhood* missed_ptr = missed_zone ? &*missed_zone : nullptr;
   UpdateCounts counts;
   if (pixel_surfel) {
     if (pixel_surfel->width() != W || pixel_surfel->height() != H)
@@ -381,7 +407,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     for (int v = 0; v < H; ++v)  // serial: robust even if a surfel were listed twice
       for (int u = 0; u < W; ++u) {
         const std::int32_t i = pixel_surfel->at(u, v);
-        if (i >= 0 && i < n) update_surfel(i, u, v, neighbourhood, map, counts);
+        if (i >= 0 && i < n) update_surfel(i, u, v, neighbourhood, missed_ptr, map, counts);
       }
   } else {
     slam::RenderOptions points;
@@ -402,13 +428,14 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
         const double tol =
             std::max(params_.surfel_depth_tolerance_m, params_.surfel_depth_tolerance_rel * z_frame);
         if (std::abs(index_map_.depth[c] - z_frame) > tol) continue;
-        update_surfel(i, u, v, neighbourhood, map, local);
+        update_surfel(i, u, v, neighbourhood, missed_ptr, map, local);
       }
 #pragma omp critical
       counts.add(local);
     }
   }
   rep.surfels_observed = counts.observed;
+  rep.surfels_skipped = counts.skipped;
   rep.surfels_labelled = counts.labelled;
   rep.surfels_released = counts.released;
   rep.boundary_candidates = counts.candidates;

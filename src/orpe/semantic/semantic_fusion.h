@@ -22,6 +22,10 @@
 //  - "n frames" of the boundary rule: the keyframes in which the candidate surfel was observed.
 //    The window length and the count are packed into SurfelMap::boundary_counter (high / low nibble),
 //    so n and sigma are at most 15.
+//  - Detector misses: when an instance renders >= min_visible_area_px pixels but no detection joined it,
+//    the surfels seen in its projection (dilated by boundary_neighbourhood_px) are not updated in this
+//    keyframe (skip_missed_instances): the paper would average a 0 into their p_o, which unlabels new
+//    surfels and pushes boundary surfels out of the refinement band.
 //  - Spurious instances die: an instance detected in fewer than min_instance_detections keyframes is
 //    removed once it was visible but undetected in prune_missed_keyframes keyframes in a row, and at
 //    finalize(); an instance left without surfels (all released) is removed at once; one with fewer
@@ -57,6 +61,10 @@ struct SemanticParams {
   int boundary_window_frames = 10;         ///< n: observations per decision window (<= 15)
   int boundary_min_count = 10;             ///< sigma: supporting observations needed (<= n)
   int index_supersample = 4;               ///< index map resolution factor (ElasticFusion: 4)
+  /// Cap of a surfel's splat radius on screen when rendering instance masks (M^ and the projected
+  /// masks): full ElasticFusion splats (sqrt(2) z / f, up to 2x at grazing angles) overhang object
+  /// silhouettes by 1-3 px.
+  double mask_splat_radius_px = 1.0;
   double surfel_depth_tolerance_m = 0.02;  ///< a surfel is observed when |z_surfel - z_frame| <= max(
   double surfel_depth_tolerance_rel = 0.02;  ///<   tolerance_m, tolerance_rel * z_frame)
   int min_visible_area_px = 50;            ///< an instance rendering this many pixels counts as visible
@@ -64,6 +72,9 @@ struct SemanticParams {
   int prune_missed_keyframes = 5;          ///< ... once visible but undetected this many keyframes in a row
   int min_instance_surfels = 50;           ///< instances with fewer surfels are removed at finalize()
   bool always_active_objects = true;       ///< flag object surfels always active (paper)
+  /// A keyframe in which a visible instance got no detection does not update the surfels in and
+  /// around (boundary_neighbourhood_px) its projection: a detector miss is not evidence of background.
+  bool skip_missed_instances = true;
 
   template <class V>
   void visit(V&& v) {
@@ -90,6 +101,8 @@ struct SemanticParams {
     v("boundary_min_count", boundary_min_count,
       "Boundary refinement sigma: supporting observations in a window to join an instance (paper: 10)");
     v("index_supersample", index_supersample, "Index map supersampling for surfel updates (1-8)");
+    v("mask_splat_radius_px", mask_splat_radius_px,
+      "Splat radius cap (px) when rendering instance masks; full splats overhang silhouettes");
     v("surfel_depth_tolerance_m", surfel_depth_tolerance_m,
       "A surfel is observed by a pixel when |z_surfel - z_pixel| <= max(this (m), rel * z)");
     v("surfel_depth_tolerance_rel", surfel_depth_tolerance_rel,
@@ -103,6 +116,8 @@ struct SemanticParams {
     v("min_instance_surfels", min_instance_surfels, "Instances with fewer surfels are removed at the end");
     v("always_active_objects", always_active_objects,
       "Flag object surfels always active (never leave the active window; paper)");
+    v("skip_missed_instances", skip_missed_instances,
+      "Do not update surfels in/around a visible instance that this keyframe failed to detect");
   }
   bool IsValid(std::string* why) const;
 };
@@ -139,6 +154,8 @@ struct SemanticFrameReport {
   int new_instances = 0;
   int merged_instances = 0;
   int pruned_instances = 0;
+  int missed_instances = 0;  ///< visible instances without a detection
+  int surfels_skipped = 0;   ///< observed surfels not updated because of a missed instance
   int surfels_observed = 0;  ///< surfels updated by this frame
   int surfels_labelled = 0;  ///< surfels that got an instance from a detection
   int surfels_released = 0;  ///< surfels that became background
@@ -199,12 +216,13 @@ class SemanticFusion {
  private:
   void merge_into(int keep, int absorb, slam::SurfelMap& map);
   struct UpdateCounts {
-    int observed = 0, labelled = 0, released = 0, candidates = 0, joined = 0;
+    int observed = 0, skipped = 0, labelled = 0, released = 0, candidates = 0, joined = 0;
     void add(const UpdateCounts& o);
   };
   /// The per-surfel rules for surfel i observed at pixel (u, v).
-  void update_surfel(std::int32_t i, int u, int v, const class ObjectNeighbourhood& neighbourhood,
-                     slam::SurfelMap& map, UpdateCounts& counts) const;
+  void update_surfel(std::int32_t i, int u, int v, const ObjectNeighbourhood& neighbourhood,
+                     const ObjectNeighbourhood* missed, slam::SurfelMap& map,
+                     UpdateCounts& counts) const;
 
   SemanticParams params_;
   std::map<int, InstanceInfo> instances_;
@@ -214,6 +232,7 @@ class SemanticFusion {
   slam::IndexMap index_map_;
   LabelImage detection_labels_;
   ProbabilityImage pixel_probability_;
+  LabelImage missed_labels_;  // rendered pixels of visible instances that got no detection
 };
 
 }  // namespace orpe

@@ -8,8 +8,10 @@ namespace orpe {
 std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map,
                                                 const std::map<int, InstanceInfo>& instances,
                                                 const SE3& T_world_cam, const PinholeIntrinsics& K,
-                                                slam::MapRenderer& renderer, int min_area_px) {
+                                                slam::MapRenderer& renderer, int min_area_px,
+                                                float max_splat_radius_px) {
   slam::RenderOptions options;
+  options.max_splat_radius_px = max_splat_radius_px;
   options.want_vertex = options.want_normal = false;
   options.want_color = options.want_instance = true;
   slam::RenderedView view;
@@ -44,8 +46,10 @@ std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map,
 }
 
 LabelImage render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
-                                  const PinholeIntrinsics& K, slam::MapRenderer& renderer) {
+                                  const PinholeIntrinsics& K, slam::MapRenderer& renderer,
+                                  float max_splat_radius_px) {
   slam::RenderOptions options;
+  options.max_splat_radius_px = max_splat_radius_px;
   options.want_vertex = options.want_normal = options.want_color = false;
   options.want_instance = true;
   slam::RenderedView view;
@@ -81,7 +85,14 @@ std::vector<InstanceView> SemanticMapper::render_instance_views(const slam::Surf
                                                                 const SE3& T_world_cam,
                                                                 const PinholeIntrinsics& K,
                                                                 int min_area_px) {
-  return orpe::render_instance_views(map, fusion_.instances(), T_world_cam, K, renderer_, min_area_px);
+  return orpe::render_instance_views(map, fusion_.instances(), T_world_cam, K, renderer_, min_area_px,
+                                     static_cast<float>(fusion_.params().mask_splat_radius_px));
+}
+
+LabelImage SemanticMapper::render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
+                                                  const PinholeIntrinsics& K) {
+  return orpe::render_instance_labels(map, T_world_cam, K, renderer_,
+                                      static_cast<float>(fusion_.params().mask_splat_radius_px));
 }
 
 std::string SemanticMapper::summary() const {

@@ -35,15 +35,18 @@ struct InstanceView {
 };
 
 /// Renders the map once at `T_world_cam` and splits it per instance. Instances rendering fewer than
-/// `min_area_px` pixels are left out. Sorted by instance id.
+/// `min_area_px` pixels are left out. Sorted by instance id. `max_splat_radius_px`: splat radius cap
+/// (SemanticParams::mask_splat_radius_px).
 std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map,
                                                 const std::map<int, InstanceInfo>& instances,
                                                 const SE3& T_world_cam, const PinholeIntrinsics& K,
-                                                slam::MapRenderer& renderer, int min_area_px = 1);
+                                                slam::MapRenderer& renderer, int min_area_px = 1,
+                                                float max_splat_radius_px = 1.0f);
 
 /// The map's instance labels seen from a pose (0 = background): the projected masks of all instances.
 LabelImage render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
-                                  const PinholeIntrinsics& K, slam::MapRenderer& renderer);
+                                  const PinholeIntrinsics& K, slam::MapRenderer& renderer,
+                                  float max_splat_radius_px = 1.0f);
 
 /// One frame's semantic step.
 struct SemanticStep {
@@ -69,6 +72,9 @@ class SemanticMapper {
 
   std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map, const SE3& T_world_cam,
                                                   const PinholeIntrinsics& K, int min_area_px = 1);
+  /// The map's instance image at a pose (all projected masks), rendered like the association masks.
+  LabelImage render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
+                                    const PinholeIntrinsics& K);
 
   const SemanticFusion& fusion() const { return fusion_; }
   const Segmenter& segmenter() const { return *segmenter_; }

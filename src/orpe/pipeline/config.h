@@ -10,6 +10,8 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
+#include "orpe/semantic/segmenter.h"
+#include "orpe/semantic/semantic_fusion.h"
 #include "orpe/slam/slam_system.h"
 
 namespace orpe {
@@ -26,6 +28,8 @@ struct OrpeConfig {
 
   /// The SLAM system's parameters assembled from the slam* sections.
   slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
+  SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
+  SemanticParams semantic;          ///< instance-aware semantic fusion
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -38,6 +42,8 @@ struct OrpeConfig {
     v("slam_preprocess", slam_preprocess);
     v("slam_tracking", slam_tracking);
     v("slam_fusion", slam_fusion);
+    v("segmentation", segmentation);
+    v("semantic", semantic);
   }
 
   bool IsValid(std::string* why) const;

@@ -7,16 +7,22 @@
 
 #include "orpe/core/params.h"
 #include "orpe/io/dataset.h"
+#include "orpe/pose/model_registration.h"
+#include "orpe/pose/pose_ekf.h"
 
 namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  ModelRegistrationParams pose_registration;
+  PoseEkfParams pose_ekf;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("pose_registration", pose_registration);
+    v("pose_ekf", pose_ekf);
   }
 
   bool IsValid(std::string* why) const;

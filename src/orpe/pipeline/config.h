@@ -6,6 +6,9 @@
 #include <vector>
 
 #include "orpe/core/params.h"
+#include "orpe/eval/mask_metrics.h"
+#include "orpe/eval/pose_metrics.h"
+#include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
@@ -14,6 +17,9 @@ namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  TrajectoryMetricsParams eval_trajectory;
+  PoseMetricsParams eval_pose;
+  MaskMetricsParams eval_masks;
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
 
@@ -21,6 +27,9 @@ struct OrpeConfig {
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("eval_trajectory", eval_trajectory);
+    v("eval_pose", eval_pose);
+    v("eval_masks", eval_masks);
     v("pose_registration", pose_registration);
     v("pose_ekf", pose_ekf);
   }

@@ -19,27 +19,29 @@ void write_text(const std::string& path, const std::string& text) {
   os << text;
 }
 
-TEST(ObjectModel, ReadXyzAndErrorsNameTheFile) {
+TEST(ObjectModel, LoadErrorsNameTheFile) {
   const std::string dir = test::scratch_dir("xyz");
-  write_text(dir + "/ok.xyz", "0 0 0\n# comment\n\n0.1 0 0\n0 0.2 0 extra\n");
-  const auto pts = read_xyz_points(dir + "/ok.xyz");
-  ASSERT_EQ(pts.size(), 3u);
-  EXPECT_FLOAT_EQ(pts[2].y(), 0.2f);
   try {
-    read_xyz_points(dir + "/missing.xyz");
+    load_object_model(dir + "/missing.xyz");
     FAIL() << "no throw";
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("missing.xyz"), std::string::npos);
   }
-  write_text(dir + "/bad.xyz", "0 0 0\n1 two 3\n");
+  write_text(dir + "/three.xyz", "0 0 0\n0.1 0 0\n0 0.2 0\n");
   try {
-    read_xyz_points(dir + "/bad.xyz");
+    load_object_model(dir + "/three.xyz");
     FAIL() << "no throw";
   } catch (const IoError& e) {
-    EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fewer than 4"), std::string::npos) << e.what();
   }
-  write_text(dir + "/empty.xyz", "\n");
-  EXPECT_THROW(read_xyz_points(dir + "/empty.xyz"), IoError);
+  write_text(dir + "/ok.xyz", "0 0 0\n100 0 0\n0 200 0\n0 0 300\n");
+  ModelLoadOptions mm;
+  mm.units_per_m = 1000;
+  mm.mesh_path = dir + "/missing.obj";
+  EXPECT_THROW(load_object_model(dir + "/ok.xyz", mm), IoError);
+  mm.mesh_path.clear();
+  const ObjectModel m = load_object_model(dir + "/ok.xyz", mm);
+  EXPECT_NEAR(m.points[3].z(), 0.3f, 1e-6f);
 }
 
 TEST(ObjectModel, ObjMeshNormalsAndLoadWithMesh) {

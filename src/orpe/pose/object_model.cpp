@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "orpe/core/error.h"
+#include "orpe/io/model_io.h"
 #include "orpe/pose/model_search.h"
 
 namespace orpe {
@@ -30,28 +31,6 @@ std::string ObjectSymmetry::describe() const {
     os << "none";
   }
   return os.str();
-}
-
-std::vector<Eigen::Vector3f> read_xyz_points(const std::string& path) {
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open point file");
-  std::vector<Eigen::Vector3f> points;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(is, line)) {
-    ++line_no;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
-    std::istringstream ls(line);
-    double x, y, z;
-    if (!(ls >> x >> y >> z))
-      throw IoError(path, "line " + std::to_string(line_no) + ": expected 'x y z', got '" + line + "'");
-    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
-      throw IoError(path, "line " + std::to_string(line_no) + ": non-finite coordinate");
-    points.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-  }
-  if (points.empty()) throw IoError(path, "no points");
-  return points;
 }
 
 MeshVerticesNormals read_obj_vertices_normals(const std::string& path) {
@@ -225,9 +204,13 @@ ObjectModel load_object_model(const std::string& points_path, const ModelLoadOpt
   ObjectModel model;
   model.class_id = class_id;
   model.name = name;
-  model.points = read_xyz_points(points_path);
+  if (!(options.units_per_m > 0)) throw IoError(points_path, "model units_per_m must be > 0");
+  for (const Vec3& p : read_xyz_points(points_path, options.units_per_m))
+    model.points.push_back(p.cast<float>());
   if (!options.mesh_path.empty()) {
     MeshVerticesNormals mesh = read_obj_vertices_normals(options.mesh_path);
+    const float scale = static_cast<float>(1.0 / options.units_per_m);
+    for (auto& v : mesh.vertices) v *= scale;
     // Keep only vertices with a normal (faces reference them).
     std::vector<Eigen::Vector3f> verts, norms;
     for (size_t i = 0; i < mesh.vertices.size(); ++i)

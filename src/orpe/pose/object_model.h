@@ -58,10 +58,6 @@ struct ObjectModel {
   bool prepared() const { return search_index != nullptr && diameter_m > 0; }
 };
 
-/// Reads an ASCII point file (one "x y z" per line, metres, e.g. YCB-Video points.xyz; extra
-/// columns ignored). Throws IoError naming the file for a missing file, a malformed line or no point.
-std::vector<Eigen::Vector3f> read_xyz_points(const std::string& path);
-
 /// Vertex positions and per-vertex normals of a Wavefront OBJ mesh (normals from `vn` records via
 /// the faces when present, else area-weighted face normals; orientation follows the face winding).
 struct MeshVerticesNormals {
@@ -71,6 +67,8 @@ struct MeshVerticesNormals {
 MeshVerticesNormals read_obj_vertices_normals(const std::string& path);
 
 struct ModelLoadOptions {
+  /// Model file units per metre (YCB-Video points.xyz: 1; BOP PLY: 1000).
+  double units_per_m = 1.0;
   /// Mesh (OBJ) to take outward normals from (nearest mesh vertex); empty = estimate by PCA.
   std::string mesh_path;
   /// Use the mesh vertices (denser) instead of the point file as the model points.
@@ -79,7 +77,8 @@ struct ModelLoadOptions {
   bool detect_symmetry = true;
 };
 
-/// Loads points (and normals, symmetry) and calls prepare_object_model(). Throws IoError.
+/// Loads an ASCII point file (io/model_io.h read_xyz_points), normals from the mesh when given,
+/// the symmetry, and calls prepare_object_model(). Throws IoError naming the file.
 ObjectModel load_object_model(const std::string& points_path, const ModelLoadOptions& options = {},
                               int class_id = 0, const std::string& name = "");
 

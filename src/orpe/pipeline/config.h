@@ -10,6 +10,8 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
+#include "orpe/pose/model_registration.h"
+#include "orpe/pose/pose_ekf.h"
 #include "orpe/semantic/segmenter.h"
 #include "orpe/semantic/semantic_fusion.h"
 #include "orpe/slam/slam_system.h"
@@ -30,6 +32,8 @@ struct OrpeConfig {
   slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
   SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
   SemanticParams semantic;          ///< instance-aware semantic fusion
+  ModelRegistrationParams pose_registration;
+  PoseEkfParams pose_ekf;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -44,6 +48,8 @@ struct OrpeConfig {
     v("slam_fusion", slam_fusion);
     v("segmentation", segmentation);
     v("semantic", semantic);
+    v("pose_registration", pose_registration);
+    v("pose_ekf", pose_ekf);
   }
 
   bool IsValid(std::string* why) const;

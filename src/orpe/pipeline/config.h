@@ -7,16 +7,19 @@
 
 #include "orpe/core/params.h"
 #include "orpe/io/dataset.h"
+#include "orpe/synth/synth_params.h"
 
 namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  SynthParams synth;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("synth", synth);
   }
 
   bool IsValid(std::string* why) const;

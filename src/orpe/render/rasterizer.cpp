@@ -150,26 +150,31 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         ++chunk_culled[c];
         continue;
       }
+      // Fast path: in front of the near plane and inside the guard band (no clipping).
+      bool clipped = P0.z() < near || P1.z() < near || P2.z() < near;
+      if (!clipped) {
+        for (const Eigen::Vector3d* P : {&P0, &P1, &P2})
+          for (const Plane& pl : guard) clipped |= pl.eval(*P) < 0;
+      }
       poly.assign({P0, P1, P2});
-      bool clipped = false;
-      if (P0.z() < near || P1.z() < near || P2.z() < near) {
-        clip_polygon(poly, near_plane, tmp);
-        poly.swap(tmp);
-        clipped = true;
+      if (clipped) {
+        if (P0.z() < near || P1.z() < near || P2.z() < near) {
+          clip_polygon(poly, near_plane, tmp);
+          poly.swap(tmp);
+        }
+        for (const Plane& pl : guard) {
+          bool outside = false;
+          for (const auto& p : poly) outside |= pl.eval(p) < 0;
+          if (!outside) continue;
+          clip_polygon(poly, pl, tmp);
+          poly.swap(tmp);
+        }
+        if (poly.size() < 3) {
+          ++chunk_culled[c];
+          continue;
+        }
+        ++chunk_clipped[c];
       }
-      for (const Plane& pl : guard) {
-        bool outside = false;
-        for (const auto& p : poly) outside |= pl.eval(p) < 0;
-        if (!outside) continue;
-        clip_polygon(poly, pl, tmp);
-        poly.swap(tmp);
-        clipped = true;
-      }
-      if (poly.size() < 3) {
-        ++chunk_culled[c];
-        continue;
-      }
-      if (clipped) ++chunk_clipped[c];
       // Project and emit a fan.
       double sx[12], sy[12], iz[12];
       std::int64_t X[12], Y[12];
@@ -179,8 +184,8 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         sx[k] = K.fx * poly[k].x() / z + K.cx;
         sy[k] = K.fy * poly[k].y() / z + K.cy;
         iz[k] = 1.0 / z;
-        X[k] = std::llround(sx[k] * kOne);
-        Y[k] = std::llround(sy[k] * kOne);
+        X[k] = static_cast<std::int64_t>(std::nearbyint(sx[k] * kOne));
+        Y[k] = static_cast<std::int64_t>(std::nearbyint(sy[k] * kOne));
       }
       for (size_t k = 1; k + 1 < n; ++k) {
         int a = 0, b = static_cast<int>(k), d = static_cast<int>(k + 1);
@@ -322,6 +327,16 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
 
 #pragma omp parallel for schedule(dynamic, 4) num_threads(threads) reduction(+ : covered)
   for (int v = 0; v < H; ++v) {
+    // Per-triangle constants of the ray intersection, cached while consecutive pixels share a triangle.
+    // With ray d = (x, y, 1), vertices P0..P2, e1 = P1 - P0, e2 = P2 - P0, s = -P0 (Moeller-Trumbore):
+    //   det = -d . n, b1 = d . m / det, b2 = d . q / det, z = c / det,
+    // where n = e1 x e2, m = e2 x s, q = s x e1, c = e2 . q are constant per triangle.
+    std::int32_t cached = -1;
+    Eigen::Vector3d n = Eigen::Vector3d::Zero(), m = n, q = n;
+    double c = 0, zlo = 0, zhi = 0;
+    Eigen::Vector3f n0 = Eigen::Vector3f::Zero(), n1 = n0, n2 = n0, face_n = n0;
+    const TriangleMesh* mesh = nullptr;
+    const Eigen::Vector3i* tri = nullptr;
     for (int u = 0; u < W; ++u) {
       const size_t p = static_cast<size_t>(v) * W + u;
       const std::int32_t vi = visible_[p];
@@ -333,53 +348,59 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
       if (want_tris) out.triangles[p] = st.triangle;
       if (!out.items.empty()) out.items[p] = st.item;
       if (!need_surface) continue;
-      const TriangleMesh& mesh = *it.mesh;
-      const Eigen::Vector3i& t = mesh.triangles[st.triangle];
-      const auto& cv = cam_vertices_[st.item];
-      const Eigen::Vector3d P0 = cv[t[0]].cast<double>(), P1 = cv[t[1]].cast<double>(), P2 = cv[t[2]].cast<double>();
+      if (vi != cached) {
+        cached = vi;
+        mesh = it.mesh;
+        tri = &mesh->triangles[st.triangle];
+        const auto& cv = cam_vertices_[st.item];
+        const Eigen::Vector3d P0 = cv[(*tri)[0]].cast<double>(), P1 = cv[(*tri)[1]].cast<double>(),
+                              P2 = cv[(*tri)[2]].cast<double>();
+        const Eigen::Vector3d e1 = P1 - P0, e2 = P2 - P0, s0 = -P0;
+        n = e1.cross(e2);
+        m = e2.cross(s0);
+        q = s0.cross(e1);
+        c = e2.dot(q);
+        zlo = std::max(std::min({P0.z(), P1.z(), P2.z()}), near);
+        zhi = std::max(std::max({P0.z(), P1.z(), P2.z()}), zlo);
+        face_n = n.cast<float>();
+        if (!mesh->normals.empty()) {
+          const Eigen::Matrix3f& R = item_R[st.item];
+          n0 = R * mesh->normals[(*tri)[0]], n1 = R * mesh->normals[(*tri)[1]], n2 = R * mesh->normals[(*tri)[2]];
+        }
+      }
       const Eigen::Vector3d d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
-      const Eigen::Vector3d e1 = P1 - P0, e2 = P2 - P0;
-      const Eigen::Vector3d pvec = d.cross(e2);
-      const double det = e1.dot(pvec);
+      const double det = -d.dot(n);
       double z, b1, b2;
-      const double zmin = std::min({P0.z(), P1.z(), P2.z()}), zmax = std::max({P0.z(), P1.z(), P2.z()});
       if (std::abs(det) > 1e-18) {
         const double inv = 1.0 / det;
-        const Eigen::Vector3d tvec = -P0;
-        b1 = tvec.dot(pvec) * inv;
-        const Eigen::Vector3d qvec = tvec.cross(e1);
-        b2 = d.dot(qvec) * inv;
-        z = e2.dot(qvec) * inv;
+        b1 = d.dot(m) * inv;
+        b2 = d.dot(q) * inv;
+        z = c * inv;
       } else {
         z = 1.0 / inv_z_[p];
         b1 = b2 = 1.0 / 3.0;
       }
       // Pixel centres on a snapped edge can sit a hair outside the exact triangle: clamp.
-      z = std::clamp(z, std::max(zmin, near), zmax);
+      z = std::clamp(z, zlo, zhi);
       b1 = std::clamp(b1, 0.0, 1.0), b2 = std::clamp(b2, 0.0, 1.0);
       if (b1 + b2 > 1.0) {
-        const double s = b1 + b2;
-        b1 /= s, b2 /= s;
+        const double sum = b1 + b2;
+        b1 /= sum, b2 /= sum;
       }
       const Eigen::Vector3f bary(static_cast<float>(1.0 - b1 - b2), static_cast<float>(b1), static_cast<float>(b2));
       if (want_depth) out.depth[p] = static_cast<float>(z);
       if (!want_color && !want_normals) continue;
-      Eigen::Vector3f n;
-      if (!mesh.normals.empty()) {
-        n = item_R[st.item] * (bary[0] * mesh.normals[t[0]] + bary[1] * mesh.normals[t[1]] + bary[2] * mesh.normals[t[2]]);
-      } else {
-        n = e1.cross(e2).cast<float>();
-      }
-      const float len = n.norm();
-      n = len > 0 ? Eigen::Vector3f(n / len) : Eigen::Vector3f(0, 0, -1);
-      if (n.dot(d.cast<float>()) > 0) n = -n;  // face the camera
-      if (want_normals) out.normals[p] = n;
+      Eigen::Vector3f nrm = mesh->normals.empty() ? face_n : Eigen::Vector3f(bary[0] * n0 + bary[1] * n1 + bary[2] * n2);
+      const float len = nrm.norm();
+      nrm = len > 0 ? Eigen::Vector3f(nrm / len) : Eigen::Vector3f(0, 0, -1);
+      if (nrm.dot(d.cast<float>()) > 0) nrm = -nrm;  // face the camera
+      if (want_normals) out.normals[p] = nrm;
       if (want_color) {
-        const Eigen::Vector3f albedo = surface_albedo(mesh, st.triangle, bary);
-        const float shade = light.ambient + light.diffuse * std::max(0.0f, n.dot(ldir));
-        const Eigen::Vector3f c = (albedo * (shade * 255.0f)).cwiseMin(255.0f).cwiseMax(0.0f);
-        out.color[p] = {static_cast<std::uint8_t>(c.x() + 0.5f), static_cast<std::uint8_t>(c.y() + 0.5f),
-                        static_cast<std::uint8_t>(c.z() + 0.5f)};
+        const Eigen::Vector3f albedo = surface_albedo(*mesh, st.triangle, bary);
+        const float shade = light.ambient + light.diffuse * std::max(0.0f, nrm.dot(ldir));
+        const Eigen::Vector3f col = (albedo * (shade * 255.0f)).cwiseMin(255.0f).cwiseMax(0.0f);
+        out.color[p] = {static_cast<std::uint8_t>(col.x() + 0.5f), static_cast<std::uint8_t>(col.y() + 0.5f),
+                        static_cast<std::uint8_t>(col.z() + 0.5f)};
       }
     }
   }

@@ -15,6 +15,7 @@
 #include "orpe/semantic/segmenter.h"
 #include "orpe/semantic/semantic_fusion.h"
 #include "orpe/slam/slam_system.h"
+#include "orpe/synth/synth_params.h"
 
 namespace orpe {
 
@@ -34,6 +35,7 @@ struct OrpeConfig {
   SemanticParams semantic;          ///< instance-aware semantic fusion
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
+  SynthParams synth;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -50,6 +52,7 @@ struct OrpeConfig {
     v("semantic", semantic);
     v("pose_registration", pose_registration);
     v("pose_ekf", pose_ekf);
+    v("synth", synth);
   }
 
   bool IsValid(std::string* why) const;

@@ -10,6 +10,7 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
+#include "orpe/pipeline/pipeline_params.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
 #include "orpe/semantic/segmenter.h"
@@ -36,6 +37,7 @@ struct OrpeConfig {
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
   SynthParams synth;
+  PipelineParams pipeline;  ///< Object-RPE pipeline switches (ablation inputs, EKF, evaluated frames)
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -53,6 +55,7 @@ struct OrpeConfig {
     v("pose_registration", pose_registration);
     v("pose_ekf", pose_ekf);
     v("synth", synth);
+    v("pipeline", pipeline);
   }
 
   bool IsValid(std::string* why) const;

@@ -41,9 +41,7 @@ void run_recon(const ReconCommand& c) {
     throw ConfigError("eval recon: give --run OUT, or both --map and --trajectory");
   for (const auto& [p, what] : {std::pair{map_path, "semantic map"}, {traj_path, "trajectory"}})
     if (!fs::is_regular_file(p)) throw IoError(p, fmt::format("{} does not exist", what));
-  const PointCloudData map = read_point_cloud_ply(map_path);
-  if (map.instance_ids.size() != map.size() || map.class_ids.size() != map.size())
-    throw IoError(map_path, "no per-surfel instance / class ids (expected an orpe semantic_map.ply)");
+  const PointCloudData map = read_semantic_map_ply(map_path);
   const auto trajectory = read_tum_trajectory(traj_path);
   const auto reader = open_dataset(c.dataset, config.dataset);
   const DatasetInfo& info = reader->info();

@@ -199,6 +199,7 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
   }
   if (result_.evaluated) {
     ++stats_.evaluated_frames;
+    evaluated_frames_.push_back(frame.index);
     estimate_poses(frame, T_world_cam, result_);
   }
   result_.total_ms = ms_since(t_frame);

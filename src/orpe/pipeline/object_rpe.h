@@ -147,6 +147,8 @@ class ObjectRpePipeline {
 
   const ObjectRpeParams& params() const { return params_; }
   const std::vector<StampedPose>& trajectory() const { return trajectory_; }
+  /// Frame indices (RgbdFrame::index) of the evaluated frames, in order.
+  const std::vector<int>& evaluated_frames() const { return evaluated_frames_; }
   const slam::SlamSystem& slam() const { return *slam_; }
   /// Null when semantic mapping is off.
   const SemanticMapper* semantic() const { return semantic_.get(); }
@@ -178,6 +180,7 @@ class ObjectRpePipeline {
   std::unique_ptr<ModelRegistrationEstimator> estimator_;
   std::vector<VariantState> variants_;
   std::vector<StampedPose> trajectory_;
+  std::vector<int> evaluated_frames_;
   std::map<int, std::string> model_errors_;  // class -> why its model could not be loaded
   PipelineFrameResult result_;
   PipelineStats stats_;

@@ -13,6 +13,7 @@
 
 #include "orpe/core/error.h"
 #include "orpe/io/model_io.h"
+#include "orpe/io/ply_format.h"
 #include "orpe/pose/model_search.h"
 #include "orpe/render/mesh_io.h"
 #include "orpe/render/mesh.h"
@@ -460,6 +461,25 @@ ModelSurface load_model_surface(const DatasetInfo& info, int class_id) {
   for (const auto& p : read_model_points(points->second, info.model_units_per_m))
     pts.push_back(p.cast<float>());
   return ModelSurface::from_points(pts);
+}
+
+PointCloudData read_semantic_map_ply(const std::string& path) {
+  PointCloudData cloud = read_point_cloud_ply(path);
+  if (cloud.instance_ids.size() == cloud.size() && cloud.class_ids.size() == cloud.size())
+    return cloud;
+  // semantic/semantic_output.h writes `instance` and `class`.
+  const detail::PlyColumns v = detail::read_ply_element(path, "vertex");
+  auto ints = [&](const char* name, std::vector<std::int32_t>& out) {
+    if (!v.has(name) || v.count != cloud.size()) return;
+    out.resize(cloud.size());
+    const auto& col = v.columns.at(name);
+    for (size_t i = 0; i < cloud.size(); ++i) out[i] = static_cast<std::int32_t>(std::lround(col[i]));
+  };
+  if (cloud.instance_ids.size() != cloud.size()) ints("instance", cloud.instance_ids);
+  if (cloud.class_ids.size() != cloud.size()) ints("class", cloud.class_ids);
+  if (cloud.instance_ids.size() != cloud.size() || cloud.class_ids.size() != cloud.size())
+    throw IoError(path, "no per-surfel instance and class ids (expected an orpe semantic_map.ply)");
+  return cloud;
 }
 
 }  // namespace orpe

@@ -104,6 +104,10 @@ ReconstructionEvaluation evaluate_reconstruction(
     const std::map<int, const ModelSurface*>& surfaces, const std::map<int, std::string>& class_names,
     const ReconstructionErrorParams& params = {});
 
+/// Reads a semantic map PLY: read_point_cloud_ply, plus the semantic stage's property names
+/// (`instance`, `class`; io's reader expects `instance_id`, `class_id`). Throws IoError.
+PointCloudData read_semantic_map_ply(const std::string& path);
+
 /// Ground-truth objects of a dataset placed in the frame of an estimated trajectory: for each object
 /// (ObjectGroundTruth::instance_id), T_world_cam_est(f) * T_cam_obj_gt(f) at the first frame f of
 /// `reader` that lists it and has a trajectory pose (timestamps within 1 ms). Throws IoError for

@@ -181,6 +181,14 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
                          {"semantic_map.ply", "semantic_map_instances.ply", "instances.json"});
     summary.instances = static_cast<int>(semantic->fusion().instances().size());
   }
+  if (pipeline.num_variants() > 0) {
+    // The evaluated frames as a YCB-Video keyframe list (`orpe eval poses --keyframes`), so that
+    // frames without pose estimates on purpose are not scored as misses.
+    write_file_atomic(path("evaluated_frames.txt"), [&](std::ostream& os) {
+      for (int f : pipeline.evaluated_frames()) os << fmt::format("{:04d}/{:06d}\n", info.scene_id, f);
+    });
+    summary.files.push_back("evaluated_frames.txt");
+  }
   for (size_t v = 0; v < pipeline.num_variants(); ++v) {
     const PoseVariant& variant = pipeline.variant(v);
     summary.pose_rows.push_back(pipeline.pose_rows(v).size());

@@ -96,7 +96,7 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
   return model;
 }
 
-const ObjectModel& ObjectModelLibrary::get(int class_id) {
+const ObjectModel& ObjectModelLibrary::get(int class_id) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto& slot = models_[class_id];
   if (!slot)

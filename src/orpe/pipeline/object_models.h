@@ -32,7 +32,7 @@ class ObjectModelLibrary {
   /// True when the dataset lists a model file for the class.
   bool has(int class_id) const { return info_.model_points_paths.count(class_id) > 0; }
   /// The prepared model (loaded on the first call). Throws IoError (see above). Thread-safe.
-  const ObjectModel& get(int class_id);
+  const ObjectModel& get(int class_id) const;
   const DatasetInfo& info() const { return info_; }
   /// Class name for messages and outputs ("class <id>" when the dataset has none).
   std::string class_name(int class_id) const;
@@ -40,8 +40,8 @@ class ObjectModelLibrary {
  private:
   DatasetInfo info_;
   int surface_points_;
-  std::mutex mutex_;
-  std::map<int, std::unique_ptr<ObjectModel>> models_;
+  mutable std::mutex mutex_;  // the cache fills lazily behind a const interface
+  mutable std::map<int, std::unique_ptr<ObjectModel>> models_;
 };
 
 }  // namespace orpe

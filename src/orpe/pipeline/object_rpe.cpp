@@ -154,6 +154,13 @@ ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const Datase
 
 ObjectRpePipeline::~ObjectRpePipeline() = default;
 
+void ObjectRpePipeline::set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator,
+                                                  bool uses_color) {
+  if (!estimator) throw ConfigError("pipeline: null single-view estimator");
+  estimator_ = std::move(estimator);
+  estimator_uses_color_ = uses_color;
+}
+
 size_t ObjectRpePipeline::num_variants() const { return variants_.size(); }
 const PoseVariant& ObjectRpePipeline::variant(size_t v) const { return variants_.at(v).config; }
 const std::vector<PoseResultRow>& ObjectRpePipeline::pose_rows(size_t v) const {
@@ -314,9 +321,9 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   const DepthImage& projected_depth = need_projected ? view.depth : frame.depth;
   const ColorImage& projected_color = need_projected ? view.color : frame.color;
 
-  // Single-view estimates, computed once per distinct input. The geometry-only estimator ignores
-  // colour, so the colour source is not part of the key.
-  const bool estimator_uses_color = estimator_->name() != "model_registration";
+  // Single-view estimates, computed once per distinct input. The colour source is part of the key
+  // only for estimators that use colour (the model-based registration does not).
+  const bool estimator_uses_color = estimator_uses_color_;
   std::map<std::tuple<int, int, int, int, int>, SingleViewPose> cache;
   result.variants.resize(variants_.size());
   for (size_t vi = 0; vi < variants_.size(); ++vi) {
@@ -358,8 +365,9 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
           t = Track{};
           t.class_id = c.class_id;
           if (cfg.ekf) {
-            PoseEkfParams ep = params_.pose_ekf;
-            t.ekf = std::make_unique<PoseEkf>(ep, model->symmetry);
+            const std::string& mode = pp.ekf_symmetry;
+            const bool use = mode == "geometric" || (mode == "dataset" && model->symmetric_for_metric);
+            t.ekf = std::make_unique<PoseEkf>(params_.pose_ekf, use ? model->symmetry : ObjectSymmetry{});
           }
         }
         track = &t;
@@ -509,6 +517,8 @@ std::vector<ObjectWorldPose> ObjectRpePipeline::object_poses(size_t vi) const {
     o.class_probability = inst->second.argmax_probability();
     o.detections = inst->second.detections;
     if (const auto g = geometry.find(id); g != geometry.end()) o.surfels = g->second.surfels;
+    if (models_.has(track.class_id) && !model_errors_.count(track.class_id))
+      o.model_symmetry = models_.get(track.class_id).symmetry.describe();
     if (track.ekf) {
       const FusedObjectPose f = track.ekf->result();
       o.source = "ekf";

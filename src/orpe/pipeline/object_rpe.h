@@ -112,6 +112,7 @@ struct ObjectWorldPose {
   double class_probability = 0;
   int detections = 0;  ///< keyframes that detected the instance
   int surfels = 0;
+  std::string model_symmetry;  ///< the class model's detected symmetry (what the EKF treats as equal)
   bool valid = false;  ///< a pose exists
   /// "ekf" (the filter's state) or "best_single_view" (the highest-scoring single-view estimate moved
   /// to the world, for variants without the EKF).
@@ -139,6 +140,13 @@ class ObjectRpePipeline {
   /// names and the scene id of the result rows. Throws ConfigError for invalid params.
   ObjectRpePipeline(const ObjectRpeParams& params, const DatasetInfo& dataset);
   ~ObjectRpePipeline();
+
+  /// Replaces the single-view estimator (default: ModelRegistrationEstimator with
+  /// params.pose_registration), e.g. a learned back-end or a test double. `uses_color`: whether its
+  /// result depends on the colour image (else estimates are shared between inputs that differ only
+  /// in colour). Call before the first process().
+  void set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator, bool uses_color);
+  const SingleViewPoseEstimator* single_view_estimator() const { return estimator_.get(); }
 
   /// Runs every stage on one frame (frames in order).
   const PipelineFrameResult& process(const RgbdFrame& frame);
@@ -177,7 +185,8 @@ class ObjectRpePipeline {
   ObjectModelLibrary models_;
   std::unique_ptr<slam::SlamSystem> slam_;
   std::unique_ptr<SemanticMapper> semantic_;
-  std::unique_ptr<ModelRegistrationEstimator> estimator_;
+  std::unique_ptr<SingleViewPoseEstimator> estimator_;
+  bool estimator_uses_color_ = false;
   std::vector<VariantState> variants_;
   std::vector<StampedPose> trajectory_;
   std::vector<int> evaluated_frames_;

@@ -32,6 +32,8 @@ bool PipelineParams::IsValid(std::string* why) const {
   if (!(min_class_probability >= 0 && min_class_probability <= 1))
     return fail("min_class_probability must be in [0, 1]");
   if (!(output_min_confidence >= 0)) return fail("output_min_confidence must be >= 0");
+  if (ekf_symmetry != "geometric" && ekf_symmetry != "dataset" && ekf_symmetry != "none")
+    return fail("ekf_symmetry must be geometric, dataset or none");
   if (progress_every_n_frames < 0) return fail("progress_every_n_frames must be >= 0");
   return true;
 }

@@ -35,6 +35,10 @@ struct PipelineParams {
   int min_instance_detections = 1;
   /// Only instances (projected modes) or detections (raw masks) whose class probability reaches this.
   double min_class_probability = 0.0;
+  /// Symmetry group each object's EKF uses to compare a measurement with its state:
+  /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = the same, but only for
+  /// the dataset's symmetric classes (those scored with ADD-S), "none" = no symmetry (the paper).
+  std::string ekf_symmetry = "dataset";
   /// Give the single-view estimator the EKF's current pose (moved into the camera) as one more
   /// hypothesis. Off by default: the paper's measurements are independent single-view estimates.
   bool ekf_prior_hypothesis = false;
@@ -62,6 +66,9 @@ struct PipelineParams {
       "Projected masks: only instances detected in at least this many keyframes get a pose");
     v("min_class_probability", min_class_probability,
       "Only instances / detections whose class probability reaches this get a pose, in [0, 1]");
+    v("ekf_symmetry", ekf_symmetry,
+      "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the dataset's "
+      "symmetric classes) | none");
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,
       "Give the single-view estimator the EKF pose as an extra hypothesis (paper: off)");
     v("init_from_ground_truth", init_from_ground_truth,

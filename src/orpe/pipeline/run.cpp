@@ -59,6 +59,7 @@ std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const
     r["surfels"] = o.surfels;
     r["valid"] = o.valid;
     r["source"] = o.source;
+    r["model_symmetry"] = o.model_symmetry;
     r["num_views"] = o.num_views;
     r["num_rejected"] = o.num_rejected;
     r["num_reinitialisations"] = o.num_reinitialisations;
@@ -222,7 +223,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   std::vector<std::string> skipped;
   for (const auto& [pos, msg] : stream.skipped_frames()) skipped.push_back(msg);
   js.set("dataset.skipped_messages", skipped);
-  js.set("single_view_estimator", pipeline.num_variants() ? "model_registration" : "none");
+  js.set("single_view_estimator",
+         pipeline.single_view_estimator() ? pipeline.single_view_estimator()->name() : "none");
   js.set("variants", summary.variants);
   for (size_t v = 0; v < pipeline.num_variants(); ++v) {
     const PoseVariant& variant = pipeline.variant(v);

@@ -29,14 +29,14 @@ FINAL = "Object-RPE (final)"
 
 
 def run(cmd, quiet=False):
+    """Runs cmd; its output goes to stderr (progress), or is kept and shown only on failure (quiet)."""
     print("+ " + " ".join(cmd), file=sys.stderr, flush=True)
-    res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=None if not quiet else subprocess.PIPE,
-                         text=True)
+    res = subprocess.run(cmd, stdout=subprocess.PIPE if quiet else sys.stderr,
+                         stderr=subprocess.STDOUT if quiet else None, text=True)
     if res.returncode != 0:
-        if quiet and res.stderr:
-            sys.stderr.write(res.stderr)
+        if quiet and res.stdout:
+            sys.stderr.write(res.stdout)
         sys.exit(f"command failed ({res.returncode}): {' '.join(cmd)}")
-    return res.stdout
 
 
 def merge_csv(paths, out_path):
@@ -70,6 +70,8 @@ def main():
                     help="section.key=value passed to orpe run and orpe eval (repeatable)")
     ap.add_argument("--config", default="", help="JSON config passed to orpe run and orpe eval")
     ap.add_argument("--separate", action="store_true", help="one orpe run per configuration")
+    ap.add_argument("--configs", default=",".join(CONFIGS),
+                    help="comma-separated subset of the configurations (default: all five)")
     ap.add_argument("--reuse", action="store_true", help="skip runs whose outputs exist")
     ap.add_argument("--no-recon", action="store_true", help="skip the reconstruction error")
     ap.add_argument("--title", default="", help="heading of the Markdown output")
@@ -85,10 +87,16 @@ def main():
     for s in args.sets:
         common += ["--set", s]
     scenes = [s for s in args.scenes.split(",") if s] or [""]
+    configs = [c for c in args.configs.split(",") if c]
+    for c in configs:
+        if c not in CONFIGS:
+            sys.exit(f"unknown configuration {c} (expected some of {', '.join(CONFIGS)})")
+    with_final = "Object-RPE" in configs
+    cols = configs + ([FINAL] if with_final else [])
     t0 = time.time()
 
     # 1. Runs.
-    poses = {c: [] for c in CONFIGS + [FINAL]}
+    poses = {c: [] for c in cols}
     evaluated = []
     run_dirs = []
     for scene in scenes:
@@ -98,23 +106,27 @@ def main():
         if not args.separate:
             done = os.path.isfile(os.path.join(sdir, "summary.json"))
             if not (args.reuse and done):
-                run([orpe, "run", "--dataset", args.dataset, "--out", sdir, "--mode", "full",
-                     "--ablation", "all"] + common + scene_args)
-            for c in CONFIGS:
+                abl = []
+                for c in (["Object-RPE"] if with_final else []) + [c for c in configs if c != "Object-RPE"]:
+                    abl += ["--ablation", c]
+                run([orpe, "run", "--dataset", args.dataset, "--out", sdir, "--mode", "full"] + abl +
+                    common + scene_args)
+            for c in configs:
                 poses[c].append(os.path.join(sdir, "ablation", c, "poses.csv"))
-            poses[FINAL].append(os.path.join(sdir, "ablation", "Object-RPE", "poses_final.csv"))
+            if with_final:
+                poses[FINAL].append(os.path.join(sdir, "ablation", "Object-RPE", "poses_final.csv"))
             evaluated.append(os.path.join(sdir, "evaluated_frames.txt"))
         else:
-            for c in CONFIGS:
+            for c in configs:
                 cdir = os.path.join(sdir, c)
                 if not (args.reuse and os.path.isfile(os.path.join(cdir, "summary.json"))):
                     run([orpe, "run", "--dataset", args.dataset, "--out", cdir, "--mode", "full",
                          "--ablation", c] + common + scene_args)
-                poses[c].append(os.path.join(cdir, "poses.csv"))
+                poses[c].append(os.path.join(cdir, "ablation", c, "poses.csv"))
                 if c == "Object-RPE":
-                    poses[FINAL].append(os.path.join(cdir, "poses_final.csv"))
-            evaluated.append(os.path.join(sdir, "Object-RPE", "evaluated_frames.txt"))
-            run_dirs[-1] = (scene, os.path.join(sdir, "Object-RPE"))
+                    poses[FINAL].append(os.path.join(cdir, "ablation", c, "poses_final.csv"))
+            evaluated.append(os.path.join(sdir, configs[0], "evaluated_frames.txt"))
+            run_dirs[-1] = (scene, os.path.join(sdir, configs[0]))
 
     # 2. Pose evaluation over the evaluated frames of all scenes.
     eval_dir = os.path.join(args.out, "eval")
@@ -129,7 +141,7 @@ def main():
     with open(keyframes, "w") as f:
         f.write("\n".join(lines) + "\n")
     results = {}
-    for c in CONFIGS + [FINAL]:
+    for c in cols:
         name = c.replace(" ", "_").replace("(", "").replace(")", "")
         merged = os.path.join(eval_dir, name + "_poses.csv")
         merge_csv(poses[c], merged)
@@ -160,8 +172,6 @@ def main():
     for c in results.values():
         for k in c["classes"]:
             names[k["class_id"]] = (k["name"], k["symmetric"], k["instances"])
-    cols = CONFIGS + [FINAL]
-
     def cell(c, cls, key):
         r = results[c]
         row = r["all"] if cls is None else next((k for k in r["classes"] if k["class_id"] == cls), None)

@@ -195,7 +195,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     summary.pose_rows.push_back(pipeline.pose_rows(v).size());
     std::vector<std::string> dirs;
     if (v == 0) dirs.push_back("");
-    if (pipeline.num_variants() > 1) dirs.push_back("ablation/" + variant.name + "/");
+    if (!options.ablations.empty()) dirs.push_back("ablation/" + variant.name + "/");
     for (const auto& dir : dirs) {
       write_bop_results(path(dir + "poses.csv"), pipeline.pose_rows(v));
       summary.files.push_back(dir + "poses.csv");
@@ -234,7 +234,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     js.set(key + ".projected_color", variant.projected_color);
     js.set(key + ".ekf", variant.ekf);
     js.set(key + ".pose_rows", summary.pose_rows[v]);
-    js.set(key + ".directory", v == 0 ? std::string(".") : "ablation/" + variant.name);
+    js.set(key + ".directory",
+           options.ablations.empty() ? std::string(".") : "ablation/" + variant.name);
   }
   const PipelineStats& st = summary.stats;
   js.set("counts.frames", st.frames);

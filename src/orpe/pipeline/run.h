@@ -12,8 +12,8 @@
 //  OUT/poses_final.csv       (EKF) the final fused world poses moved into each evaluated frame
 //  OUT/objects.json          per instance: class, world pose, covariance, number of fused views
 //  OUT/evaluated_frames.txt  the frames with pose estimates, as a keyframe list (scene/frame per line)
-//  OUT/ablation/<name>/{poses.csv, poses_final.csv, objects.json}  per configuration when several
-//                            run in one pass (the first-listed/primary one is also written to OUT/)
+//  OUT/ablation/<name>/{poses.csv, poses_final.csv, objects.json}  per configuration named in
+//                            RunOptions::ablations (the first-listed one is also written to OUT/)
 #pragma once
 
 #include <functional>

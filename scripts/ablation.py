@@ -165,7 +165,7 @@ def main():
             for o in r["objects"]:
                 recon_rows.append(dict(o, scene=scene))
                 if o["mean_mm"] is not None:
-                    recon.setdefault(o["class_id"], []).append((o["mean_mm"], o["mean_registered_mm"]))
+                    recon.setdefault(o["class_id"], []).append((o["mean_mm"], o["median_mm"]))
 
     # 4. Tables.
     names = {}
@@ -196,8 +196,9 @@ def main():
         md.append(f"| {c} | {a['adds_auc']:.1f} | {a['add_s_auc']:.1f} | {a['adds_below'] * 100:.1f} | "
                   f"{a['instances']} | {a['estimated']} |")
     for key, label in [("adds_auc", "ADD-S AUC"), ("add_s_auc", "ADD(-S) AUC"), ("adds_below", "ADD-S < 2 cm (%)")]:
-        md.append(f"\n{label} per class" + (" (recon: mean surfel-to-model distance of the semantic map, "
-                                            "mm, at the ground-truth pose; registered in brackets)"
+        md.append(f"\n{label} per class" + (" (recon: surfel-to-model distance of the semantic map's "
+                                            "object surfels at the ground-truth pose, mm: mean over "
+                                            "objects of the per-object mean (median))"
                                             if key == "adds_auc" and recon else "") + ":\n")
         head = "| class | " + " | ".join(cols) + (" | recon (mm) |" if key == "adds_auc" and recon else " |")
         md.append(head)
@@ -206,13 +207,13 @@ def main():
             nm, sym, _ = names[cls]
             line = f"| {nm}{' *' if sym else ''} | " + " | ".join(fmt(cell(c, cls, key)) for c in cols)
             if key == "adds_auc" and recon:
-                reg = [g for (_, g) in recon.get(cls, []) if g is not None]
-                line += f" | {fmt(recon_cell(cls))}" + (f" ({fmt(sum(reg) / len(reg))})" if reg else "")
+                med = [g for (_, g) in recon.get(cls, []) if g is not None]
+                line += f" | {fmt(recon_cell(cls))}" + (f" ({fmt(sum(med) / len(med))})" if med else "")
             md.append(line + " |")
         line = "| **ALL** | " + " | ".join(fmt(cell(c, None, key)) for c in cols)
         if key == "adds_auc" and recon:
-            reg = [g for v in recon.values() for (_, g) in v if g is not None]
-            line += f" | {fmt(recon_cell(None))}" + (f" ({fmt(sum(reg) / len(reg))})" if reg else "")
+            med = [g for v in recon.values() for (_, g) in v if g is not None]
+            line += f" | {fmt(recon_cell(None))}" + (f" ({fmt(sum(med) / len(med))})" if med else "")
         md.append(line + " |")
     md.append("\n`*` symmetric class (ADD(-S) uses ADD-S). DF = the single-view estimator in use "
               "(model-based registration, geometry only: DF-PM-PD and DF-PM-PD-PC coincide). "

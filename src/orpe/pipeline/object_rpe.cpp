@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "orpe/core/error.h"
+#include "orpe/pipeline/object_fusion.h"
 #include "orpe/semantic/detection.h"
 
 namespace orpe {
@@ -96,9 +97,7 @@ std::string PipelineFrameResult::report() const {
 
 struct ObjectRpePipeline::Track {
   int class_id = 0;
-  std::unique_ptr<PoseEkf> ekf;  // EKF variants
-  double accepted_score_sum = 0;
-  int accepted = 0;
+  std::unique_ptr<ObjectPoseFusion> ekf;  // EKF variants
   // Best single-view estimate (variants without the EKF).
   bool have_best = false;
   double best_score = -1e9;
@@ -121,6 +120,7 @@ struct ObjectRpePipeline::VariantState {
     double time_s;
   };
   std::vector<Seen> seen;
+  std::vector<SingleViewRecord> records;
 };
 
 /// An object to estimate in this frame.
@@ -163,6 +163,10 @@ void ObjectRpePipeline::set_single_view_estimator(std::unique_ptr<SingleViewPose
 
 size_t ObjectRpePipeline::num_variants() const { return variants_.size(); }
 const PoseVariant& ObjectRpePipeline::variant(size_t v) const { return variants_.at(v).config; }
+const std::vector<ObjectRpePipeline::SingleViewRecord>& ObjectRpePipeline::single_view_records(
+    size_t v) const {
+  return variants_.at(v).records;
+}
 const std::vector<PoseResultRow>& ObjectRpePipeline::pose_rows(size_t v) const {
   return variants_.at(v).rows;
 }
@@ -367,13 +371,14 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
           if (cfg.ekf) {
             const std::string& mode = pp.ekf_symmetry;
             const bool use = mode == "geometric" || (mode == "dataset" && model->symmetric_for_metric);
-            t.ekf = std::make_unique<PoseEkf>(params_.pose_ekf, use ? model->symmetry : ObjectSymmetry{});
+            t.ekf = std::make_unique<ObjectPoseFusion>(
+                params_.pose_ekf, use ? model->symmetry : ObjectSymmetry{}, pp.ekf_init_views);
           }
         }
         track = &t;
       }
       const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
-                             track->ekf->initialised();
+                             track->ekf->has_estimate();
       const auto key = std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key,
                                        cfg.projected_depth ? 1 : 0,
                                        estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
@@ -399,38 +404,30 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         cache.emplace(key, est.single_view);
       }
       const SingleViewPose& sv = est.single_view;
+      vs.records.push_back({frame.index, c.instance_id, c.class_id, c.class_probability, sv, T_world_cam});
       const double sv_score = std::clamp(sv.score, 0.01, 1.0);
       if (cfg.ekf) {
         if (track && track->ekf) {
           t0 = Clock::now();
-          PoseEkf& ekf = *track->ekf;
+          ObjectPoseFusion& fusion = *track->ekf;
           if (sv.valid) {
-            ekf.predict();
             PoseMeasurement m;
             m.frame_index = frame.index;
             m.T_world_cam = T_world_cam;
             m.T_cam_obj = sv.T_cam_obj;
             m.mu_m = sv.mu_m;
-            const PoseEkfStep step = ekf.update(m);
-            est.ekf_accepted = step.accepted;
-            if (step.initialised || step.reinitialised) {
-              track->accepted_score_sum = 0;
-              track->accepted = 0;
-            }
-            if (step.accepted) {
-              track->accepted_score_sum += sv_score;
-              ++track->accepted;
-              ++stats_.ekf_accepted;
-            } else {
-              ++stats_.ekf_rejected;
-            }
+            const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
+            est.ekf_accepted = o.accepted;
+            ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);
           }
-          if (ekf.initialised()) {
+          if (fusion.has_estimate()) {
             est.reported = true;
-            est.T_cam_obj = ekf.T_cam_obj(T_world_cam);
-            const double mean_score =
-                track->accepted > 0 ? track->accepted_score_sum / track->accepted : sv_score;
-            est.score = c.class_probability * mean_score;
+            est.T_cam_obj = fusion.T_cam_obj(T_world_cam);
+            est.score = c.class_probability * (fusion.accepted() > 0 ? fusion.score() : sv_score);
+          } else if (sv.valid) {  // still collecting the initial views: the single-view estimate
+            est.reported = true;
+            est.T_cam_obj = sv.T_cam_obj;
+            est.score = c.class_probability * sv_score;
           }
           result.ekf_ms += ms_since(t0);
         }
@@ -486,7 +483,7 @@ std::vector<PoseResultRow> ObjectRpePipeline::final_pose_rows(size_t vi) const {
   if (!vs.config.ekf) return rows;
   for (const auto& s : vs.seen) {
     const auto t = vs.tracks.find(s.instance_id);
-    if (t == vs.tracks.end() || !t->second.ekf || !t->second.ekf->initialised() ||
+    if (t == vs.tracks.end() || !t->second.ekf || !t->second.ekf->has_estimate() ||
         t->second.class_id != s.class_id)
       continue;
     PoseResultRow row;
@@ -522,12 +519,12 @@ std::vector<ObjectWorldPose> ObjectRpePipeline::object_poses(size_t vi) const {
     if (track.ekf) {
       const FusedObjectPose f = track.ekf->result();
       o.source = "ekf";
-      o.valid = track.ekf->initialised();
+      o.valid = track.ekf->has_estimate();
       o.T_world_obj = f.T_world_obj;
       o.has_covariance = o.valid;
       o.covariance = f.covariance;
       o.num_views = f.num_fused;
-      o.num_rejected = f.num_rejected;
+      o.num_rejected = std::max(f.num_rejected, track.ekf->rejected());
       o.num_reinitialisations = f.num_reinitialisations;
     } else {
       o.source = "best_single_view";

@@ -171,6 +171,17 @@ class ObjectRpePipeline {
   /// The same rows with the *final* fused world pose moved into each frame's camera (EKF variants:
   /// what the whole sequence says about the frame; others: empty).
   std::vector<PoseResultRow> final_pose_rows(size_t variant) const;
+  /// Every single-view estimate of a variant (valid or not) with the tracked camera pose, for
+  /// analysis and offline replays of the fusion (single_view.csv).
+  struct SingleViewRecord {
+    int frame_index = 0;
+    int instance_id = 0;
+    int class_id = 0;
+    double class_probability = 0;
+    SingleViewPose estimate;
+    SE3 T_world_cam;
+  };
+  const std::vector<SingleViewRecord>& single_view_records(size_t variant) const;
   /// Per map instance that got a pose (after finalize(): surviving instances only), sorted by id.
   std::vector<ObjectWorldPose> object_poses(size_t variant) const;
 

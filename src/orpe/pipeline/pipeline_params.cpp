@@ -34,6 +34,7 @@ bool PipelineParams::IsValid(std::string* why) const {
   if (!(output_min_confidence >= 0)) return fail("output_min_confidence must be >= 0");
   if (ekf_symmetry != "geometric" && ekf_symmetry != "dataset" && ekf_symmetry != "none")
     return fail("ekf_symmetry must be geometric, dataset or none");
+  if (ekf_init_views < 1) return fail("ekf_init_views must be >= 1");
   if (progress_every_n_frames < 0) return fail("progress_every_n_frames must be >= 0");
   return true;
 }

@@ -39,6 +39,9 @@ struct PipelineParams {
   /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = the same, but only for
   /// the dataset's symmetric classes (those scored with ADD-S), "none" = no symmetry (the paper).
   std::string ekf_symmetry = "dataset";
+  /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
+  /// object_fusion.h); 1 = from the first measurement (the paper).
+  int ekf_init_views = 1;
   /// Give the single-view estimator the EKF's current pose (moved into the camera) as one more
   /// hypothesis. Off by default: the paper's measurements are independent single-view estimates.
   bool ekf_prior_hypothesis = false;
@@ -69,6 +72,8 @@ struct PipelineParams {
     v("ekf_symmetry", ekf_symmetry,
       "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the dataset's "
       "symmetric classes) | none");
+    v("ekf_init_views", ekf_init_views,
+      "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,
       "Give the single-view estimator the EKF pose as an extra hypothesis (paper: off)");
     v("init_from_ground_truth", init_from_ground_truth,

@@ -38,6 +38,25 @@ nlohmann::json pose_json(const SE3& T) {
 
 }  // namespace
 
+void write_single_view_csv(const std::string& path,
+                           const std::vector<ObjectRpePipeline::SingleViewRecord>& records) {
+  write_file_atomic(path, [&](std::ostream& os) {
+    os << "frame,instance,class,class_probability,valid,score,mu_m,inlier_fraction,num_points,"
+          "R_cam_obj,t_cam_obj_m,R_world_cam,t_world_cam_m\n";
+    auto pose = [](const SE3& T) {
+      const Mat3& R = T.rotation();
+      return fmt::format("{:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f},{:.9f} {:.9f} {:.9f}",
+                         R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1),
+                         R(2, 2), T.translation().x(), T.translation().y(), T.translation().z());
+    };
+    for (const auto& r : records)
+      os << fmt::format("{},{},{},{:.6f},{},{:.6f},{:.6g},{:.4f},{},{},{}\n", r.frame_index,
+                        r.instance_id, r.class_id, r.class_probability, r.estimate.valid ? 1 : 0,
+                        r.estimate.score, r.estimate.mu_m, r.estimate.inlier_fraction,
+                        r.estimate.num_points, pose(r.estimate.T_cam_obj), pose(r.T_world_cam));
+  });
+}
+
 std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const PoseVariant& variant) {
   nlohmann::json j;
   j["configuration"] = variant.name;
@@ -203,6 +222,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
         write_bop_results(path(dir + "poses_final.csv"), pipeline.final_pose_rows(v));
         summary.files.push_back(dir + "poses_final.csv");
       }
+      write_single_view_csv(path(dir + "single_view.csv"), pipeline.single_view_records(v));
+      summary.files.push_back(dir + "single_view.csv");
       const std::string objects = object_poses_json(pipeline.object_poses(v), variant);
       write_file_atomic(path(dir + "objects.json"), [&](std::ostream& os) { os << objects << "\n"; });
       summary.files.push_back(dir + "objects.json");

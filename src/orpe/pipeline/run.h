@@ -11,6 +11,7 @@
 //  OUT/poses.csv             BOP results: one row per object per evaluated frame (camera frame)
 //  OUT/poses_final.csv       (EKF) the final fused world poses moved into each evaluated frame
 //  OUT/objects.json          per instance: class, world pose, covariance, number of fused views
+//  OUT/single_view.csv      every single-view estimate with the tracked camera pose (write_single_view_csv)
 //  OUT/evaluated_frames.txt  the frames with pose estimates, as a keyframe list (scene/frame per line)
 //  OUT/ablation/<name>/{poses.csv, poses_final.csv, objects.json}  per configuration named in
 //                            RunOptions::ablations (the first-listed one is also written to OUT/)
@@ -55,6 +56,12 @@ struct RunSummary {
 /// frames) and writes the outputs above. Throws IoError / ConfigError with the file and the problem;
 /// outputs already written stay complete (each file is atomic).
 RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options);
+
+/// single_view.csv: every single-view estimate of a variant, one line each:
+/// frame,instance,class,class_probability,valid,score,mu_m,inlier_fraction,num_points,
+/// R_cam_obj (9 values row-major, spaces),t_cam_obj_m (3),R_world_cam (9),t_world_cam_m (3)
+void write_single_view_csv(const std::string& path,
+                           const std::vector<ObjectRpePipeline::SingleViewRecord>& records);
 
 /// objects.json text for a set of final object poses.
 std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const PoseVariant& variant);

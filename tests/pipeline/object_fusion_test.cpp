@@ -73,6 +73,18 @@ TEST(ObjectFusion, NoEstimateWhileCollectingInitialViews) {
   EXPECT_TRUE(fusion.has_estimate());
   EXPECT_NEAR(fusion.score(), 0.5, 1e-12);
   EXPECT_EQ(fusion.accepted(), 3);
+
+  // An object seen fewer times than init_views gets its estimate at the end of the sequence.
+  ObjectPoseFusion few(PoseEkfParams{}, ObjectSymmetry{}, 5);
+  few.flush();
+  EXPECT_FALSE(few.has_estimate()) << "nothing to start from";
+  few.add(measure(0, truth, SE3(), Vec6::Zero()), 0.5);
+  few.add(measure(1, truth, SE3(), Vec6::Zero()), 0.5);
+  EXPECT_FALSE(few.has_estimate());
+  few.flush();
+  ASSERT_TRUE(few.has_estimate());
+  EXPECT_NEAR((few.T_world_obj().translation() - truth.translation()).norm(), 0, 1e-9);
+  EXPECT_EQ(few.accepted(), 2);
 }
 
 }  // namespace

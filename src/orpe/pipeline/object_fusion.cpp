@@ -32,7 +32,16 @@ ObjectPoseFusion::Outcome ObjectPoseFusion::add(const PoseMeasurement& m, double
   buffer_.emplace_back(m, score);
   out.accepted = true;
   if (static_cast<int>(buffer_.size()) < init_views_) return out;
+  initialise_from_buffer();
+  out.initialised = true;
+  return out;
+}
 
+void ObjectPoseFusion::flush() {
+  if (!ekf_.initialised() && !buffer_.empty()) initialise_from_buffer();
+}
+
+void ObjectPoseFusion::initialise_from_buffer() {
   // Consensus: the buffered measurement the most others pass the gate against.
   size_t best = 0;
   int best_support = -1;
@@ -66,8 +75,6 @@ ObjectPoseFusion::Outcome ObjectPoseFusion::add(const PoseMeasurement& m, double
     }
   }
   buffer_.clear();
-  out.initialised = true;
-  return out;
 }
 
 FusedObjectPose ObjectPoseFusion::result() const { return ekf_.result(); }

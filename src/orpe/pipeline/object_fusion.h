@@ -28,6 +28,10 @@ class ObjectPoseFusion {
   /// Adds one valid single-view measurement (`score`: its confidence, averaged into score()).
   Outcome add(const PoseMeasurement& measurement, double score);
 
+  /// End of the sequence: starts the filter from the buffered measurements when fewer than
+  /// init_views arrived (an object seen a few times still gets a fused pose).
+  void flush();
+
   bool has_estimate() const { return ekf_.initialised(); }
   const SE3& T_world_obj() const { return ekf_.T_world_obj(); }
   SE3 T_cam_obj(const SE3& T_world_cam) const { return ekf_.T_cam_obj(T_world_cam); }
@@ -39,6 +43,8 @@ class ObjectPoseFusion {
   int rejected() const { return rejected_; }
 
  private:
+  void initialise_from_buffer();
+
   PoseEkfParams params_;
   ObjectSymmetry symmetry_;
   int init_views_;

@@ -469,10 +469,12 @@ void ObjectRpePipeline::finalize() {
       const auto inst = instances.find(it->first);
       // Drop filters of removed instances and of instances whose final class differs from the
       // filter's (the filter's model was another class's).
-      if (inst == instances.end() || inst->second.argmax_class() != it->second.class_id)
+      if (inst == instances.end() || inst->second.argmax_class() != it->second.class_id) {
         it = v.tracks.erase(it);
-      else
+      } else {
+        if (it->second.ekf) it->second.ekf->flush();
         ++it;
+      }
     }
   }
 }

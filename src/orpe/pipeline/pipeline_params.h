@@ -38,10 +38,10 @@ struct PipelineParams {
   /// Symmetry group each object's EKF uses to compare a measurement with its state:
   /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = the same, but only for
   /// the dataset's symmetric classes (those scored with ADD-S), "none" = no symmetry (the paper).
-  std::string ekf_symmetry = "dataset";
+  std::string ekf_symmetry = "none";
   /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
   /// object_fusion.h); 1 = from the first measurement (the paper).
-  int ekf_init_views = 1;
+  int ekf_init_views = 5;
   /// Give the single-view estimator the EKF's current pose (moved into the camera) as one more
   /// hypothesis. Off by default: the paper's measurements are independent single-view estimates.
   bool ekf_prior_hypothesis = false;

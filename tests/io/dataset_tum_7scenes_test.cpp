@@ -90,6 +90,9 @@ TEST(TumReader, FrameSelectionIntrinsicsOverridesAndMaxDepth) {
   p.first_frame = 0;
   p.stride = 0;
   EXPECT_THROW(open_dataset(dir, p), ConfigError);
+  p.stride = 1;
+  p.depth_units_per_m = -5000;  // a wrong depth scale is refused up front
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
 }
 
 TEST(TumReader, AssociationsFileAndDepthScaleOverride) {

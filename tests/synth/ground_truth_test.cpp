@@ -16,18 +16,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// A BOP folder generated once per test binary and parameter set.
-const std::string& generated(int seed, bool noise, const std::string& scene) {
-  static std::map<std::string, std::string> dirs;
-  const std::string key = std::to_string(seed) + (noise ? "n" : "c") + scene;
-  auto it = dirs.find(key);
-  if (it != dirs.end()) return it->second;
-  const std::string dir = (fs::temp_directory_path() / ("orpe_test_synth_gt_" + key)).string();
-  fs::remove_all(dir);
+/// A BOP folder generated for the current test (ctest runs tests in parallel processes: one folder each).
+std::string generated(int seed, bool noise, const std::string& scene) {
+  const std::string dir = scratch_dir(std::to_string(seed) + (noise ? "n" : "c") + scene);
   SynthParams p = small_synth(seed, 5, noise);
   p.scene = scene;
   synth::SyntheticSceneGenerator(p).write_bop(dir);
-  return dirs[key] = dir;
+  return dir;
 }
 
 struct ModelData {
@@ -80,7 +75,7 @@ PinholeIntrinsics camera_of(const nlohmann::json& cam, int w, int h) {
 
 TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
   for (const std::string scene : {"floor", "table"}) {
-    const std::string& dir = generated(3, false, scene);
+    const std::string dir = generated(3, false, scene);
     const auto cams = read_json(dir + "/scene_camera.json");
     const auto gts = read_json(dir + "/scene_gt.json");
     ASSERT_DOUBLE_EQ(cams["0"]["depth_scale"].get<double>(), 0.1);
@@ -129,11 +124,11 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
 }
 
 TEST(SynthGroundTruth, DepthWithoutNoiseIsTheExactModelSurface) {
-  const std::string& dir = generated(3, false, "floor");
+  const std::string dir = generated(3, false, "floor");
   const auto cams = read_json(dir + "/scene_camera.json");
   const auto gts = read_json(dir + "/scene_gt.json");
   std::map<int, TriangleMesh> meshes;
-  int checked = 0;
+  int checked = 0, edge_pixels = 0;
   double worst = 0;
   for (const std::string key : {"0", "4"}) {
     const DepthImage depth = read_depth_image(dir + "/depth/00000" + key + ".png", 10000.0);
@@ -153,9 +148,18 @@ TEST(SynthGroundTruth, DepthWithoutNoiseIsTheExactModelSurface) {
           if (!mask.at(u, v)) continue;
           ASSERT_GT(depth.at(u, v), 0) << "no depth on a visible pixel without noise";
           if ((n++) % 7 != 0) continue;  // a subset keeps the brute-force ray casting fast
-          const double t = ray_cast(meshes[obj_id], bop_pose(e), Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0));
-          ASSERT_GT(t, 0) << "ray through a visible pixel misses the object";
-          worst = std::max(worst, std::abs(depth.at(u, v) - t));
+          const SE3 T = bop_pose(e);
+          const Vec3 ray((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
+          const double t = ray_cast(meshes[obj_id], T, ray);
+          double err = t > 0 ? std::abs(depth.at(u, v) - t) : 1e9;
+          if (err > 1e-4) {
+            // The rasteriser snaps vertices to 1/256 pixel: at a silhouette edge the pixel centre may sit a
+            // hair outside (or inside) the exact triangle. Accept the surface seen by slightly widened
+            // triangles there, but count such pixels.
+            const double tw = ray_cast(meshes[obj_id], T, ray, nullptr, 2e-3);
+            if (tw > 0 && std::abs(depth.at(u, v) - tw) <= 1e-4) err = 0, ++edge_pixels;
+          }
+          worst = std::max(worst, err);
           ++checked;
         }
     }
@@ -163,6 +167,7 @@ TEST(SynthGroundTruth, DepthWithoutNoiseIsTheExactModelSurface) {
   EXPECT_GT(checked, 300);
   // Depth PNG quantisation (0.1 mm: +-0.05 mm) and the PLY's 7 significant digits.
   EXPECT_LT(worst, 1e-4);
+  EXPECT_LT(edge_pixels, checked / 50) << "too many pixels match only at snapped edges";
 }
 
 TEST(SynthGroundTruth, NoisyDepthStaysWithinTheSensorModelBound) {
@@ -212,7 +217,7 @@ TEST(SynthGroundTruth, NoisyDepthStaysWithinTheSensorModelBound) {
 }
 
 TEST(SynthGroundTruth, GtInfoIsConsistentWithTheMasks) {
-  const std::string& dir = generated(3, true, "floor");
+  const std::string dir = generated(3, true, "floor");
   const auto info = read_json(dir + "/scene_gt_info.json");
   const auto gts = read_json(dir + "/scene_gt.json");
   ASSERT_EQ(info.size(), gts.size());

@@ -52,8 +52,9 @@ inline std::vector<Vec3> read_xyz(const std::string& path) {
 }
 
 /// Nearest positive ray parameter t (origin 0, direction d) over the mesh's triangles in the given
-/// pose, or -1. Moeller-Trumbore in double precision.
-inline double ray_cast(const TriangleMesh& mesh, const SE3& T, const Vec3& d, Vec3* normal = nullptr) {
+/// pose, or -1. Moeller-Trumbore in double precision; `edge_tol` widens each triangle (in barycentric units).
+inline double ray_cast(const TriangleMesh& mesh, const SE3& T, const Vec3& d, Vec3* normal = nullptr,
+                       double edge_tol = 1e-9) {
   double best = -1;
   for (const auto& tri : mesh.triangles) {
     const Vec3 p0 = T * mesh.vertices[tri[0]].cast<double>();
@@ -66,10 +67,10 @@ inline double ray_cast(const TriangleMesh& mesh, const SE3& T, const Vec3& d, Ve
     const double inv = 1.0 / det;
     const Vec3 tv = -p0;
     const double u = tv.dot(pv) * inv;
-    if (u < -1e-9 || u > 1 + 1e-9) continue;
+    if (u < -edge_tol || u > 1 + edge_tol) continue;
     const Vec3 qv = tv.cross(e1);
     const double v = d.dot(qv) * inv;
-    if (v < -1e-9 || u + v > 1 + 1e-9) continue;
+    if (v < -edge_tol || u + v > 1 + edge_tol) continue;
     const double t = e2.dot(qv) * inv;
     if (t > 1e-6 && (best < 0 || t < best)) {
       best = t;

@@ -98,17 +98,41 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
   const int threads = params_.threads > 0 ? params_.threads : omp_get_max_threads();
   RenderStats stats;
 
-  // --- Vertices to the camera frame.
+  const double near = params_.near_m, far = params_.far_m;
+  const bool cull = params_.cull_back_faces;
+  const double gx0 = -kGuardBandPx, gx1 = W - 1 + kGuardBandPx, gy0 = -kGuardBandPx, gy1 = H - 1 + kGuardBandPx;
+  const Plane near_plane{{0, 0, 1}, -near};
+  const Plane guard[4] = {{{K.fx, 0, K.cx - gx0}, 0},
+                          {{-K.fx, 0, gx1 - K.cx}, 0},
+                          {{0, K.fy, K.cy - gy0}, 0},
+                          {{0, -K.fy, gy1 - K.cy}, 0}};
+
+  // --- Vertices to the camera frame, projected once (triangles share them).
   cam_vertices_.resize(items.size());
+  proj_vertices_.resize(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     const auto& src = items[i].mesh->vertices;
     auto& dst = cam_vertices_[i];
+    auto& proj = proj_vertices_[i];
     dst.resize(src.size());
+    proj.resize(src.size());
     const Eigen::Matrix3d R = items[i].T_cam_obj.rotation();
     const Eigen::Vector3d t = items[i].T_cam_obj.translation();
     const long n = static_cast<long>(src.size());
 #pragma omp parallel for schedule(static) num_threads(threads) if (n > 20000)
-    for (long k = 0; k < n; ++k) dst[k] = (R * src[k].cast<double>() + t).cast<float>();
+    for (long k = 0; k < n; ++k) {
+      const Eigen::Vector3d p = R * src[k].cast<double>() + t;
+      dst[k] = p.cast<float>();
+      ProjectedVertex& pv = proj[k];
+      pv.needs_clip = !(p.z() >= near);
+      if (pv.needs_clip) continue;
+      const double sx = K.fx * p.x() / p.z() + K.cx, sy = K.fy * p.y() / p.z() + K.cy;
+      pv.needs_clip = !(sx >= gx0 && sx <= gx1 && sy >= gy0 && sy <= gy1);
+      if (pv.needs_clip) continue;
+      pv.x = static_cast<std::int32_t>(std::nearbyint(sx * kOne));
+      pv.y = static_cast<std::int32_t>(std::nearbyint(sy * kOne));
+      pv.inv_z = 1.0 / p.z();
+    }
     stats.triangles_in += items[i].mesh->triangles.size();
   }
 
@@ -119,14 +143,6 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
   const size_t nchunks = (total + kSetupChunk - 1) / kSetupChunk;
   if (chunk_tris_.size() < nchunks) chunk_tris_.resize(nchunks);
   std::vector<size_t> chunk_culled(nchunks, 0), chunk_clipped(nchunks, 0);
-  const double near = params_.near_m, far = params_.far_m;
-  const bool cull = params_.cull_back_faces;
-  const double gx0 = -kGuardBandPx, gx1 = W - 1 + kGuardBandPx, gy0 = -kGuardBandPx, gy1 = H - 1 + kGuardBandPx;
-  const Plane near_plane{{0, 0, 1}, -near};
-  const Plane guard[4] = {{{K.fx, 0, K.cx - gx0}, 0},
-                          {{-K.fx, 0, gx1 - K.cx}, 0},
-                          {{0, K.fy, K.cy - gy0}, 0},
-                          {{0, -K.fy, gy1 - K.cy}, 0}};
 
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (long c = 0; c < static_cast<long>(nchunks); ++c) {
@@ -150,48 +166,11 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         ++chunk_culled[c];
         continue;
       }
-      // Fast path: in front of the near plane and inside the guard band (no clipping).
-      bool clipped = P0.z() < near || P1.z() < near || P2.z() < near;
-      if (!clipped) {
-        for (const Eigen::Vector3d* P : {&P0, &P1, &P2})
-          for (const Plane& pl : guard) clipped |= pl.eval(*P) < 0;
-      }
-      poly.assign({P0, P1, P2});
-      if (clipped) {
-        if (P0.z() < near || P1.z() < near || P2.z() < near) {
-          clip_polygon(poly, near_plane, tmp);
-          poly.swap(tmp);
-        }
-        for (const Plane& pl : guard) {
-          bool outside = false;
-          for (const auto& p : poly) outside |= pl.eval(p) < 0;
-          if (!outside) continue;
-          clip_polygon(poly, pl, tmp);
-          poly.swap(tmp);
-        }
-        if (poly.size() < 3) {
-          ++chunk_culled[c];
-          continue;
-        }
-        ++chunk_clipped[c];
-      }
-      // Project and emit a fan.
-      double sx[12], sy[12], iz[12];
-      std::int64_t X[12], Y[12];
-      const size_t n = std::min<size_t>(poly.size(), 12);
-      for (size_t k = 0; k < n; ++k) {
-        const double z = std::max(poly[k].z(), near * 0.999999);
-        sx[k] = K.fx * poly[k].x() / z + K.cx;
-        sy[k] = K.fy * poly[k].y() / z + K.cy;
-        iz[k] = 1.0 / z;
-        X[k] = static_cast<std::int64_t>(std::nearbyint(sx[k] * kOne));
-        Y[k] = static_cast<std::int64_t>(std::nearbyint(sy[k] * kOne));
-      }
-      for (size_t k = 1; k + 1 < n; ++k) {
-        int a = 0, b = static_cast<int>(k), d = static_cast<int>(k + 1);
+      // Emits the screen triangle (a, b, d) of vertices in 1/256-pixel fixed point with their 1/z.
+      auto emit = [&](const std::int64_t* X, const std::int64_t* Y, const double* iz, int a, int b, int d) {
         std::int64_t area2 = (X[b] - X[a]) * (Y[d] - Y[a]) - (Y[b] - Y[a]) * (X[d] - X[a]);
-        if (area2 == 0) continue;
-        if (area2 < 0) std::swap(b, d), area2 = -area2;
+        if (area2 == 0) return;
+        if (area2 < 0) std::swap(b, d);
         ScreenTriangle st;
         const int idx[3] = {a, b, d};
         std::int64_t xmin = X[a], xmax = X[a], ymin = Y[a], ymax = Y[a];
@@ -205,7 +184,7 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         st.u_max = static_cast<std::int32_t>(std::min<std::int64_t>(W - 1, floor_div(xmax, kOne)));
         st.v_min = static_cast<std::int32_t>(std::max<std::int64_t>(0, ceil_div(ymin, kOne)));
         st.v_max = static_cast<std::int32_t>(std::min<std::int64_t>(H - 1, floor_div(ymax, kOne)));
-        if (st.u_min > st.u_max || st.v_min > st.v_max) continue;
+        if (st.u_min > st.u_max || st.v_min > st.v_max) return;
         // 1/z plane through the snapped vertices: iz = A u + B v + C.
         const double ux0 = X[a] / double(kOne), uy0 = Y[a] / double(kOne);
         const double ux1 = X[b] / double(kOne) - ux0, uy1 = Y[b] / double(kOne) - uy0;
@@ -220,7 +199,43 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         st.item = static_cast<std::int32_t>(item);
         st.triangle = tri;
         outv.push_back(st);
+      };
+      // Fast path: all three vertices in front of the near plane and inside the guard band.
+      const auto& pv = proj_vertices_[item];
+      const ProjectedVertex &v0 = pv[t[0]], &v1 = pv[t[1]], &v2 = pv[t[2]];
+      if (!v0.needs_clip && !v1.needs_clip && !v2.needs_clip) {
+        const std::int64_t X[3] = {v0.x, v1.x, v2.x}, Y[3] = {v0.y, v1.y, v2.y};
+        const double iz[3] = {v0.inv_z, v1.inv_z, v2.inv_z};
+        emit(X, Y, iz, 0, 1, 2);
+        continue;
       }
+      poly.assign({P0, P1, P2});
+      if (P0.z() < near || P1.z() < near || P2.z() < near) {
+        clip_polygon(poly, near_plane, tmp);
+        poly.swap(tmp);
+      }
+      for (const Plane& pl : guard) {
+        bool outside = false;
+        for (const auto& p : poly) outside |= pl.eval(p) < 0;
+        if (!outside) continue;
+        clip_polygon(poly, pl, tmp);
+        poly.swap(tmp);
+      }
+      if (poly.size() < 3) {
+        ++chunk_culled[c];
+        continue;
+      }
+      ++chunk_clipped[c];
+      double iz[12];
+      std::int64_t X[12], Y[12];
+      const size_t n = std::min<size_t>(poly.size(), 12);
+      for (size_t k = 0; k < n; ++k) {
+        const double z = std::max(poly[k].z(), near * 0.999999);
+        X[k] = static_cast<std::int64_t>(std::nearbyint((K.fx * poly[k].x() / z + K.cx) * kOne));
+        Y[k] = static_cast<std::int64_t>(std::nearbyint((K.fy * poly[k].y() / z + K.cy) * kOne));
+        iz[k] = 1.0 / z;
+      }
+      for (size_t k = 1; k + 1 < n; ++k) emit(X, Y, iz, 0, static_cast<int>(k), static_cast<int>(k + 1));
     }
   }
   tris_.clear();

@@ -125,9 +125,16 @@ class Rasterizer {
     float inv_z_du, inv_z_dv, inv_z_0;
     std::int32_t item, triangle;
   };
+  /// A vertex projected once: fixed-point position and 1/z, unless it needs clipping.
+  struct ProjectedVertex {
+    std::int32_t x = 0, y = 0;
+    double inv_z = 0;
+    bool needs_clip = true;  ///< behind the near plane or outside the guard band
+  };
   RasterizerParams params_;
   // Scratch, reused between calls.
   std::vector<std::vector<Eigen::Vector3f>> cam_vertices_;
+  std::vector<std::vector<ProjectedVertex>> proj_vertices_;
   std::vector<std::vector<ScreenTriangle>> chunk_tris_;
   std::vector<ScreenTriangle> tris_;
   std::vector<std::uint32_t> band_offsets_, band_tris_;

@@ -223,7 +223,7 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
   const double half_fov = std::atan(std::min((K_.width / 2.0) / K_.fx, (K_.height / 2.0) / K_.fy));
   tp.distance_m = params_.distance_m > 0
                       ? params_.distance_m
-                      : std::clamp(0.85 * scene_.radius_m / std::tan(half_fov), params_.depth_min_m + 0.35, 3.0);
+                      : std::clamp(0.7 * scene_.radius_m / std::tan(half_fov), params_.depth_min_m + 0.35, 3.0);
   tp.azimuth_centre_rad = params_.scene == "shelf" ? scene_.view_azimuth_rad : 2 * M_PI * U(rng);
   tp.min_height_m = 0.25;
   T_world_cam_ = make_handheld_trajectory(tp, scene_.centre_world, rng);

@@ -128,27 +128,6 @@ double TriangleMesh::diameter() const {
   return std::sqrt(best_sq);
 }
 
-Eigen::Vector3f sample_texture_bilinear(const ColorImage& tex, float u, float v) {
-  const int w = tex.width(), h = tex.height();
-  // Texel centres at (i + 0.5) / w; v is up, image rows go down.
-  const float x = (u - std::floor(u)) * w - 0.5f;
-  const float y = (1.0f - (v - std::floor(v))) * h - 0.5f;
-  const float fx0 = std::floor(x), fy0 = std::floor(y);
-  const float ax = x - fx0, ay = y - fy0;
-  auto wrap = [](int i, int n) {
-    i %= n;
-    return i < 0 ? i + n : i;
-  };
-  const int x0 = wrap(static_cast<int>(fx0), w), x1 = wrap(static_cast<int>(fx0) + 1, w);
-  const int y0 = wrap(static_cast<int>(fy0), h), y1 = wrap(static_cast<int>(fy0) + 1, h);
-  auto px = [&](int xx, int yy) {
-    const Rgb8 c = tex.at(xx, yy);
-    return Eigen::Vector3f(c.r, c.g, c.b);
-  };
-  return (1 - ay) * ((1 - ax) * px(x0, y0) + ax * px(x1, y0)) +
-         ay * ((1 - ax) * px(x0, y1) + ax * px(x1, y1));
-}
-
 Eigen::Vector3f surface_albedo(const TriangleMesh& mesh, int tri, const Eigen::Vector3f& bary) {
   const Eigen::Vector3i& t = mesh.triangles[tri];
   Eigen::Vector3f albedo(mesh.base_color.r, mesh.base_color.g, mesh.base_color.b);

@@ -11,6 +11,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -55,7 +57,27 @@ struct TriangleMesh {
 };
 
 /// Bilinear texture lookup at (u, v) in OBJ convention (v up), wrapping around. Returns RGB in [0, 255].
-Eigen::Vector3f sample_texture_bilinear(const ColorImage& texture, float u, float v);
+/// Inline: the rasteriser calls it once per textured pixel.
+inline Eigen::Vector3f sample_texture_bilinear(const ColorImage& tex, float u, float v) {
+  const int w = tex.width(), h = tex.height();
+  // Texel centres at (i + 0.5) / w; v is up, image rows go down.
+  const float x = (u - std::floor(u)) * w - 0.5f;
+  const float y = (1.0f - (v - std::floor(v))) * h - 0.5f;
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const float ax = x - fx0, ay = y - fy0;
+  int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  int x1 = x0 + 1, y1 = y0 + 1;
+  // x, y lie in [-0.5, size - 0.5]: only -1 and size need wrapping.
+  if (x0 < 0) x0 += w;
+  if (x1 >= w) x1 -= w;
+  if (y0 < 0) y0 += h;
+  if (y1 >= h) y1 -= h;
+  x0 = std::clamp(x0, 0, w - 1), x1 = std::clamp(x1, 0, w - 1), y0 = std::clamp(y0, 0, h - 1), y1 = std::clamp(y1, 0, h - 1);
+  const Rgb8 a = tex.at(x0, y0), b = tex.at(x1, y0), c = tex.at(x0, y1), d = tex.at(x1, y1);
+  const float wa = (1 - ax) * (1 - ay), wb = ax * (1 - ay), wc = (1 - ax) * ay, wd = ax * ay;
+  return {wa * a.r + wb * b.r + wc * c.r + wd * d.r, wa * a.g + wb * b.g + wc * c.g + wd * d.g,
+          wa * a.b + wb * b.b + wc * c.b + wd * d.b};
+}
 
 /// Albedo (RGB in [0, 1]) of the surface point with barycentrics `bary` on triangle `tri`.
 Eigen::Vector3f surface_albedo(const TriangleMesh& mesh, int tri, const Eigen::Vector3f& bary);

@@ -350,6 +350,10 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
     Eigen::Vector3d n = Eigen::Vector3d::Zero(), m = n, q = n;
     double c = 0, zlo = 0, zhi = 0;
     Eigen::Vector3f n0 = Eigen::Vector3f::Zero(), n1 = n0, n2 = n0, face_n = n0;
+    // Albedo terms of the cached triangle: base colour x vertex colours, and uvs when textured.
+    Eigen::Vector3f c0 = n0, c1 = n0, c2 = n0;
+    Eigen::Vector2f t0 = Eigen::Vector2f::Zero(), t1 = t0, t2 = t0;
+    bool textured = false;
     const TriangleMesh* mesh = nullptr;
     const Eigen::Vector3i* tri = nullptr;
     for (int u = 0; u < W; ++u) {
@@ -382,6 +386,19 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
           const Eigen::Matrix3f& R = item_R[st.item];
           n0 = R * mesh->normals[(*tri)[0]], n1 = R * mesh->normals[(*tri)[1]], n2 = R * mesh->normals[(*tri)[2]];
         }
+        if (want_color) {
+          const Eigen::Vector3f base = Eigen::Vector3f(mesh->base_color.r, mesh->base_color.g, mesh->base_color.b) / 255.0f;
+          Eigen::Vector3f* cs[3] = {&c0, &c1, &c2};
+          for (int k = 0; k < 3; ++k) {
+            *cs[k] = base;
+            if (!mesh->colors.empty()) {
+              const Rgb8 vc = mesh->colors[(*tri)[k]];
+              *cs[k] = cs[k]->cwiseProduct(Eigen::Vector3f(vc.r, vc.g, vc.b) / 255.0f);
+            }
+          }
+          textured = mesh->has_texture();
+          if (textured) t0 = mesh->uvs[(*tri)[0]], t1 = mesh->uvs[(*tri)[1]], t2 = mesh->uvs[(*tri)[2]];
+        }
       }
       const Eigen::Vector3d d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
       const double det = -d.dot(n);
@@ -411,7 +428,11 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
       if (nrm.dot(d.cast<float>()) > 0) nrm = -nrm;  // face the camera
       if (want_normals) out.normals[p] = nrm;
       if (want_color) {
-        const Eigen::Vector3f albedo = surface_albedo(*mesh, st.triangle, bary);
+        Eigen::Vector3f albedo = bary[0] * c0 + bary[1] * c1 + bary[2] * c2;
+        if (textured) {
+          const Eigen::Vector2f uv = bary[0] * t0 + bary[1] * t1 + bary[2] * t2;
+          albedo = albedo.cwiseProduct(sample_texture_bilinear(*mesh->texture, uv.x(), uv.y()) * (1.0f / 255.0f));
+        }
         const float shade = light.ambient + light.diffuse * std::max(0.0f, nrm.dot(ldir));
         const Eigen::Vector3f col = (albedo * (shade * 255.0f)).cwiseMin(255.0f).cwiseMax(0.0f);
         out.color[p] = {static_cast<std::uint8_t>(col.x() + 0.5f), static_cast<std::uint8_t>(col.y() + 0.5f),

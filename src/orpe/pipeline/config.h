@@ -10,6 +10,7 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
+#include "orpe/synth/synth_params.h"
 
 namespace orpe {
 
@@ -18,6 +19,7 @@ struct OrpeConfig {
   TrajectoryMetricsParams eval_trajectory;
   PoseMetricsParams eval_pose;
   MaskMetricsParams eval_masks;
+  SynthParams synth;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -26,6 +28,7 @@ struct OrpeConfig {
     v("eval_trajectory", eval_trajectory);
     v("eval_pose", eval_pose);
     v("eval_masks", eval_masks);
+    v("synth", synth);
   }
 
   bool IsValid(std::string* why) const;

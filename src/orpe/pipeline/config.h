@@ -6,6 +6,9 @@
 #include <vector>
 
 #include "orpe/core/params.h"
+#include "orpe/eval/mask_metrics.h"
+#include "orpe/eval/pose_metrics.h"
+#include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
 #include "orpe/synth/synth_params.h"
 
@@ -13,12 +16,18 @@ namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  TrajectoryMetricsParams eval_trajectory;
+  PoseMetricsParams eval_pose;
+  MaskMetricsParams eval_masks;
   SynthParams synth;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("eval_trajectory", eval_trajectory);
+    v("eval_pose", eval_pose);
+    v("eval_masks", eval_masks);
     v("synth", synth);
   }
 

@@ -1,5 +1,6 @@
-// The generator's BOP output read back through the project's dataset reader (src/orpe/io) unchanged:
-// same poses, intrinsics, depth, colour, labels and model files as the generator holds in memory.
+// The generator's BOP output read back through the project's dataset reader (src/orpe/io)
+// unchanged: same poses, intrinsics, depth, colour, labels and model files as the generator holds
+// in memory.
 #include <gtest/gtest.h>
 
 #include "orpe/io/dataset.h"
@@ -43,7 +44,8 @@ TEST(SynthBop, ReadBackThroughTheDatasetReader) {
     }
     ASSERT_EQ(f.depth.size(), s.depth.size());
     double worst = 0;
-    for (size_t q = 0; q < f.depth.size(); ++q) worst = std::max(worst, std::abs(double(f.depth[q]) - s.depth[q]));
+    for (size_t q = 0; q < f.depth.size(); ++q)
+      worst = std::max(worst, std::abs(double(f.depth[q]) - s.depth[q]));
     EXPECT_LE(worst, 0.5e-4 + 1e-6);  // 0.1 mm raw units
     EXPECT_TRUE(std::equal(f.color.begin(), f.color.end(), s.rgb.begin()));
     EXPECT_TRUE(std::equal(f.labels_gt.begin(), f.labels_gt.end(), s.instances.begin()));
@@ -52,7 +54,8 @@ TEST(SynthBop, ReadBackThroughTheDatasetReader) {
   const auto& mesh = *gen.scene().types[0].mesh;
   const auto pts = read_model_points(info.model_points_paths.at(1), info.model_units_per_m);
   ASSERT_EQ(pts.size(), mesh.vertices.size());
-  for (size_t i = 0; i < pts.size(); i += 97) EXPECT_LT((pts[i] - mesh.vertices[i].cast<double>()).norm(), 2e-6);
+  for (size_t i = 0; i < pts.size(); i += 97)
+    EXPECT_LT((pts[i] - mesh.vertices[i].cast<double>()).norm(), 2e-6);
   // The surface samples for ADD-S.
   const auto xyz = read_model_points(dir + "/models/obj_000001_points.xyz", 1.0);
   EXPECT_EQ(xyz.size(), static_cast<size_t>(p.model_points));

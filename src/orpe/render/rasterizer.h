@@ -16,6 +16,8 @@
 // Results do not depend on the number of threads (each band draws its triangles in input order).
 //
 // A Rasterizer keeps scratch buffers between calls: use one instance per thread.
+// Region of interest: render a crop by passing intrinsics with the crop's size and the principal point
+// shifted by the crop's top-left corner (cx - u0, cy - v0): the cost scales with the crop's pixels.
 #pragma once
 
 #include <cstdint>

@@ -78,7 +78,7 @@ void add_floor_and_walls(SynthScene& s, std::uint64_t seed) {
 void add_table(SynthScene& s, std::uint64_t seed) {
   const float L = 1.6f, D = 0.9f, top_t = 0.04f, H = 0.75f, leg = 0.05f;
   auto wood = std::make_shared<ColorImage>(draw_wood(512, 512, seed + 2, {180, 140, 95}));
-  s.environment.push_back({textured(slab({L, D, top_t}, 400, 512, 512), wood),
+  s.environment.push_back({textured(slab({L, D, top_t}, 220, 512, 512), wood),
                            SE3(Mat3::Identity(), Vec3(0, 0, H - top_t / 2))});
   auto leg_mesh = coloured(make_box({leg, leg, H - top_t}, 0.25f), {70, 70, 75});
   for (int i = 0; i < 4; ++i) {
@@ -93,7 +93,7 @@ void add_shelf(SynthScene& s, std::uint64_t seed) {
   const float W = 2.0f, D = 0.6f, board_t = 0.03f, beam_h = 0.08f, post = 0.07f, top_h = 1.95f;
   const float levels[4] = {0.12f, 0.58f, 1.04f, 1.50f};  // top surfaces of the boards
   auto chip = std::make_shared<ColorImage>(draw_wood(512, 512, seed + 3, {200, 175, 130}));
-  auto board = textured(slab({W, D, board_t}, 500, 512, 512), chip);
+  auto board = textured(slab({W, D, board_t}, 250, 512, 512), chip);
   auto beam = coloured(make_box({W + post, 0.05f, beam_h}, 0.25f), {235, 110, 20});
   auto upright = coloured(make_box({post, post, top_h}, 0.25f), {30, 70, 150});
   for (int i = 0; i < 4; ++i) {

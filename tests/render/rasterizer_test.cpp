@@ -289,3 +289,34 @@ TEST(Rasterizer, InvalidInputThrows) {
 
 }  // namespace
 }  // namespace orpe
+
+namespace orpe {
+namespace {
+
+TEST(Rasterizer, CropEqualsTheCropOfTheFullRender) {
+  // Pose-hypothesis rendering in a region of interest: shifted principal point, smaller size.
+  const PinholeIntrinsics K = small_camera(200, 150);
+  TriangleMesh sphere = make_sphere(0.3f, 40, 20);
+  TriangleMesh box = make_box(Eigen::Vector3f(0.4f, 0.3f, 0.2f), 0.05f);
+  const std::vector<RenderItem> items{
+      {&sphere, SE3(Mat3::Identity(), Vec3(0.1, 0.05, 2.0)), 1},
+      {&box, SE3(Eigen::AngleAxisd(0.5, Vec3::UnitY()).toRotationMatrix(), Vec3(-0.2, 0.1, 1.6)),
+       2}};
+  Rasterizer r;
+  const RenderBuffers full = r.render(K, items, kRenderDepth | kRenderIds);
+  PinholeIntrinsics crop = K;
+  const int u0 = 37, v0 = 21;
+  crop.width = 90, crop.height = 70, crop.cx -= u0, crop.cy -= v0;
+  const RenderBuffers part = r.render(crop, items, kRenderDepth | kRenderIds);
+  int covered = 0;
+  for (int v = 0; v < crop.height; ++v)
+    for (int u = 0; u < crop.width; ++u) {
+      ASSERT_EQ(part.ids.at(u, v), full.ids.at(u + u0, v + v0)) << u << "," << v;
+      ASSERT_NEAR(part.depth.at(u, v), full.depth.at(u + u0, v + v0), 1e-6);
+      covered += part.ids.at(u, v) > 0;
+    }
+  EXPECT_GT(covered, 1000);
+}
+
+}  // namespace
+}  // namespace orpe

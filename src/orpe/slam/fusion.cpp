@@ -1,6 +1,7 @@
 #include "orpe/slam/fusion.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 
@@ -99,7 +100,10 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
   };
 
   // ---- association ----
-  if (assoc_.width() != W || assoc_.height() != H) assoc_ = IndexImage(W, H, kNoAssoc);
+  if (assoc_.width() != W || assoc_.height() != H) {
+    assoc_ = IndexImage(W, H, kNoAssoc);
+    home_ = Image<std::uint8_t>(W, H, 0);
+  }
   const SurfelMap& cmap = *map;
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < H; ++v) {
@@ -115,8 +119,11 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
                             .normalized();
       std::int32_t best = kNewSurfel;
       float best_d2 = 0.0f, best_conf = 0.0f;
-      for (int y = v * s; y < v * s + s; ++y) {
-        for (int x = u * s; x < u * s + s; ++x) {
+      bool best_home = false;
+      const int y0 = std::max(0, (v - 1) * s), y1 = std::min(H * s, (v + 2) * s);
+      const int x0 = std::max(0, (u - 1) * s), x1 = std::min(W * s, (u + 2) * s);
+      for (int y = y0; y < y1; ++y) {
+        for (int x = x0; x < x1; ++x) {
           const std::int32_t idx = index_map_.surfel_index.at(x, y);
           if (idx < 0) continue;
           if (std::fabs(index_map_.depth.at(x, y) - z) >= max_dz) continue;
@@ -124,14 +131,22 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
           const Vec3f q = R_cw * cmap.position_world[idx] + t_cw;
           const float along = q.dot(ray);
           const float d2 = q.squaredNorm() - along * along;  // squared distance from the ray
+          const float r = cmap.radius_m[idx];
+          if (d2 >= r * r) continue;  // the ray misses the disc
           const float c = cmap.confidence[idx];
           if (best < 0 || d2 < best_d2 || (d2 == best_d2 && c > best_conf)) {
             best = idx;
             best_d2 = d2;
             best_conf = c;
+            best_home = x / s == u && y / s == v;
           }
         }
       }
+      home_.at(u, v) = best_home ? 1 : 0;
+      // A surfel covering this pixel from a neighbouring cell counts as seen; only the pixel whose
+      // cell holds its centre updates it (one writer per surfel).
+      if (best >= 0 && !best_home)
+        std::atomic_ref<std::int32_t>(map->last_seen_time[best]).store(now, std::memory_order_relaxed);
       out = best;
     }
   }
@@ -142,7 +157,7 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const std::int32_t i = assoc_.at(u, v);
-      if (i < 0) continue;
+      if (i < 0 || !home_.at(u, v)) continue;
       Vec3f p_w, n_w;
       float a, r;
       if (!observe(u, v, &p_w, &n_w, &a, &r)) continue;

@@ -36,7 +36,7 @@ struct FusionParams {
   double max_radius_growth = 1.5;           ///< update geometry only if r_new < this * r_old (EF: 1.5)
   int unstable_max_age_frames = 20;         ///< unstable surfels older than this are removed (EF: 20)
   int active_window_frames = 200;           ///< unseen for longer -> inactive (EF: 200); <= 0: never
-  int index_supersample = 2;                ///< index map resolution factor (EF: 4)
+  int index_supersample = 1;                ///< index map resolution factor (EF: 4)
   bool remove_free_space_violations = true; ///< remove unstable surfels in front of the measured surface
   double free_space_margin_m = 0.05;        ///< surfel this much in front of the measurement violates
   bool merge_duplicates = true;             ///< merge near-duplicate surfels seen in this frame
@@ -98,7 +98,8 @@ class SurfelFusion {
   FusionParams params_;
   MapRenderer renderer_;
   IndexMap index_map_;
-  IndexImage assoc_;                 // per pixel: surfel to update, -1 none, -2 new surfel
+  IndexImage assoc_;                 // per pixel: associated surfel, -1 none, -2 new surfel
+  Image<std::uint8_t> home_;         // 1: the associated surfel's centre is in this pixel (update it)
   std::vector<Surfel> new_surfels_;  // scratch
   std::vector<std::uint32_t> row_counts_;
   std::vector<std::int32_t> merge_target_;

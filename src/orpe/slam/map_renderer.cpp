@@ -96,7 +96,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
     if (facing >= 0.0f) continue;  // back-facing
     const float u = cam.fx * p.x() / z + cam.cx;
     const float v = cam.fy * p.y() / z + cam.cy;
-    const float r_m = map.radius_m[i];
+    const float r_m = map.radius_m[i] * options.radius_scale;
     const float r_px = std::min(r_m * f_max / z, options.max_splat_radius_px);
     if (u + r_px < -0.5f || v + r_px < -0.5f || u - r_px > W - 0.5f || v - r_px > H - 0.5f) continue;
     ++drawn;
@@ -111,8 +111,10 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
     // the intersection's depth is t = (n . p) / (n . d).
     const float np = facing;
     bool centre_drawn = false;
+    const float kappa = options.centre_preference;
     for (int y = v0; y <= v1; ++y) {
       const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
+      const float py = static_cast<float>(y) - v;
       for (int x = u0; x <= u1; ++x) {
         const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
         const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
@@ -120,13 +122,16 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
         const float t = np / nd;
         const float ex = dx * t - p.x(), ey = dy * t - p.y(), ez = t - z;
         if (ex * ex + ey * ey + ez * ez > r2 || t < options.near_m) continue;
-        atomic_min(zbuf[static_cast<size_t>(y) * W + x], pack(t, idx));
+        const float px = static_cast<float>(x) - u;
+        atomic_min(zbuf[static_cast<size_t>(y) * W + x], pack(t * (1.0f + kappa * (px * px + py * py)), idx));
         if (x == uc && y == vc) centre_drawn = true;
       }
     }
     // A splat smaller than a pixel (or missed by every pixel ray) still covers its centre's pixel.
-    if (!centre_drawn && uc >= 0 && vc >= 0 && uc < W && vc < H)
-      atomic_min(zbuf[static_cast<size_t>(vc) * W + uc], pack(z, idx));
+    if (!centre_drawn && uc >= 0 && vc >= 0 && uc < W && vc < H) {
+      const float px = static_cast<float>(uc) - u, py = static_cast<float>(vc) - v;
+      atomic_min(zbuf[static_cast<size_t>(vc) * W + uc], pack(z * (1.0f + kappa * (px * px + py * py)), idx));
+    }
   }
 
   ensure_size(out->depth, W, H);
@@ -135,6 +140,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
   if (options.want_normal) ensure_size(out->normal, W, H);
   if (options.want_color) ensure_size(out->color, W, H);
   if (options.want_instance) ensure_size(out->instance_id, W, H);
+  if (options.want_surfel_centre) ensure_size(out->surfel_centre, W, H);
   out->drawn_surfels = drawn;
 
 #pragma omp parallel for schedule(static)
@@ -150,17 +156,24 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
         if (options.want_normal) out->normal[k].setZero();
         if (options.want_color) out->color[k] = Rgb8{};
         if (options.want_instance) out->instance_id[k] = 0;
+        if (options.want_surfel_centre) out->surfel_centre[k].setZero();
         continue;
       }
-      const float t = unpack_depth(key);
       const std::int32_t s = unpack_index(key);
+      // The key's depth carries the centre preference: recompute the ray-plane intersection.
+      const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
+      const Vec3f p = cam.R_cam_world * map.position_world[s] + cam.t_cam_world;
+      const Vec3f nrm = cam.R_cam_world * map.normal_world[s];
+      const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
+      float t = nd < -1e-4f ? nrm.dot(p) / nd : p.z();
+      if (!(t > 0.0f) || std::fabs(t - p.z()) > map.radius_m[s] * options.radius_scale) t = p.z();
       out->depth[k] = t;
       out->surfel_index[k] = s;
-      if (options.want_vertex)
-        out->vertex[k] = Vec3f((static_cast<float>(x) - cam.cx) * inv_fx * t, dy * t, t);
-      if (options.want_normal) out->normal[k] = cam.R_cam_world * map.normal_world[s];
+      if (options.want_vertex) out->vertex[k] = Vec3f(dx * t, dy * t, t);
+      if (options.want_normal) out->normal[k] = nrm;
       if (options.want_color) out->color[k] = map.color[s];
       if (options.want_instance) out->instance_id[k] = map.instance_id[s];
+      if (options.want_surfel_centre) out->surfel_centre[k] = p;
     }
   }
 }

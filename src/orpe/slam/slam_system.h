@@ -39,6 +39,8 @@ struct SlamOptions {
   int reserve_surfels = 500000;
   /// Fuse frames whose tracking is DEGRADED (ElasticFusion fuses every frame that is not lost).
   bool fuse_degraded = true;
+  /// Splat radius scale of the model prediction used for tracking (1 = ElasticFusion).
+  double prediction_radius_scale = 1.0;
 
   template <class V>
   void visit(V&& v) {
@@ -46,6 +48,8 @@ struct SlamOptions {
       "Track against unstable surfels seen by the previous frame too (else stable ones only)");
     v("reserve_surfels", reserve_surfels, "Surfel capacity reserved up front");
     v("fuse_degraded", fuse_degraded, "Fuse frames whose tracking is DEGRADED");
+    v("prediction_radius_scale", prediction_radius_scale,
+      "Splat radius scale of the tracking prediction (1 = EF; < 1 trims disc overhang at depth edges)");
   }
   bool IsValid(std::string* why) const;
 };

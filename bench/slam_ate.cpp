@@ -3,6 +3,7 @@
 // ground-truth poses (rigid fit, no scale) and mean stage timings.
 //
 //   build/bin/orpe_bench_slam_ate [--frames N] [--every K] [--set section.key=value ...] [--dir D]
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <time.h>
@@ -34,6 +35,7 @@ int main(int argc, char** argv) {
     slam::SlamSystem system(config.slam_params());
     std::vector<Vec3> est, gt;
     double sum_total = 0, sum_pre = 0, sum_pred = 0, sum_track = 0, sum_fuse = 0;
+    double fz[5] = {0, 0, 0, 0, 0};
     int counts[3] = {0, 0, 0};
     bool first = true;
     double cpu_s = 0;
@@ -55,6 +57,11 @@ int main(int argc, char** argv) {
       sum_pred += r.predict_ms;
       sum_track += r.track_ms;
       sum_fuse += r.fuse_ms;
+      fz[0] += r.fusion.index_ms;
+      fz[1] += r.fusion.associate_ms;
+      fz[2] += r.fusion.update_ms;
+      fz[3] += r.fusion.clean_ms;
+      fz[4] += r.fusion.remove_ms;
       if (every > 0 && (i % every == 0 || r.status != slam::TrackingStatus::kOk)) std::cout << r.report() << "\n";
       if (f.T_world_cam_gt) {
         est.push_back(r.T_world_cam.translation());
@@ -73,6 +80,8 @@ int main(int argc, char** argv) {
         frames, counts[0], counts[1], counts[2], ate, raw, system.map().size(),
         system.map().bytes() / 1048576.0, sum_total / frames, sum_pre / frames, sum_pred / frames,
         sum_track / frames, sum_fuse / frames, 1000.0 * frames / sum_total, 1000.0 * cpu_s / frames);
+    std::cout << fmt::format("fusion phases ms: index {:.1f} associate {:.1f} update {:.1f} clean {:.1f} remove {:.1f}\n",
+                             fz[0] / frames, fz[1] / frames, fz[2] / frames, fz[3] / frames, fz[4] / frames);
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "orpe/slam/rigid_f.h"
+
 namespace orpe::slam {
 namespace {
 
@@ -31,14 +33,11 @@ inline void atomic_min(std::uint64_t& slot, std::uint64_t key) {
 }
 
 struct CameraF {
-  Eigen::Matrix3f R_cam_world;
-  Eigen::Vector3f t_cam_world;
+  RigidF T_cam_world;
   float fx, fy, cx, cy;
   int width, height;
   CameraF(const SE3& T_world_cam, const PinholeIntrinsics& K, int scale) {
-    const SE3 T_cam_world = T_world_cam.inverse();
-    R_cam_world = T_cam_world.rotation().cast<float>();
-    t_cam_world = T_cam_world.translation().cast<float>();
+    T_cam_world = RigidF(T_world_cam.inverse());
     fx = static_cast<float>(K.fx);
     fy = static_cast<float>(K.fy);
     cx = static_cast<float>(K.cx);
@@ -88,10 +87,10 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
 #pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
   for (long i = 0; i < n; ++i) {
     if (!keep(static_cast<size_t>(i))) continue;
-    const Vec3f p = cam.R_cam_world * map.position_world[i] + cam.t_cam_world;
+    const Vec3f p = cam.T_cam_world(map.position_world[i]);
     const float z = p.z();
     if (z < options.near_m || z > options.far_m) continue;
-    const Vec3f nrm = cam.R_cam_world * map.normal_world[i];
+    const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[i]);
     const float facing = nrm.dot(p);
     if (facing >= 0.0f) continue;  // back-facing
     const float u = cam.fx * p.x() / z + cam.cx;
@@ -162,8 +161,8 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
       const std::int32_t s = unpack_index(key);
       // The key's depth carries the centre preference: recompute the ray-plane intersection.
       const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
-      const Vec3f p = cam.R_cam_world * map.position_world[s] + cam.t_cam_world;
-      const Vec3f nrm = cam.R_cam_world * map.normal_world[s];
+      const Vec3f p = cam.T_cam_world(map.position_world[s]);
+      const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[s]);
       const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
       float t = nd < -1e-4f ? nrm.dot(p) / nd : p.z();
       if (!(t > 0.0f) || std::fabs(t - p.z()) > map.radius_m[s] * options.radius_scale) t = p.z();
@@ -180,7 +179,8 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
 
 void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,
                                    const PinholeIntrinsics& K, int supersample,
-                                   const RenderOptions& options, IndexMap* out) {
+                                   const RenderOptions& options, IndexMap* out,
+                                   bool want_attributes) {
   const int s = std::max(1, supersample);
   const CameraF cam(T_world_cam, K, s);
   const int W = cam.width, H = cam.height;
@@ -197,7 +197,7 @@ void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,
 #pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
   for (long i = 0; i < n; ++i) {
     if (!keep(static_cast<size_t>(i))) continue;
-    const Vec3f p = cam.R_cam_world * map.position_world[i] + cam.t_cam_world;
+    const Vec3f p = cam.T_cam_world(map.position_world[i]);
     const float z = p.z();
     if (z < options.near_m || z > options.far_m) continue;
     // Cell of the projected centre at s x resolution: pixel u covers [u - 0.5, u + 0.5).
@@ -213,12 +213,31 @@ void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,
   out->supersample = s;
   ensure_size(out->surfel_index, W, H);
   ensure_size(out->depth, W, H);
+  ensure_size(out->position_cam, W, H);
+  if (want_attributes) {
+    ensure_size(out->normal_world, W, H);
+    ensure_size(out->radius_m, W, H);
+    ensure_size(out->confidence, W, H);
+  }
   out->drawn_surfels = drawn;
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < static_cast<long>(ncell); ++k) {
     const std::uint64_t key = zbuf[k];
-    out->surfel_index[k] = key == kEmpty ? -1 : unpack_index(key);
-    out->depth[k] = key == kEmpty ? 0.0f : unpack_depth(key);
+    if (key == kEmpty) {
+      out->surfel_index[k] = -1;
+      out->depth[k] = 0.0f;
+      out->position_cam[k].setZero();
+      continue;
+    }
+    const std::int32_t i = unpack_index(key);
+    out->surfel_index[k] = i;
+    out->depth[k] = unpack_depth(key);
+    out->position_cam[k] = cam.T_cam_world(map.position_world[i]);
+    if (want_attributes) {
+      out->normal_world[k] = map.normal_world[i];
+      out->radius_m[k] = map.radius_m[i];
+      out->confidence[k] = map.confidence[i];
+    }
   }
 }
 

@@ -80,6 +80,12 @@ struct IndexMap {
   int supersample = 1;
   IndexImage surfel_index;  ///< (width * s) x (height * s), -1 = empty
   DepthImage depth;         ///< z (m) of the cell's surfel centre in the camera frame, 0 = empty
+  VertexImage position_cam; ///< the cell's surfel centre in the camera frame (m); zero = empty
+  // Copies of the cell's surfel attributes, so that per-pixel association reads contiguous memory
+  // instead of gathering from the map (filled only when `want_attributes` was passed).
+  NormalImage normal_world;  ///< world frame
+  Image<float> radius_m;
+  Image<float> confidence;
   size_t drawn_surfels = 0;
 };
 
@@ -94,7 +100,8 @@ class MapRenderer {
   /// Renders surfel centres as points into a supersampled index map (fusion's data association).
   /// Uses the filters of `options` (confidence, active window, instance, near/far).
   void render_index_map(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
-                        int supersample, const RenderOptions& options, IndexMap* out);
+                        int supersample, const RenderOptions& options, IndexMap* out,
+                        bool want_attributes = false);
 
  private:
   std::vector<std::uint64_t> zbuffer_;  // packed (depth bits << 32 | surfel index), min wins

@@ -107,11 +107,15 @@ struct ModelLevel {
 };
 struct ModelPyramid {
   std::vector<ModelLevel> levels;
+  /// The frame pyramid level of levels[0]: 0 when rendered at full resolution; 1 when rendered at half
+  /// resolution, in which case frame level 0 is aligned against model level 0 (half resolution).
+  int first_level = 0;
 };
 /// Builds the model pyramid from a full-resolution rendered view (vertex, normal, colour and
 /// surfel_centre required).
+/// `K` is the rendered view's intrinsics; `first_level` its level in the frame pyramid.
 void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, int levels,
-                         float max_depth_jump_m, ModelPyramid* out);
+                         float max_depth_jump_m, ModelPyramid* out, int first_level = 0);
 
 /// Outcome of one alignment (no state; the SLAM system turns it into OK / DEGRADED / LOST).
 struct AlignmentResult {

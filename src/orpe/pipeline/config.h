@@ -6,13 +6,21 @@
 #include <vector>
 
 #include "orpe/core/params.h"
+#include "orpe/eval/mask_metrics.h"
+#include "orpe/eval/pose_metrics.h"
+#include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
 #include "orpe/slam/slam_system.h"
+#include "orpe/synth/synth_params.h"
 
 namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  TrajectoryMetricsParams eval_trajectory;
+  PoseMetricsParams eval_pose;
+  MaskMetricsParams eval_masks;
+  SynthParams synth;
   slam::SlamOptions slam;                 ///< dense SLAM system options
   slam::PreprocessParams slam_preprocess; ///< SLAM depth filter / pyramids
   slam::TrackerParams slam_tracking;      ///< SLAM frame-to-model tracking
@@ -25,6 +33,10 @@ struct OrpeConfig {
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("eval_trajectory", eval_trajectory);
+    v("eval_pose", eval_pose);
+    v("eval_masks", eval_masks);
+    v("synth", synth);
     v("slam", slam);
     v("slam_preprocess", slam_preprocess);
     v("slam_tracking", slam_tracking);

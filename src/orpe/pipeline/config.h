@@ -10,6 +10,7 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
+#include "orpe/slam/slam_system.h"
 #include "orpe/synth/synth_params.h"
 
 namespace orpe {
@@ -20,6 +21,13 @@ struct OrpeConfig {
   PoseMetricsParams eval_pose;
   MaskMetricsParams eval_masks;
   SynthParams synth;
+  slam::SlamOptions slam;                 ///< dense SLAM system options
+  slam::PreprocessParams slam_preprocess; ///< SLAM depth filter / pyramids
+  slam::TrackerParams slam_tracking;      ///< SLAM frame-to-model tracking
+  slam::FusionParams slam_fusion;         ///< SLAM surfel fusion
+
+  /// The SLAM system's parameters assembled from the slam* sections.
+  slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -29,6 +37,10 @@ struct OrpeConfig {
     v("eval_pose", eval_pose);
     v("eval_masks", eval_masks);
     v("synth", synth);
+    v("slam", slam);
+    v("slam_preprocess", slam_preprocess);
+    v("slam_tracking", slam_tracking);
+    v("slam_fusion", slam_fusion);
   }
 
   bool IsValid(std::string* why) const;

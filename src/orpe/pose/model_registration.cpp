@@ -1,0 +1,441 @@
+#include "orpe/pose/model_registration.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <numeric>
+
+#include "orpe/core/error.h"
+#include "orpe/pose/model_search.h"
+
+namespace orpe {
+
+bool ModelRegistrationParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (erode_px < 0 || erode_px > 20) return fail("erode_px must be in [0, 20]");
+  if (min_points < 6) return fail("min_points must be >= 6");
+  if (max_points < min_points) return fail("max_points must be >= min_points");
+  if (outlier_radius_factor < 0) return fail("outlier_radius_factor must be >= 0");
+  if (num_rotations < 1) return fail("num_rotations must be >= 1");
+  if (coarse_points < 6) return fail("coarse_points must be >= 6");
+  if (coarse_iterations < 0 || refine_iterations < 1) return fail("ICP iteration counts must be positive");
+  if (coarse_max_corr_factor <= 0 || refine_max_corr_factor <= 0)
+    return fail("association distance factors must be > 0");
+  if (refine_top_k < 1) return fail("refine_top_k must be >= 1");
+  if (final_max_corr_m <= 0) return fail("final_max_corr_m must be > 0");
+  if (huber_delta_m <= 0) return fail("huber_delta_m must be > 0");
+  if (point_to_point_weight < 0) return fail("point_to_point_weight must be >= 0");
+  if (inlier_distance_m <= 0) return fail("inlier_distance_m must be > 0");
+  if (free_space_margin_m <= 0) return fail("free_space_margin_m must be > 0");
+  if (free_space_weight < 0 || free_space_icp_weight < 0) return fail("free-space weights must be >= 0");
+  if (free_space_model_points < 10) return fail("free_space_model_points must be >= 10");
+  if (min_inlier_fraction < 0 || min_inlier_fraction > 1) return fail("min_inlier_fraction must be in [0, 1]");
+  return true;
+}
+
+SegmentedCloudParams ModelRegistrationParams::segmented_cloud() const {
+  SegmentedCloudParams p;
+  p.erode_px = erode_px;
+  p.min_points = min_points;
+  p.max_points = max_points;
+  p.outlier_radius_factor = outlier_radius_factor;
+  p.seed = static_cast<unsigned>(seed);
+  return p;
+}
+
+std::vector<Mat3> uniform_rotations(int n) {
+  std::vector<Mat3> out;
+  if (n <= 0) return out;
+  out.reserve(static_cast<size_t>(n));
+  const double phi = std::sqrt(2.0);
+  const double psi = 1.533751168755204288118041;
+  for (int i = 0; i < n; ++i) {
+    const double s = i + 0.5;
+    const double r = std::sqrt(s / n);
+    const double R = std::sqrt(1.0 - s / n);
+    const double alpha = 2.0 * M_PI * s / phi;
+    const double beta = 2.0 * M_PI * s / psi;
+    const Eigen::Quaterniond q(R * std::cos(beta), r * std::sin(alpha), r * std::cos(alpha),
+                               R * std::sin(beta));
+    out.push_back(q.normalized().toRotationMatrix());
+  }
+  return out;
+}
+
+namespace {
+
+using Vec3f = Eigen::Vector3f;
+using Mat3f = Eigen::Matrix3f;
+
+struct Hypothesis {
+  SE3 T_cam_obj;
+  double score = -1e9;
+  double fit = 0;
+  double inliers = 0;
+  double violation = 0;
+};
+
+/// What scoring needs of the frame: depth min-filtered over 3x3 (a model point is a free-space
+/// violation only if it is in front of every observed depth around its pixel: robust to mixed
+/// pixels at depth edges) and a subset of the model points.
+struct ScoringContext {
+  DepthImage depth_min3;
+  PinholeIntrinsics K;
+  std::vector<Vec3f> model_subset;
+  std::vector<Vec3f> normal_subset;
+  std::vector<Vec3f> coarse_model_subset;  ///< smaller, for the coarse stage
+  std::unique_ptr<ModelSearchIndex> observed_index;  ///< over the segmented points (camera frame)
+};
+
+DepthImage min_filter3(const DepthImage& depth) {
+  const int w = depth.width(), h = depth.height();
+  DepthImage out(w, h, 0.0f);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      float m = 0;
+      for (int dv = -1; dv <= 1; ++dv)
+        for (int du = -1; du <= 1; ++du) {
+          const int uu = u + du, vv = v + dv;
+          if (uu < 0 || vv < 0 || uu >= w || vv >= h) continue;
+          const float z = depth.at(uu, vv);
+          if (z > 0 && (m == 0 || z < m)) m = z;
+        }
+      out.at(u, v) = m;
+    }
+  return out;
+}
+
+class Registration {
+ public:
+  Registration(const ModelRegistrationParams& p, const ObjectModel& model, const ScoringContext& ctx)
+      : p_(p), model_(model), index_(*model.search_index), ctx_(ctx) {}
+
+  /// Robust point-to-plane ICP of the observed points `obs` (camera frame) onto the model.
+  /// The association distance shrinks geometrically from corr_start to corr_end.
+  SE3 icp(const std::vector<Vec3f>& obs, const SE3& T_cam_obj, int iterations, double corr_start,
+          double corr_end, bool coarse) const {
+    const std::vector<Vec3f>& model_subset = coarse ? ctx_.coarse_model_subset : ctx_.model_subset;
+    SE3 A = T_cam_obj.inverse();  // T_obj_cam: update A <- exp(delta) A
+    for (int it = 0; it < iterations; ++it) {
+      const double frac = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
+      const double corr = corr_start * std::pow(corr_end / corr_start, frac);
+      const float corr2 = static_cast<float>(corr * corr);
+      const Mat3f R = A.rotation().cast<float>();
+      const Vec3f t = A.translation().cast<float>();
+      const Vec3f cam = t;  // camera centre in the object frame
+      Mat6 H = Mat6::Zero();
+      Vec6 g = Vec6::Zero();
+      int used = 0;
+      const double delta = p_.huber_delta_m;
+      const double lambda = p_.point_to_point_weight;
+      const double half_spacing = 0.5 * model_.mean_spacing_m;
+      for (const auto& q : obs) {
+        const Vec3f pt = R * q + t;
+        float d2 = 0;
+        const std::uint32_t j = index_.nearest(pt, &d2);
+        if (d2 > corr2) continue;
+        const Vec3f& n = model_.normals[j];
+        const Vec3f& m = model_.points[j];
+        if (p_.reject_back_facing) {
+          const Vec3f ray = pt - cam;
+          if (n.dot(ray) > 0.3f * ray.norm()) continue;  // clearly back-facing
+        }
+        const Eigen::Vector3d pd = pt.cast<double>();
+        const Eigen::Vector3d nd = n.cast<double>();
+        const Eigen::Vector3d e = (pt - m).cast<double>();
+        const double r = nd.dot(e);
+        const double w = std::abs(r) <= delta ? 1.0 : delta / std::abs(r);
+        Vec6 J;
+        J.head<3>() = nd;
+        J.tail<3>() = pd.cross(nd);
+        H.noalias() += w * J * J.transpose();
+        g.noalias() += w * r * J;
+        if (lambda > 0) {
+          // Tangential offset beyond half the model's sample spacing: pulls points that overhang
+          // an edge without the false minima a plain point-to-point term has at lattice shifts.
+          const Eigen::Vector3d et = e - r * nd;
+          const double etn = et.norm();
+          if (etn > half_spacing) {
+            const Eigen::Vector3d ed = et * (1.0 - half_spacing / etn);
+            const double edn = ed.norm();
+            const double w2 = lambda * (edn <= delta ? 1.0 : delta / edn);
+            Eigen::Matrix<double, 3, 6> Jp;
+            Jp.leftCols<3>().setIdentity();
+            Jp.rightCols<3>() = -hat(pd);
+            H.noalias() += w2 * Jp.transpose() * Jp;
+            g.noalias() += w2 * Jp.transpose() * ed;
+          }
+        }
+        ++used;
+      }
+      // Free-space term: model points seen in front of the observed depth are pulled to the
+      // nearest observed object point (the gradient of the violation count in the score).
+      if (p_.free_space_icp_weight > 0 && ctx_.observed_index) {
+        const Mat3f Rc = R.transpose();
+        const Vec3f tc = -(Rc * t);
+        const double wf = p_.free_space_icp_weight;
+        for (const auto& m : model_subset) {
+          const Vec3f pc = Rc * m + tc;
+          if (!violates_free_space(pc)) continue;
+          float d2 = 0;
+          const Vec3f& q = ctx_.observed_index->points()[ctx_.observed_index->nearest(pc, &d2)];
+          const Vec3f pt = R * q + t;
+          const Eigen::Vector3d pd = pt.cast<double>();
+          const Eigen::Vector3d e = (pt - m).cast<double>();
+          const double en = e.norm();
+          const double w = wf * (en <= delta ? 1.0 : delta / en);
+          Eigen::Matrix<double, 3, 6> Jp;
+          Jp.leftCols<3>().setIdentity();
+          Jp.rightCols<3>() = -hat(pd);
+          H.noalias() += w * Jp.transpose() * Jp;
+          g.noalias() += w * Jp.transpose() * e;
+        }
+      }
+      if (used < 6) break;
+      H.diagonal().array() += 1e-6 * (H.diagonal().maxCoeff() + 1e-12);
+      const Vec6 step = -H.ldlt().solve(g);
+      if (!step.allFinite()) break;
+      A = SE3::exp(step) * A;
+      if (step.head<3>().norm() < 1e-5 && step.tail<3>().norm() < 1e-5 && corr <= corr_end * 1.0001)
+        break;
+    }
+    return A.inverse();
+  }
+
+  /// Fit of the observed points plus free-space consistency of the model under T_cam_obj.
+  void score(const std::vector<Vec3f>& obs, Hypothesis& h, bool coarse) const {
+    const std::vector<Vec3f>& model_subset = coarse ? ctx_.coarse_model_subset : ctx_.model_subset;
+    const SE3 A = h.T_cam_obj.inverse();
+    const Mat3f R = A.rotation().cast<float>();
+    const Vec3f t = A.translation().cast<float>();
+    const double tau = p_.inlier_distance_m;
+    const float spacing = static_cast<float>(model_.mean_spacing_m);
+    double fit = 0;
+    int inliers = 0;
+    for (const auto& q : obs) {
+      const Vec3f pt = R * q + t;
+      float d2 = 0;
+      const std::uint32_t j = index_.nearest(pt, &d2);
+      // Distance to the surface: the plane distance, unless the point is farther from the nearest
+      // sample than the sampling explains.
+      const float dp = std::sqrt(d2);
+      const float d = std::max(std::abs(model_.normals[j].dot(pt - model_.points[j])), dp - spacing);
+      fit += std::max(0.0, 1.0 - d / tau);
+      inliers += d < tau;
+    }
+    h.fit = obs.empty() ? 0.0 : fit / static_cast<double>(obs.size());
+    h.inliers = obs.empty() ? 0.0 : static_cast<double>(inliers) / static_cast<double>(obs.size());
+
+    const Mat3f Rc = h.T_cam_obj.rotation().cast<float>();
+    const Vec3f tc = h.T_cam_obj.translation().cast<float>();
+    int violations = 0;
+    for (const auto& m : model_subset) violations += violates_free_space(Rc * m + tc);
+    h.violation = static_cast<double>(violations) / static_cast<double>(model_subset.size());
+    h.score = h.fit - p_.free_space_weight * h.violation;
+  }
+
+  /// A camera-frame model point in front of the observed depth (3x3 minimum) by more than the
+  /// margin, or behind the camera: the sensor saw through where the object would be.
+  bool violates_free_space(const Vec3f& pc) const {
+    if (pc.z() <= 0.01f) return true;
+    const int u = static_cast<int>(std::lround(ctx_.K.fx * pc.x() / pc.z() + ctx_.K.cx));
+    const int v = static_cast<int>(std::lround(ctx_.K.fy * pc.y() / pc.z() + ctx_.K.cy));
+    if (!ctx_.depth_min3.in_bounds(u, v)) return false;
+    const float z = ctx_.depth_min3.at(u, v);
+    return z > 0 && pc.z() < z - static_cast<float>(p_.free_space_margin_m);
+  }
+
+  /// Translation that puts the centroid of the model's camera-facing half (under rotation R) on
+  /// the observed centroid.
+  Vec3 initial_translation(const Mat3& R, const Vec3f& centroid) const {
+    const Mat3f Rf = R.cast<float>();
+    const Vec3f ray = centroid.normalized();
+    Vec3f sum = Vec3f::Zero();
+    int count = 0;
+    for (size_t i = 0; i < ctx_.model_subset.size(); ++i) {
+      if ((Rf * ctx_.normal_subset[i]).dot(ray) >= 0) continue;
+      sum += Rf * ctx_.model_subset[i];
+      ++count;
+    }
+    if (count == 0) {
+      for (const auto& m : ctx_.model_subset) sum += Rf * m;
+      count = static_cast<int>(ctx_.model_subset.size());
+    }
+    return (centroid - sum / static_cast<float>(count)).cast<double>();
+  }
+
+ private:
+  const ModelRegistrationParams& p_;
+  const ObjectModel& model_;
+  const ModelSearchIndex& index_;
+  const ScoringContext& ctx_;
+};
+
+std::vector<Vec3f> strided_subset(const std::vector<Vec3f>& pts, int n) {
+  if (n <= 0 || static_cast<int>(pts.size()) <= n) return pts;
+  std::vector<Vec3f> out;
+  out.reserve(static_cast<size_t>(n));
+  const double step = static_cast<double>(pts.size()) / n;
+  for (int i = 0; i < n; ++i) out.push_back(pts[static_cast<size_t>(i * step)]);
+  return out;
+}
+
+/// Coarse stage over the rotation grid, then refinement of the best distinct hypotheses (and the
+/// caller's prior). Fills `refine` with the refined, scored hypotheses.
+void search(const ModelRegistrationParams& params, const std::vector<Mat3>& rotations,
+            const Registration& reg, const SegmentedCloud& cloud, double diameter,
+            const SingleViewInput& input, std::vector<Hypothesis>& refine) {
+  const std::vector<Vec3f> coarse_pts = strided_subset(cloud.points, params.coarse_points);
+
+  // Coarse stage: every rotation of the grid.
+  const int n_rot = static_cast<int>(rotations.size());
+  std::vector<Hypothesis> coarse(static_cast<size_t>(n_rot));
+  const double coarse_start = params.coarse_max_corr_factor * diameter;
+  const double coarse_end = std::max(params.final_max_corr_m, 0.1 * diameter);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int i = 0; i < n_rot; ++i) {
+    const Mat3& R = rotations[static_cast<size_t>(i)];
+    Hypothesis h;
+    h.T_cam_obj = SE3(R, reg.initial_translation(R, cloud.centroid));
+    h.T_cam_obj = reg.icp(coarse_pts, h.T_cam_obj, params.coarse_iterations, coarse_start,
+                          std::min(coarse_start, coarse_end), true);
+    reg.score(coarse_pts, h, true);
+    coarse[static_cast<size_t>(i)] = h;
+  }
+  std::vector<int> order(coarse.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return coarse[a].score > coarse[b].score; });
+
+  // Distinct best hypotheses (+ the caller's prior).
+  for (int i : order) {
+    if (static_cast<int>(refine.size()) >= params.refine_top_k) break;
+    const Hypothesis& h = coarse[static_cast<size_t>(i)];
+    bool distinct = true;
+    for (const auto& r : refine)
+      if (rotation_distance_rad(r.T_cam_obj.rotation(), h.T_cam_obj.rotation()) < 0.25 &&
+          (r.T_cam_obj.translation() - h.T_cam_obj.translation()).norm() < 0.1 * diameter)
+        distinct = false;
+    if (distinct) refine.push_back(h);
+  }
+  if (input.T_cam_obj_prior) {
+    Hypothesis h;
+    h.T_cam_obj = *input.T_cam_obj_prior;
+    refine.push_back(h);
+  }
+
+  const double refine_start = std::max(params.refine_max_corr_factor * diameter, params.final_max_corr_m);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < static_cast<int>(refine.size()); ++i) {
+    Hypothesis& h = refine[static_cast<size_t>(i)];
+    h.T_cam_obj = reg.icp(cloud.points, h.T_cam_obj, params.refine_iterations, refine_start,
+                          params.final_max_corr_m, false);
+    reg.score(cloud.points, h, false);
+  }
+}
+
+}  // namespace
+
+ModelRegistrationEstimator::ModelRegistrationEstimator(const ModelRegistrationParams& params)
+    : params_(params) {
+  std::string why;
+  if (!params.IsValid(&why)) throw ConfigError("pose_registration: " + why);
+  rotations_ = uniform_rotations(params.num_rotations);
+}
+
+SingleViewPose ModelRegistrationEstimator::estimate(const SingleViewInput& input) const {
+  return run(input, nullptr);
+}
+
+SingleViewPose ModelRegistrationEstimator::evaluate(const SingleViewInput& input,
+                                                    const SE3& T_cam_obj) const {
+  return run(input, &T_cam_obj);
+}
+
+SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
+                                               const SE3* fixed_pose) const {
+  const ModelRegistrationParams& params = params_;
+  const auto start = std::chrono::steady_clock::now();
+  SingleViewPose out;
+  auto finish = [&]() {
+    out.time_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return out;
+  };
+  std::string why;
+  if (!input.IsValid(&why)) {
+    out.reason = why;
+    return finish();
+  }
+  // The model must be prepared (index, normals, diameter); prepare a copy if the caller did not.
+  ObjectModel local;
+  const ObjectModel* model = input.model;
+  if (!model->prepared() || !model->has_normals() || model->mean_spacing_m <= 0) {
+    local = *model;
+    try {
+      prepare_object_model(local);
+    } catch (const std::exception& e) {
+      out.reason = e.what();
+      return finish();
+    }
+    model = &local;
+  }
+
+  const SegmentedCloud cloud = extract_segmented_cloud(*input.mask, *input.depth, input.intrinsics,
+                                                       model->diameter_m, params.segmented_cloud());
+  out.num_points = static_cast<int>(cloud.points.size());
+  if (out.num_points < params.min_points) {
+    out.reason = "too few segmented points with valid depth (" + std::to_string(out.num_points) +
+                 " of " + std::to_string(cloud.mask_pixels) + " mask pixels, need " +
+                 std::to_string(params.min_points) + ")";
+    return finish();
+  }
+
+  ScoringContext ctx;
+  ctx.depth_min3 = min_filter3(*input.depth);
+  ctx.K = input.intrinsics;
+  {
+    const size_t n = model->points.size();
+    const size_t want = static_cast<size_t>(params.free_space_model_points);
+    const double step = n > want ? static_cast<double>(n) / want : 1.0;
+    for (double k = 0; k < n; k += step) {
+      ctx.model_subset.push_back(model->points[static_cast<size_t>(k)]);
+      ctx.normal_subset.push_back(model->normals[static_cast<size_t>(k)]);
+    }
+    ctx.coarse_model_subset = strided_subset(ctx.model_subset, params.coarse_points);
+  }
+  ctx.observed_index = std::make_unique<ModelSearchIndex>(cloud.points);
+  const Registration reg(params_, *model, ctx);
+  const double diameter = model->diameter_m;
+  std::vector<Hypothesis> refine;
+  if (fixed_pose) {
+    Hypothesis h;
+    h.T_cam_obj = *fixed_pose;
+    reg.score(cloud.points, h, false);
+    refine.push_back(h);
+  } else {
+    search(params_, rotations_, reg, cloud, diameter, input, refine);
+  }
+  const auto best = std::max_element(refine.begin(), refine.end(), [](const auto& a, const auto& b) {
+    return a.score < b.score;
+  });
+
+  out.T_cam_obj = best->T_cam_obj;
+  out.score = best->score;
+  out.inlier_fraction = best->inliers;
+  out.free_space_violation = best->violation;
+  out.mu_m = mean_model_distance_m(cloud.points, *model, out.T_cam_obj);
+  out.valid = best->inliers >= params.min_inlier_fraction;
+  if (!out.valid)
+    out.reason = "best hypothesis explains only " + std::to_string(best->inliers) +
+                 " of the segmented points (min_inlier_fraction " +
+                 std::to_string(params.min_inlier_fraction) + ")";
+  return finish();
+}
+
+}  // namespace orpe

@@ -45,8 +45,10 @@ struct ModelRegistrationParams {
   // Scoring and validity.
   double inlier_distance_m = 0.01;
   double free_space_margin_m = 0.015;
+  int free_space_window_px = 2;
   double free_space_weight = 1.0;
   double free_space_icp_weight = 1.0;
+  double support_weight = 0.5;
   int free_space_model_points = 500;
   double min_inlier_fraction = 0.3;
   int seed = 7;
@@ -76,9 +78,14 @@ struct ModelRegistrationParams {
     v("inlier_distance_m", inlier_distance_m, "Distance (m) under which an observed point fits the model");
     v("free_space_margin_m", free_space_margin_m,
       "A model point this far (m) in front of the observed depth is a free-space violation");
+    v("free_space_window_px", free_space_window_px,
+      "Free-space test against the minimum depth within this radius (pixels): tolerance to edge bleeding");
     v("free_space_weight", free_space_weight, "Weight of the free-space violation fraction in the score");
     v("free_space_icp_weight", free_space_icp_weight,
       "ICP: weight of pulling free-space-violating model points to the nearest observed point; 0 = off");
+    v("support_weight", support_weight,
+      "Score weight of the support term: fraction of camera-facing, unoccluded model points lying on "
+      "the observed depth (inside the mask or not)");
     v("free_space_model_points", free_space_model_points, "Model points used for the free-space test");
     v("min_inlier_fraction", min_inlier_fraction, "Below this inlier fraction the estimate is invalid");
     v("seed", seed, "Seed of the deterministic point subsampling");

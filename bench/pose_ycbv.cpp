@@ -4,11 +4,14 @@
 //
 //   build/bin/orpe_bench_pose_ycbv [--data DIR] [--videos 0000,0001,0002] [--stride N]
 //       [--set key=value ...] [--csv FILE] [--markdown] [--diagnose] [--classes 5,10]
-//       [--cut F] [--dilate N] [--threads N]
+//       [--cut F] [--dilate N] [--fuse] [--ekf key=value ...]
 //
 // --set takes ModelRegistrationParams fields (pose_registration.* without the prefix also works).
 // --diagnose also scores the ground-truth pose with the estimator's score, to tell search failures
 // (the truth scores higher than the estimate) from scoring failures (a wrong pose scores higher).
+// --fuse also runs one pose EKF per object along each video (camera poses: the dataset's ground
+// truth T_world_cam; the full pipeline uses the tracked ones) and scores the fused pose of each frame
+// moved into that frame's camera, using only the measurements up to that frame.
 // Stress options: --cut F drops the left fraction F of each mask's bounding box (a partial mask, as
 // when a detector misses part of the object); --dilate N grows each mask by N pixels (boundary leaking
 // into the background, as a detector's mask does).
@@ -32,6 +35,7 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pose/model_registration.h"
+#include "orpe/pose/pose_ekf.h"
 
 namespace {
 
@@ -67,6 +71,8 @@ int main(int argc, char** argv) {
   std::string csv_path;
   bool markdown = false, diagnose = false;
   std::set<int> only_classes;
+  bool fuse = false;
+  orpe::PoseEkfParams ekf_params;
   double cut_fraction = 0;
   int dilate_px = 0;
   orpe::ModelRegistrationParams params;
@@ -83,7 +89,15 @@ int main(int argc, char** argv) {
       else if (a == "--csv") csv_path = next();
       else if (a == "--markdown") markdown = true;
       else if (a == "--diagnose") diagnose = true;
-      else if (a == "--cut") cut_fraction = std::stod(next());
+      else if (a == "--fuse") fuse = true;
+      else if (a == "--ekf") {
+        std::string kv = next();
+        if (kv.rfind("pose_ekf.", 0) == 0) kv = kv.substr(9);
+        const auto eq = kv.find('=');
+        if (eq == std::string::npos) throw orpe::ConfigError("--ekf expects key=value, got " + kv);
+        if (!orpe::params_set(ekf_params, kv.substr(0, eq), kv.substr(eq + 1), "pose_ekf"))
+          throw orpe::ConfigError("unknown pose_ekf key '" + kv.substr(0, eq) + "'");
+      } else if (a == "--cut") cut_fraction = std::stod(next());
       else if (a == "--dilate") dilate_px = std::stoi(next());
       else if (a == "--classes") {
         for (const auto& c : split(next(), ',')) only_classes.insert(std::stoi(c));
@@ -109,7 +123,8 @@ int main(int argc, char** argv) {
     std::map<int, orpe::ModelPoints> eval_points;
     std::map<int, std::string> class_names;
     std::vector<int> symmetric;
-    std::vector<orpe::PoseInstanceScore> scores;
+    std::vector<orpe::PoseInstanceScore> scores, fused_scores;
+    int ekf_rejected = 0, ekf_restarts = 0, ekf_objects = 0;
     std::vector<Row> rows;
     double total_ms = 0;
     std::vector<double> times_ms, cpu_ms;
@@ -123,6 +138,7 @@ int main(int argc, char** argv) {
       const orpe::DatasetInfo& info = reader->info();
       class_names = info.class_names;
       symmetric = info.symmetric_classes;
+      std::map<int, orpe::PoseEkf> filters;  // per class (one instance per class in YCB-Video)
       for (size_t fi = 0; fi < reader->size(); ++fi) {
         const orpe::RgbdFrame frame = reader->read(fi);
         if (frame.labels_gt.empty()) throw orpe::IoError(frame.name, "no ground-truth labels");
@@ -214,11 +230,44 @@ int main(int argc, char** argv) {
                        row.est.valid ? "" : "INVALID ", row.est.time_ms);
           scores.push_back(s);
           rows.push_back(row);
+          if (fuse) {
+            if (!frame.T_world_cam_gt) throw orpe::IoError(frame.name, "no camera pose for --fuse");
+            auto it = filters.find(gt.class_id);
+            if (it == filters.end())
+              it = filters.emplace(gt.class_id, orpe::PoseEkf(ekf_params, models[gt.class_id].symmetry)).first;
+            orpe::PoseEkf& ekf = it->second;
+            ekf.predict();
+            if (row.est.valid)
+              ekf.update({frame.index, *frame.T_world_cam_gt, row.est.T_cam_obj, row.est.mu_m});
+            orpe::PoseInstanceScore fs = s;
+            fs.estimated = ekf.initialised();
+            if (fs.estimated) {
+              const orpe::SE3 T = ekf.T_cam_obj(*frame.T_world_cam_gt);
+              fs.adds_m = orpe::adds_distance(eval_points.at(gt.class_id), gt.T_cam_obj, T);
+              fs.add_m = orpe::add_distance(eval_points.at(gt.class_id).points(), gt.T_cam_obj, T);
+            }
+            fused_scores.push_back(fs);
+          }
         }
+      }
+      for (const auto& [cls, ekf] : filters) {
+        const orpe::FusedObjectPose r = ekf.result();
+        ekf_rejected += r.num_rejected;
+        ekf_restarts += r.num_reinitialisations;
+        ++ekf_objects;
+        std::fprintf(stderr, "%s %-22s EKF: %s\n", video.c_str(), class_names[cls].c_str(), r.report().c_str());
       }
     }
     const orpe::PoseEvaluation ev = orpe::summarize_pose_scores(scores, class_names, orpe::PoseMetricsParams{});
+    if (fuse) std::printf("single view:\n");
     std::printf("%s", markdown ? ev.markdown().c_str() : ev.report().c_str());
+    if (fuse) {
+      const orpe::PoseEvaluation fev =
+          orpe::summarize_pose_scores(fused_scores, class_names, orpe::PoseMetricsParams{});
+      std::printf("fused (EKF, measurements up to each frame):\n%s", markdown ? fev.markdown().c_str() : fev.report().c_str());
+      std::printf("EKF: %d objects, %d measurements rejected by the gate, %d restarts\n", ekf_objects,
+                  ekf_rejected, ekf_restarts);
+    }
     std::sort(times_ms.begin(), times_ms.end());
     if (!times_ms.empty())
       std::printf("objects: %zu, time per object: mean %.0f ms, median %.0f ms, max %.0f ms (threads: %s)\n",

@@ -31,8 +31,8 @@ struct ModelRegistrationParams {
   int max_points = 1000;
   double outlier_radius_factor = 0.6;
   // Hypotheses and ICP.
-  int num_rotations = 240;
-  int coarse_points = 150;
+  int num_rotations = 160;
+  int coarse_points = 100;
   int coarse_iterations = 8;
   double coarse_max_corr_factor = 0.3;
   int refine_top_k = 5;

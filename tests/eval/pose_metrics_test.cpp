@@ -215,8 +215,9 @@ TEST(PoseResults, MatchesByKeyTakesHighestScoreAndCountsMisses) {
   for (const auto& g : s.gt) {
     if (g.im_id == 5) continue;  // image 5: all missed
     const auto& pts = g.class_id == 1 ? s.pts_a : s.pts_b;
-    const SE3 est = g.T_cam_obj * SE3::exp((Vec6() << 0.002 * g.im_id, 0.01, -0.004, 0.05 * g.im_id,
-                                            0.02, 0.1).finished());
+    const SE3 est =
+        g.T_cam_obj *
+        SE3::exp((Vec6() << 0.002 * g.im_id, 0.01, -0.004, 0.05 * g.im_id, 0.02, 0.1).finished());
     rows.push_back(row(g.im_id, g.class_id, 0.9, est));
     // A worse and a better-fitting row with lower scores are ignored.
     rows.push_back(row(g.im_id, g.class_id, 0.5, g.T_cam_obj));
@@ -239,7 +240,7 @@ TEST(PoseResults, MatchesByKeyTakesHighestScoreAndCountsMisses) {
   EXPECT_EQ(ev.classes[0].instances, 6u);
   EXPECT_EQ(ev.classes[0].estimated, 5u);
   EXPECT_NEAR(ev.classes[0].adds_auc, ycb_auc_percent(adds_1), 1e-9);
-  EXPECT_NEAR(ev.classes[0].add_s_auc, ycb_auc_percent(add_1), 1e-9);   // plain: ADD
+  EXPECT_NEAR(ev.classes[0].add_s_auc, ycb_auc_percent(add_1), 1e-9);  // plain: ADD
   EXPECT_NEAR(ev.classes[1].adds_auc, ycb_auc_percent(adds_2), 1e-9);
   EXPECT_NEAR(ev.classes[1].add_s_auc, ycb_auc_percent(adds_2), 1e-9);  // symmetric: ADD-S
   EXPECT_NEAR(ev.classes[1].add_auc, ycb_auc_percent(add_2), 1e-9);
@@ -339,10 +340,12 @@ TEST(PoseResults, ReadsGroundTruthAndModelsFromTheDataset) {
     frames[i].objects_gt.push_back(o);
   }
   // Frame 10: 1 cm off; frame 11: a quarter turn (ADD-S 0, ADD 0.1).
-  PoseResultRow r1 = row(10, 5, 1.0, SE3(frames[0].objects_gt[0].T_cam_obj.rotation(),
-                                         frames[0].objects_gt[0].T_cam_obj.translation() + Vec3(0.01, 0, 0)));
-  PoseResultRow r2 = row(11, 5, 1.0, frames[1].objects_gt[0].T_cam_obj *
-                                         SE3(so3_exp(Vec3(0, 0, M_PI / 2)), Vec3::Zero()));
+  PoseResultRow r1 = row(10, 5, 1.0,
+                         SE3(frames[0].objects_gt[0].T_cam_obj.rotation(),
+                             frames[0].objects_gt[0].T_cam_obj.translation() + Vec3(0.01, 0, 0)));
+  PoseResultRow r2 =
+      row(11, 5, 1.0,
+          frames[1].objects_gt[0].T_cam_obj * SE3(so3_exp(Vec3(0, 0, M_PI / 2)), Vec3::Zero()));
   r1.scene_id = r2.scene_id = 3;
   const FakeReader reader(info, frames);
   const auto ev = evaluate_pose_results(reader, {r1, r2}, {});
@@ -355,12 +358,22 @@ TEST(PoseResults, ReadsGroundTruthAndModelsFromTheDataset) {
   EXPECT_NEAR(ev.all.add_s_auc, ycb_auc_percent({0.01, 0.0}), 1e-9);
 
   DatasetInfo no_model = info;
-  no_model.model_points_paths.clear();
+  no_model.model_points_paths.erase(5);
+  no_model.model_points_paths[6] = dir + "/cube_mm.xyz";
   try {
     evaluate_pose_results(FakeReader(no_model, frames), {}, {});
     FAIL();
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("class 5"), std::string::npos) << e.what();
+  }
+  DatasetInfo no_models_at_all = info;
+  no_models_at_all.model_points_paths.clear();
+  no_models_at_all.format = "tum";
+  try {
+    evaluate_pose_results(FakeReader(no_models_at_all, frames), {}, {});
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("no object models"), std::string::npos) << e.what();
   }
   DatasetInfo missing_file = info;
   missing_file.model_points_paths[5] = dir + "/nope.xyz";
@@ -370,6 +383,68 @@ TEST(PoseResults, ReadsGroundTruthAndModelsFromTheDataset) {
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find("nope.xyz"), std::string::npos) << e.what();
   }
+}
+
+TEST(PoseResults, KeyframeFilterAndSeveralScenes) {
+  const std::string dir = test::scratch_dir("kf");
+  {
+    std::ofstream os(dir + "/cube.xyz");
+    for (const Vec3& c : cube_corners(0.05)) os << c.x() << " " << c.y() << " " << c.z() << "\n";
+  }
+  auto make_info = [&](int scene) {
+    DatasetInfo info;
+    info.root = dir;
+    info.format = "ycbv";
+    info.scene_id = scene;
+    info.model_points_paths[1] = dir + "/cube.xyz";
+    return info;
+  };
+  std::vector<RgbdFrame> frames(3);
+  for (int i = 0; i < 3; ++i) {
+    frames[i].index = i + 1;
+    ObjectGroundTruth o;
+    o.class_id = 1;
+    o.T_cam_obj = SE3(Mat3::Identity(), Vec3(0, 0, 1));
+    frames[i].objects_gt.push_back(o);
+  }
+  const FakeReader a(make_info(48), frames), b(make_info(49), frames);
+  // Scene 48 frame 2 is estimated 1 cm off; everything else is missed.
+  PoseResultRow r = row(2, 1, 1.0, SE3(Mat3::Identity(), Vec3(0.01, 0, 1)));
+  const auto all = evaluate_pose_results({&a, &b}, {r}, {});
+  EXPECT_EQ(all.all.instances, 6u);
+  EXPECT_EQ(all.all.estimated, 1u);
+  const FrameSet keyframes{{48, 2}, {49, 3}, {50, 1}};
+  const auto kf = evaluate_pose_results({&a, &b}, {r}, {}, &keyframes);
+  EXPECT_EQ(kf.all.instances, 2u);
+  EXPECT_EQ(kf.all.estimated, 1u);
+  EXPECT_NEAR(kf.all.adds_auc, ycb_auc_percent({0.01, kInf}), 1e-9);
+  EXPECT_NE(kf.to_json().find("\"instances\""), std::string::npos);
+}
+
+TEST(KeyframeList, ReadsYcbFormatAndRejectsBadLines) {
+  const std::string dir = test::scratch_dir("kl");
+  std::ofstream(dir + "/kf.txt") << "0048/000001\r\n# comment\n\n0059/001234\n";
+  const FrameSet kf = read_keyframe_list(dir + "/kf.txt");
+  EXPECT_EQ(kf, (FrameSet{{48, 1}, {59, 1234}}));
+  std::ofstream(dir + "/bad.txt") << "0048/000001\n0048-000002\n";
+  try {
+    read_keyframe_list(dir + "/bad.txt");
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad.txt"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir + "/empty.txt") << "# nothing\n";
+  EXPECT_THROW(read_keyframe_list(dir + "/empty.txt"), IoError);
+  EXPECT_THROW(read_keyframe_list(dir + "/missing.txt"), IoError);
+}
+
+TEST(KeyframeList, SharedYcbKeyframesParse) {
+  ORPE_REQUIRE_DATA(data, "ycbv/keyframe.txt");
+  const FrameSet kf = read_keyframe_list(data + "/ycbv/keyframe.txt");
+  EXPECT_EQ(kf.size(), 2949u);  // the official YCB-Video test keyframes (README)
+  EXPECT_EQ(kf.begin()->first, 48);
+  EXPECT_EQ(kf.rbegin()->first, 59);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
+#include "orpe/synth/synth_params.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
 
@@ -20,6 +21,7 @@ struct OrpeConfig {
   TrajectoryMetricsParams eval_trajectory;
   PoseMetricsParams eval_pose;
   MaskMetricsParams eval_masks;
+  SynthParams synth;
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
 
@@ -30,6 +32,7 @@ struct OrpeConfig {
     v("eval_trajectory", eval_trajectory);
     v("eval_pose", eval_pose);
     v("eval_masks", eval_masks);
+    v("synth", synth);
     v("pose_registration", pose_registration);
     v("pose_ekf", pose_ekf);
   }

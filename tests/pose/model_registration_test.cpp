@@ -140,7 +140,8 @@ TEST(ModelRegistration, NoisyMaskBoundaryWithBackgroundLeak) {
     for (int u = 0; u < view.mask.width(); ++u)
       for (int dv = -3; dv <= 3; ++dv)
         for (int du = -3; du <= 3; ++du)
-          if (view.mask.in_bounds(u + du, v + dv) && view.mask.at(u + du, v + dv)) dilated.at(u, v) = 1;
+          if (view.mask.in_bounds(u + du, v + dv) && view.mask.at(u + du, v + dv))
+            dilated.at(u, v) = 1;
   SingleViewInput in;
   in.mask = &dilated;
   in.depth = &view.depth;

@@ -55,7 +55,8 @@ inline SurfaceSamples sample_cylinder(float radius, float height, float step) {
   for (int i = 0; i < n_around; ++i) {
     const float a = static_cast<float>(2 * M_PI * i / n_around);
     const Eigen::Vector3f n(std::cos(a), std::sin(a), 0);
-    for (int j = 0; j <= n_up; ++j) s.add(Eigen::Vector3f(radius * n.x(), radius * n.y(), -height / 2 + height * j / n_up), n);
+    for (int j = 0; j <= n_up; ++j)
+      s.add(Eigen::Vector3f(radius * n.x(), radius * n.y(), -height / 2 + height * j / n_up), n);
   }
   const int n_r = std::max(1, static_cast<int>(std::ceil(radius / step)));
   for (int sign : {-1, 1})
@@ -112,7 +113,8 @@ struct SceneOptions {
 
 /// Renders the dense object samples at T_cam_obj (plus plane and occluder) into a 640x480 view
 /// (f = 600 px: a pixel is 1 mm at 0.6 m, so the samples must be denser than that).
-inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_obj, const SceneOptions& opt) {
+inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_obj,
+                                 const SceneOptions& opt) {
   SyntheticView v;
   const int W = 640, H = 480;
   v.K.width = W;

@@ -2,7 +2,6 @@
 // without the shared data). The full figures are in docs/RESULTS.md (bench/pose_ycbv.cpp).
 #include <gtest/gtest.h>
 
-
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pose/model_registration.h"
@@ -31,12 +30,14 @@ TEST(YcbvRealPose, EveryObjectOfOneFramePerVideoWithinOneCentimetreAdds) {
       const DatasetInfo& info = reader->info();
       ModelLoadOptions mo;
       mo.mesh_path = info.model_mesh_paths.at(gt.class_id);
-      const ObjectModel model = load_object_model(info.model_points_paths.at(gt.class_id), mo, gt.class_id);
+      const ObjectModel model =
+          load_object_model(info.model_points_paths.at(gt.class_id), mo, gt.class_id);
       std::vector<Vec3> pts;
       for (const auto& p : model.points) pts.push_back(p.cast<double>());
       const ModelPoints eval(pts);
       MaskImage mask(frame.labels_gt.width(), frame.labels_gt.height(), 0);
-      for (size_t i = 0; i < mask.size(); ++i) mask[i] = frame.labels_gt[i] == static_cast<int>(k) + 1;
+      for (size_t i = 0; i < mask.size(); ++i)
+        mask[i] = frame.labels_gt[i] == static_cast<int>(k) + 1;
       SingleViewInput in;
       in.mask = &mask;
       in.depth = &frame.depth;
@@ -47,7 +48,8 @@ TEST(YcbvRealPose, EveryObjectOfOneFramePerVideoWithinOneCentimetreAdds) {
       const SingleViewPose est = estimator.estimate(in);
       ASSERT_TRUE(est.valid) << frame.name << " class " << gt.class_id << ": " << est.reason;
       const double adds = adds_distance(eval, gt.T_cam_obj, est.T_cam_obj);
-      EXPECT_LT(adds, 0.01) << frame.name << " " << info.class_names.at(gt.class_id) << ": " << est.report();
+      EXPECT_LT(adds, 0.01) << frame.name << " " << info.class_names.at(gt.class_id) << ": "
+                            << est.report();
       EXPECT_GT(est.mu_m, 0.0005);
       EXPECT_LT(est.mu_m, 0.006);
       ++objects;
@@ -90,7 +92,8 @@ TEST(YcbvRealPose, EkfOverFramesStaysOnTheObject) {
     in.model = &model;
     const SingleViewPose est = estimator.estimate(in);
     ASSERT_TRUE(est.valid) << est.reason;
-    const PoseEkfStep step = ekf.update({frame.index, *frame.T_world_cam_gt, est.T_cam_obj, est.mu_m});
+    const PoseEkfStep step =
+        ekf.update({frame.index, *frame.T_world_cam_gt, est.T_cam_obj, est.mu_m});
     EXPECT_TRUE(step.accepted) << "frame " << frame.index << " d2 " << step.mahalanobis_sq;
     const SE3& gt = frame.objects_gt[static_cast<size_t>(label - 1)].T_cam_obj;
     EXPECT_LT(adds_distance(eval, gt, step.T_cam_obj_fused), 0.01) << "frame " << frame.index;

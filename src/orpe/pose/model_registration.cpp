@@ -24,7 +24,8 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (outlier_radius_factor < 0) return fail("outlier_radius_factor must be >= 0");
   if (num_rotations < 1) return fail("num_rotations must be >= 1");
   if (coarse_points < 6) return fail("coarse_points must be >= 6");
-  if (coarse_iterations < 0 || refine_iterations < 1) return fail("ICP iteration counts must be positive");
+  if (coarse_iterations < 0 || refine_iterations < 1)
+    return fail("ICP iteration counts must be positive");
   if (coarse_max_corr_factor <= 0 || refine_max_corr_factor <= 0)
     return fail("association distance factors must be > 0");
   if (refine_top_k < 1) return fail("refine_top_k must be >= 1");
@@ -38,7 +39,8 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (free_space_window_px < 0 || free_space_window_px > 10)
     return fail("free_space_window_px must be in [0, 10]");
   if (free_space_model_points < 10) return fail("free_space_model_points must be >= 10");
-  if (min_inlier_fraction < 0 || min_inlier_fraction > 1) return fail("min_inlier_fraction must be in [0, 1]");
+  if (min_inlier_fraction < 0 || min_inlier_fraction > 1)
+    return fail("min_inlier_fraction must be in [0, 1]");
   return true;
 }
 
@@ -95,7 +97,7 @@ struct ScoringContext {
   std::vector<Vec3f> normal_subset;
   std::vector<Vec3f> coarse_model_subset;  ///< smaller, for the coarse stage
   std::vector<Vec3f> coarse_normal_subset;
-  const DepthImage* depth = nullptr;       ///< raw depth (metres)
+  const DepthImage* depth = nullptr;                 ///< raw depth (metres)
   std::unique_ptr<ModelSearchIndex> observed_index;  ///< over the segmented points (camera frame)
 };
 
@@ -118,7 +120,8 @@ DepthImage min_filter(const DepthImage& depth, int r) {
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u) {
       float m = inf;
-      for (int k = std::max(0, v - r); k <= std::min(h - 1, v + r); ++k) m = std::min(m, rows.at(u, k));
+      for (int k = std::max(0, v - r); k <= std::min(h - 1, v + r); ++k)
+        m = std::min(m, rows.at(u, k));
       out.at(u, v) = std::isfinite(m) ? m : 0.0f;
     }
   return out;
@@ -126,7 +129,8 @@ DepthImage min_filter(const DepthImage& depth, int r) {
 
 class Registration {
  public:
-  Registration(const ModelRegistrationParams& p, const ObjectModel& model, const ScoringContext& ctx)
+  Registration(const ModelRegistrationParams& p, const ObjectModel& model,
+               const ScoringContext& ctx)
       : p_(p), model_(model), index_(*model.search_index), ctx_(ctx) {}
 
   /// Robust point-to-plane ICP of the observed points `obs` (camera frame) onto the model.
@@ -238,7 +242,8 @@ class Registration {
       // Distance to the surface: the plane distance, unless the point is farther from the nearest
       // sample than the sampling explains.
       const float dp = std::sqrt(d2);
-      const float d = std::max(std::abs(model_.normals[j].dot(pt - model_.points[j])), dp - spacing);
+      const float d =
+          std::max(std::abs(model_.normals[j].dot(pt - model_.points[j])), dp - spacing);
       fit += std::max(0.0, 1.0 - d / tau);
       inliers += d < tau;
     }
@@ -247,7 +252,8 @@ class Registration {
 
     const Mat3f Rc = h.T_cam_obj.rotation().cast<float>();
     const Vec3f tc = h.T_cam_obj.translation().cast<float>();
-    const std::vector<Vec3f>& normal_subset = coarse ? ctx_.coarse_normal_subset : ctx_.normal_subset;
+    const std::vector<Vec3f>& normal_subset =
+        coarse ? ctx_.coarse_normal_subset : ctx_.normal_subset;
     int violations = 0, visible = 0;
     double supported = 0;
     for (size_t i = 0; i < model_subset.size(); ++i) {
@@ -255,7 +261,8 @@ class Registration {
       violations += violates_free_space(pc);
       // Support: a camera-facing model point that nothing observed hides should lie on the observed
       // depth, inside the mask or not (a cut or partial mask still sees the object's depth).
-      if (p_.support_weight <= 0 || pc.z() <= 0.01f || (Rc * normal_subset[i]).dot(pc) >= 0) continue;
+      if (p_.support_weight <= 0 || pc.z() <= 0.01f || (Rc * normal_subset[i]).dot(pc) >= 0)
+        continue;
       const int u = static_cast<int>(std::lround(ctx_.K.fx * pc.x() / pc.z() + ctx_.K.cx));
       const int v = static_cast<int>(std::lround(ctx_.K.fy * pc.y() / pc.z() + ctx_.K.cy));
       if (!ctx_.depth->in_bounds(u, v)) continue;
@@ -359,7 +366,8 @@ void search(const ModelRegistrationParams& params, const std::vector<Mat3>& rota
     refine.push_back(h);
   }
 
-  const double refine_start = std::max(params.refine_max_corr_factor * diameter, params.final_max_corr_m);
+  const double refine_start =
+      std::max(params.refine_max_corr_factor * diameter, params.final_max_corr_m);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int i = 0; i < static_cast<int>(refine.size()); ++i) {
     Hypothesis& h = refine[static_cast<size_t>(i)];
@@ -453,9 +461,8 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
   } else {
     search(params_, rotations_, reg, cloud, diameter, input, refine);
   }
-  const auto best = std::max_element(refine.begin(), refine.end(), [](const auto& a, const auto& b) {
-    return a.score < b.score;
-  });
+  const auto best = std::max_element(
+      refine.begin(), refine.end(), [](const auto& a, const auto& b) { return a.score < b.score; });
 
   out.T_cam_obj = best->T_cam_obj;
   out.score = best->score;

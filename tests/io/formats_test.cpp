@@ -78,7 +78,8 @@ TEST(BopResults, RoundTripInMillimetres) {
 
 TEST(BopResults, BadRowsAreErrors) {
   const std::string dir = test::scratch_dir("e");
-  std::ofstream(dir + "/a.csv") << "scene_id,im_id,obj_id,score,R,t,time\n1,2,3,1,1 0 0 0 1 0 0 0 1,0 0\n";
+  std::ofstream(dir + "/a.csv")
+      << "scene_id,im_id,obj_id,score,R,t,time\n1,2,3,1,1 0 0 0 1 0 0 0 1,0 0\n";
   EXPECT_THROW(read_bop_results(dir + "/a.csv"), IoError);
   std::ofstream(dir + "/b.csv") << "1,2,3,1,1 0 0 0 1 0 0 0 2,0 0 0,-1\n";
   EXPECT_THROW(read_bop_results(dir + "/b.csv"), IoError);

@@ -9,12 +9,15 @@
 namespace orpe {
 
 /// Reads an 8-bit colour image (PNG/JPG, 3 or 4 channels, or grey) as RGB8. Throws IoError naming
-/// the file when it is missing, unreadable or not 8-bit.
+/// the file when it is missing, unreadable, truncated (a JPEG without its end marker, which the
+/// decoder would otherwise pad with grey) or not 8-bit.
 ColorImage read_color_image(const std::string& path);
 
 /// Statistics of a depth conversion, so callers can report how much of a frame was invalid.
 struct DepthReadStats {
   size_t invalid_pixels = 0;  ///< zero, NaN, inf or negative input values (stored as 0)
+  size_t nonfinite_or_negative_pixels =
+      0;  ///< the NaN, inf or negative ones among them (float input)
 };
 
 /// Reads a 16-bit depth PNG: metres = value / depth_units_per_m (e.g. TUM 5000, 7-Scenes 1000,

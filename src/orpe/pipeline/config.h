@@ -6,6 +6,9 @@
 #include <vector>
 
 #include "orpe/core/params.h"
+#include "orpe/eval/mask_metrics.h"
+#include "orpe/eval/pose_metrics.h"
+#include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
 #include "orpe/semantic/segmenter.h"
 #include "orpe/semantic/semantic_fusion.h"
@@ -24,6 +27,9 @@ struct OrpeConfig {
   slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
   SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
   SemanticParams semantic;          ///< instance-aware semantic fusion
+  TrajectoryMetricsParams eval_trajectory;
+  PoseMetricsParams eval_pose;
+  MaskMetricsParams eval_masks;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -35,6 +41,9 @@ struct OrpeConfig {
     v("slam_fusion", slam_fusion);
     v("segmentation", segmentation);
     v("semantic", semantic);
+    v("eval_trajectory", eval_trajectory);
+    v("eval_pose", eval_pose);
+    v("eval_masks", eval_masks);
   }
 
   bool IsValid(std::string* why) const;

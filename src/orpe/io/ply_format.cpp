@@ -1,0 +1,250 @@
+#include "orpe/io/ply_format.h"
+
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "orpe/core/error.h"
+
+namespace orpe::detail {
+namespace {
+
+enum class PlyType {
+  kInt8,
+  kUint8,
+  kInt16,
+  kUint16,
+  kInt32,
+  kUint32,
+  kFloat32,
+  kFloat64,
+  kInvalid
+};
+
+PlyType parse_type(const std::string& s) {
+  if (s == "char" || s == "int8") return PlyType::kInt8;
+  if (s == "uchar" || s == "uint8") return PlyType::kUint8;
+  if (s == "short" || s == "int16") return PlyType::kInt16;
+  if (s == "ushort" || s == "uint16") return PlyType::kUint16;
+  if (s == "int" || s == "int32") return PlyType::kInt32;
+  if (s == "uint" || s == "uint32") return PlyType::kUint32;
+  if (s == "float" || s == "float32") return PlyType::kFloat32;
+  if (s == "double" || s == "float64") return PlyType::kFloat64;
+  return PlyType::kInvalid;
+}
+
+size_t type_size(PlyType t) {
+  switch (t) {
+    case PlyType::kInt8:
+    case PlyType::kUint8:
+      return 1;
+    case PlyType::kInt16:
+    case PlyType::kUint16:
+      return 2;
+    case PlyType::kInt32:
+    case PlyType::kUint32:
+    case PlyType::kFloat32:
+      return 4;
+    default:
+      return 8;
+  }
+}
+
+struct Property {
+  std::string name;
+  PlyType type = PlyType::kInvalid;
+  bool is_list = false;
+  PlyType count_type = PlyType::kInvalid;
+};
+
+struct Element {
+  std::string name;
+  size_t count = 0;
+  std::vector<Property> properties;
+};
+
+enum class Format { kAscii, kBinaryLittleEndian, kBinaryBigEndian };
+
+template <class T>
+T load(const char* p, bool swap) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  if (swap) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    for (size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
+    std::memcpy(&v, b, sizeof(T));
+  }
+  return v;
+}
+
+double decode(PlyType t, const char* p, bool swap) {
+  switch (t) {
+    case PlyType::kInt8:
+      return load<int8_t>(p, false);
+    case PlyType::kUint8:
+      return load<uint8_t>(p, false);
+    case PlyType::kInt16:
+      return load<int16_t>(p, swap);
+    case PlyType::kUint16:
+      return load<uint16_t>(p, swap);
+    case PlyType::kInt32:
+      return load<int32_t>(p, swap);
+    case PlyType::kUint32:
+      return load<uint32_t>(p, swap);
+    case PlyType::kFloat32:
+      return load<float>(p, swap);
+    default:
+      return load<double>(p, swap);
+  }
+}
+
+/// Sequential reader of body values in either encoding, bounds-checked.
+class BodyReader {
+ public:
+  BodyReader(const std::string& path, const std::string& data, size_t pos, Format format)
+      : path_(path), data_(data), pos_(pos), format_(format) {
+    swap_ = (format == Format::kBinaryBigEndian) == (std::endian::native == std::endian::little);
+  }
+
+  double next(PlyType t) {
+    if (format_ == Format::kAscii) return next_ascii();
+    const size_t n = type_size(t);
+    if (pos_ + n > data_.size()) throw IoError(path_, "PLY body ends early (truncated file?)");
+    const double v = decode(t, data_.data() + pos_, swap_);
+    pos_ += n;
+    return v;
+  }
+
+ private:
+  double next_ascii() {
+    while (pos_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+    if (pos_ >= data_.size()) throw IoError(path_, "PLY body ends early (truncated file?)");
+    const size_t start = pos_;
+    while (pos_ < data_.size() && !std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+    const std::string token = data_.substr(start, pos_ - start);
+    try {
+      size_t used = 0;
+      const double v = std::stod(token, &used);
+      if (used == token.size()) return v;
+    } catch (const std::exception&) {
+    }
+    throw IoError(path_, fmt::format("PLY body: '{}' is not a number", token));
+  }
+
+  const std::string& path_;
+  const std::string& data_;
+  size_t pos_;
+  Format format_;
+  bool swap_ = false;
+};
+
+}  // namespace
+
+PlyColumns read_ply_element(const std::string& path, const std::string& element) {
+  std::ifstream is(path, std::ios::binary);
+  if (!is) throw IoError(path, "cannot open PLY file");
+  std::string data((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+  if (data.compare(0, 3, "ply") != 0) throw IoError(path, "not a PLY file (no 'ply' magic)");
+
+  // Header: lines up to "end_header".
+  std::vector<Element> elements;
+  Format format = Format::kAscii;
+  bool have_format = false, have_end = false;
+  size_t pos = 0;
+  int line_no = 0;
+  while (pos < data.size()) {
+    const size_t eol = data.find('\n', pos);
+    if (eol == std::string::npos) break;
+    std::string line = data.substr(pos, eol - pos);
+    pos = eol + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string key;
+    ls >> key;
+    auto fail = [&](const std::string& what) {
+      throw IoError(path, fmt::format("PLY header line {}: {}", line_no, what));
+    };
+    if (key == "end_header") {
+      have_end = true;
+      break;
+    }
+    if (key.empty() || key == "ply" || key == "comment" || key == "obj_info") continue;
+    if (key == "format") {
+      std::string f;
+      ls >> f;
+      if (f == "ascii")
+        format = Format::kAscii;
+      else if (f == "binary_little_endian")
+        format = Format::kBinaryLittleEndian;
+      else if (f == "binary_big_endian")
+        format = Format::kBinaryBigEndian;
+      else
+        fail("unknown format '" + f + "'");
+      have_format = true;
+    } else if (key == "element") {
+      Element e;
+      long long count = -1;
+      if (!(ls >> e.name >> count) || count < 0) fail("malformed element line");
+      e.count = static_cast<size_t>(count);
+      elements.push_back(e);
+    } else if (key == "property") {
+      if (elements.empty()) fail("property before any element");
+      Property p;
+      std::string type;
+      ls >> type;
+      if (type == "list") {
+        std::string count_type, item_type;
+        ls >> count_type >> item_type >> p.name;
+        p.is_list = true;
+        p.count_type = parse_type(count_type);
+        p.type = parse_type(item_type);
+        if (p.count_type == PlyType::kInvalid || p.type == PlyType::kInvalid)
+          fail("unknown list type");
+      } else {
+        ls >> p.name;
+        p.type = parse_type(type);
+        if (p.type == PlyType::kInvalid) fail("unknown property type '" + type + "'");
+      }
+      if (p.name.empty()) fail("property without a name");
+      elements.back().properties.push_back(p);
+    } else {
+      fail("unknown keyword '" + key + "'");
+    }
+  }
+  if (!have_end) throw IoError(path, "PLY header has no end_header (truncated file?)");
+  if (!have_format) throw IoError(path, "PLY header has no format line");
+
+  BodyReader body(path, data, pos, format);
+  for (const Element& e : elements) {
+    const bool wanted = e.name == element;
+    PlyColumns out;
+    if (wanted) {
+      out.count = e.count;
+      for (const Property& p : e.properties)
+        if (!p.is_list) out.columns[p.name].reserve(e.count);
+    }
+    for (size_t r = 0; r < e.count; ++r) {
+      for (const Property& p : e.properties) {
+        if (p.is_list) {
+          const double n = body.next(p.count_type);
+          if (!(n >= 0) || n > 1e9)
+            throw IoError(path, fmt::format("PLY element '{}': bad list length", e.name));
+          for (size_t k = 0; k < static_cast<size_t>(n); ++k) body.next(p.type);
+        } else {
+          const double v = body.next(p.type);
+          if (wanted) out.columns[p.name].push_back(v);
+        }
+      }
+    }
+    if (wanted) return out;
+  }
+  throw IoError(path, "PLY file has no '" + element + "' element");
+}
+
+}  // namespace orpe::detail

@@ -160,7 +160,7 @@ int main(int argc, char** argv) {
         }
         input_eval.add_frame(frame.labels_gt, gt_classes, det, det_classes);
         projected_eval.add_frame(frame.labels_gt, gt_classes, projected, proj_classes);
-        if (step.keyframe) spdlog::debug("{}", step.report.report());
+        if (step.keyframe && std::getenv("ORPE_SEMANTIC_REPORTS")) std::cout << step.report.report() << "\n";
         ++n;
       }
       const int removed = mapper.finalize(own_map.empty() ? system.map() : own_map);

@@ -251,7 +251,8 @@ void SemanticFusion::update_surfel(std::int32_t i, int u, int v,
   }
   // Boundary refinement; window length and count packed in one byte (high / low nibble).
   std::uint8_t& packed = map.boundary_counter[i];
-  if (instance == 0 && p_o > static_cast<float>(params_.boundary_low_probability) &&
+  if (params_.boundary_refinement && instance == 0 &&
+      p_o > static_cast<float>(params_.boundary_low_probability) &&
       p_o < static_cast<float>(params_.boundary_high_probability)) {
     ++counts.candidates;
     int window = (packed >> 4) + 1, count = packed & 0x0f;

@@ -58,6 +58,7 @@ struct SemanticParams {
   int association_min_projected_area_px = 50;  ///< floor of U's denominator |M^|
   bool merge_same_class_instances = true;  ///< merge instances of one argmax class that one detection overlaps
   double release_probability = 0.4;        ///< a labelled surfel with p_o <= this becomes background
+  bool boundary_refinement = true;         ///< the paper's boundary refinement (off: ablation)
   double boundary_low_probability = 0.4;   ///< boundary candidates: low < p_o < high (paper 0.4, 0.5)
   double boundary_high_probability = 0.5;
   double boundary_pixel_min_probability = 0.4;  ///< criterion (i): pixel probability > this
@@ -96,6 +97,8 @@ struct SemanticParams {
       "Merge instances with the same argmax class when one detection overlaps both (U > threshold)");
     v("release_probability", release_probability,
       "A labelled surfel whose averaged p_o falls to <= this becomes background");
+    v("boundary_refinement", boundary_refinement,
+      "Boundary refinement: surfels with p_o just below 0.5 join the closest instance (paper; off = ablation)");
     v("boundary_low_probability", boundary_low_probability,
       "Boundary refinement candidates have low < p_o < high (paper: 0.4)");
     v("boundary_high_probability", boundary_high_probability,

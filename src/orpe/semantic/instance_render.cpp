@@ -5,9 +5,24 @@ namespace orpe {
 void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam,
                               const PinholeIntrinsics& K, float max_splat_radius_px,
                               double depth_tolerance_m, bool want_color, InstanceImages* out) {
-  labelled_.clear();
+  // Gather the labelled surfels (only the arrays the renderer reads; the others stay default).
+  selected_.clear();
   for (size_t i = 0; i < map.size(); ++i)
-    if (map.instance_id[i] > 0) labelled_.push_back(map.get(i));
+    if (map.instance_id[i] > 0) selected_.push_back(static_cast<std::uint32_t>(i));
+  labelled_.resize(selected_.size());
+  const long n = static_cast<long>(selected_.size());
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < n; ++k) {
+    const std::uint32_t i = selected_[k];
+    labelled_.position_world[k] = map.position_world[i];
+    labelled_.normal_world[k] = map.normal_world[i];
+    labelled_.color[k] = map.color[i];
+    labelled_.radius_m[k] = map.radius_m[i];
+    labelled_.confidence[k] = map.confidence[i];
+    labelled_.last_seen_time[k] = map.last_seen_time[i];
+    labelled_.always_active[k] = map.always_active[i];
+    labelled_.instance_id[k] = map.instance_id[i];
+  }
 
   slam::RenderOptions options;
   options.max_splat_radius_px = max_splat_radius_px;

@@ -9,6 +9,9 @@
 // front (another object, background) still occlude.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include "orpe/core/camera.h"
 #include "orpe/core/image.h"
 #include "orpe/core/se3.h"
@@ -33,6 +36,7 @@ class InstanceRenderer {
  private:
   slam::MapRenderer renderer_;
   slam::SurfelMap labelled_;  // scratch: the labelled surfels only
+  std::vector<std::uint32_t> selected_;
   slam::RenderedView all_, objects_;
 };
 

@@ -54,9 +54,12 @@ void BM_TrajectoryEval(benchmark::State& state) {
   std::vector<orpe::StampedPose> gt, est;
   orpe::SE3 T;
   for (int i = 0; i < state.range(0); ++i) {
-    T = T * orpe::SE3::exp((orpe::Vec6() << n(rng), n(rng), n(rng), n(rng), n(rng), n(rng)).finished());
+    T = T *
+        orpe::SE3::exp((orpe::Vec6() << n(rng), n(rng), n(rng), n(rng), n(rng), n(rng)).finished());
     gt.push_back({i / 30.0, T});
-    est.push_back({i / 30.0 + 0.005, T * orpe::SE3::exp((orpe::Vec6() << n(rng), n(rng), n(rng), 0, 0, 0).finished())});
+    est.push_back(
+        {i / 30.0 + 0.005,
+         T * orpe::SE3::exp((orpe::Vec6() << n(rng), n(rng), n(rng), 0, 0, 0).finished())});
   }
   for (auto _ : state) benchmark::DoNotOptimize(orpe::evaluate_trajectory(gt, est, {}));
 }

@@ -58,12 +58,12 @@ void run_traj(const TrajCommand& c) {
   if (est.empty()) throw IoError(c.est_path, "no poses in the trajectory file");
   const TrajectoryEvaluation ev = evaluate_trajectory(gt, est, params);
   if (ev.matches.empty())
-    throw IoError(c.est_path,
-                  fmt::format("no timestamp within {} s of a ground-truth timestamp in {} "
-                              "(estimate {:.6f}..{:.6f} s, ground truth {:.6f}..{:.6f} s)",
-                              params.max_time_difference_s, c.gt_path, est.front().timestamp_s,
-                              est.back().timestamp_s, gt.front().timestamp_s,
-                              gt.back().timestamp_s));
+    throw IoError(
+        c.est_path,
+        fmt::format("no timestamp within {} s of a ground-truth timestamp in {} "
+                    "(estimate {:.6f}..{:.6f} s, ground truth {:.6f}..{:.6f} s)",
+                    params.max_time_difference_s, c.gt_path, est.front().timestamp_s,
+                    est.back().timestamp_s, gt.front().timestamp_s, gt.back().timestamp_s));
   if (ev.rpe.translation_m.count == 0)
     spdlog::warn("RPE: only {} associated poses, none at delta {} frames", ev.matches.size(),
                  params.rpe_delta_frames);
@@ -110,13 +110,14 @@ void run_poses(const PosesCommand& c) {
     readers.push_back(open_dataset(c.dataset_path, params));
     reader_ptrs.push_back(readers.back().get());
   }
-  const PoseEvaluation ev = evaluate_pose_results(reader_ptrs, rows, config.eval_pose,
-                                                  keyframes ? &*keyframes : nullptr);
+  const PoseEvaluation ev =
+      evaluate_pose_results(reader_ptrs, rows, config.eval_pose, keyframes ? &*keyframes : nullptr);
   if (ev.instances.empty())
     throw IoError(c.dataset_path, keyframes ? "no object ground truth in the listed keyframes of "
                                               "the selected scenes"
                                             : "no object ground truth in the selected frames");
-  if (rows.empty()) spdlog::warn("{}: no result rows; every instance counts as a miss", c.result_path);
+  if (rows.empty())
+    spdlog::warn("{}: no result rows; every instance counts as a miss", c.result_path);
   if (ev.unmatched_rows + ev.other_scene_rows > 0)
     spdlog::info("{}: {} rows without a ground-truth instance, {} rows of other scenes (ignored)",
                  c.result_path, ev.unmatched_rows, ev.other_scene_rows);
@@ -125,7 +126,8 @@ void run_poses(const PosesCommand& c) {
 }
 
 CommandRegistrar reg(70, [](CLI::App& root) {
-  CLI::App* eval = root.add_subcommand("eval", "Evaluate trajectories (ATE/RPE) and 6D poses (ADD-S AUC)");
+  CLI::App* eval =
+      root.add_subcommand("eval", "Evaluate trajectories (ATE/RPE) and 6D poses (ADD-S AUC)");
   eval->require_subcommand(1);
 
   auto traj = std::make_shared<TrajCommand>();
@@ -152,9 +154,10 @@ CommandRegistrar reg(70, [](CLI::App& root) {
   p->add_option("--result", poses->result_path,
                 "Results CSV (BOP: scene_id,im_id,obj_id,score,R,t,time; t in mm)")
       ->required();
-  p->add_option("--scene", poses->scenes,
-                "YCB-Video video / BOP scene, repeatable (default: the keyframe list's scenes, else "
-                "dataset.scene)");
+  p->add_option(
+      "--scene", poses->scenes,
+      "YCB-Video video / BOP scene, repeatable (default: the keyframe list's scenes, else "
+      "dataset.scene)");
   p->add_option("--keyframes", poses->keyframes_path,
                 "Evaluate only these frames: YCB-Video keyframe.txt ('0048/000001' per line)");
   p->add_option("--json", poses->json_path, "Also write the figures as JSON to this file");

@@ -1,6 +1,6 @@
 // End-to-end tests of `orpe eval` (the built binary, ORPE_CLI_PATH).
-#include <gtest/gtest.h>
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <Eigen/Eigenvalues>
@@ -12,6 +12,10 @@
 #include <random>
 #include <sstream>
 
+#include "orpe/eval/pose_metrics.h"
+#include "orpe/io/bop_results.h"
+#include "orpe/io/dataset.h"
+#include "orpe/io/model_io.h"
 #include "orpe/io/trajectory_io.h"
 #include "support/test_data.h"
 
@@ -74,10 +78,13 @@ void write_pair(const std::string& gt_path, const std::string& est_path, int n) 
   const SE3 offset = SE3::exp((Vec6() << 1, -2, 0.5, 0.3, -1.0, 2.0).finished());
   for (int i = 0; i < n; ++i) {
     T = T * SE3::exp((Vec6() << 0.02 * g(rng), 0.02 * g(rng), 0.02 * g(rng), 0.02 * g(rng),
-                      0.02 * g(rng), 0.02 * g(rng)).finished());
+                      0.02 * g(rng), 0.02 * g(rng))
+                         .finished());
     gt.push_back({100.0 + i / 30.0, T});
-    SE3 p = offset * T * SE3::exp((Vec6() << 0.01 * g(rng), 0.01 * g(rng), 0.01 * g(rng),
-                                   0.005 * g(rng), 0.005 * g(rng), 0.005 * g(rng)).finished());
+    SE3 p = offset * T *
+            SE3::exp((Vec6() << 0.01 * g(rng), 0.01 * g(rng), 0.01 * g(rng), 0.005 * g(rng),
+                      0.005 * g(rng), 0.005 * g(rng))
+                         .finished());
     p.translation() += Vec3(0.001 * i, 0, 0);
     est.push_back({100.0 + i / 30.0 + 0.003, p});
   }
@@ -88,10 +95,11 @@ void write_pair(const std::string& gt_path, const std::string& est_path, int n) 
 TEST(CliEvalTraj, PrintsTheDefinitionsAte) {
   const std::string dir = test::scratch_dir("traj");
   write_pair(dir + "/gt.txt", dir + "/est.txt", 150);
-  const auto r = run_cli("eval traj " + dir + "/gt.txt " + dir + "/est.txt --json " + dir +
-                         "/out/ate.json");
+  const auto r =
+      run_cli("eval traj " + dir + "/gt.txt " + dir + "/est.txt --json " + dir + "/out/ate.json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  // Independent computation from the files as written (all poses pair up: 3 ms apart, 33 ms spacing).
+  // Independent computation from the files as written (all poses pair up: 3 ms apart, 33 ms
+  // spacing).
   const auto gt = read_tum_trajectory(dir + "/gt.txt");
   const auto est = read_tum_trajectory(dir + "/est.txt");
   std::vector<Vec3> g, e;
@@ -173,6 +181,81 @@ TEST(CliEvalPoses, MissingResultFileIsNamed) {
   const auto r2 = run_cli("eval poses --dataset " + dir + " --result " + dir + "/bad.csv");
   EXPECT_NE(r2.exit_code, 0);
   EXPECT_NE(r2.output.find("bad.csv"), std::string::npos) << r2.output;
+}
+
+TEST(CliEvalPoses, RealYcbVideoScene) {
+  ORPE_REQUIRE_DATA(data, "ycbv/data/0000");
+  const std::string dir = test::scratch_dir("ycb");
+  DatasetParams params;
+  params.scene = "0000";
+  const auto reader = open_dataset(data + "/ycbv", params);
+  const DatasetInfo& info = reader->info();
+  // Estimates 1 cm off along the camera x axis, the 5th frame missed, plus a low-score decoy row.
+  std::vector<PoseResultRow> rows;
+  std::vector<PoseGroundTruthInstance> gt;
+  int missed_frame = -1;
+  for (size_t i = 0; i < reader->size(); ++i) {
+    const RgbdFrame f = reader->read(i);
+    if (i == 4) missed_frame = f.index;
+    for (const auto& o : f.objects_gt) {
+      gt.push_back({info.scene_id, f.index, o.class_id, o.T_cam_obj});
+      if (i == 4) continue;
+      PoseResultRow r;
+      r.scene_id = info.scene_id;
+      r.im_id = f.index;
+      r.obj_id = o.class_id;
+      r.score = 0.9;
+      r.T_cam_obj = SE3(o.T_cam_obj.rotation(), o.T_cam_obj.translation() + Vec3(0.01, 0, 0));
+      rows.push_back(r);
+      r.score = 0.1;
+      r.T_cam_obj = SE3(Mat3::Identity(), Vec3(0, 0, 2));
+      rows.push_back(r);
+    }
+  }
+  ASSERT_GT(gt.size(), 10u);
+  write_bop_results(dir + "/r.csv", rows);
+  // Expected distances from the rows as written (mm text), brute-force ADD-S.
+  const auto written = read_bop_results(dir + "/r.csv");
+  std::vector<double> expected_add_s;
+  for (const auto& g : gt) {
+    if (g.im_id == missed_frame) {
+      expected_add_s.push_back(std::numeric_limits<double>::infinity());
+      continue;
+    }
+    const auto it = std::find_if(written.begin(), written.end(), [&](const PoseResultRow& r) {
+      return r.im_id == g.im_id && r.obj_id == g.class_id && r.score > 0.5;
+    });
+    ASSERT_NE(it, written.end());
+    const auto pts = read_xyz_points(info.model_points_paths.at(g.class_id));
+    const bool symmetric =
+        std::count(info.symmetric_classes.begin(), info.symmetric_classes.end(), g.class_id) > 0;
+    expected_add_s.push_back(symmetric ? adds_distance_brute_force(pts, g.T_cam_obj, it->T_cam_obj)
+                                       : add_distance(pts, g.T_cam_obj, it->T_cam_obj));
+    if (!symmetric) {
+      EXPECT_NEAR(expected_add_s.back(), 0.01, 1e-6);
+    }
+  }
+  auto r = run_cli("eval poses --dataset " + data + "/ycbv --scene 0000 --result " + dir +
+                   "/r.csv --json " + dir + "/p.json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto j = read_json(dir + "/p.json");
+  EXPECT_EQ(j["all"]["instances"].get<size_t>(), gt.size());
+  EXPECT_EQ(j["all"]["estimated"].get<size_t>(), gt.size() - gt.size() / reader->size());
+  EXPECT_NEAR(j["all"]["add_s_auc"].get<double>(), ycb_auc_percent(expected_add_s), 1e-6);
+  EXPECT_NE(r.output.find("ALL"), std::string::npos);
+  EXPECT_NE(r.output.find(info.class_names.at(gt.front().class_id)), std::string::npos) << r.output;
+
+  // Only two keyframes, one of them the missed frame.
+  std::ofstream(dir + "/kf.txt") << fmt::format("{:04d}/{:06d}\n{:04d}/{:06d}\n", info.scene_id,
+                                                missed_frame, info.scene_id, missed_frame + 1);
+  r = run_cli("eval poses --dataset " + data + "/ycbv --keyframes " + dir + "/kf.txt --result " +
+              dir + "/r.csv --markdown --json " + dir + "/k.json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  j = read_json(dir + "/k.json");
+  const size_t per_frame = gt.size() / reader->size();
+  EXPECT_EQ(j["all"]["instances"].get<size_t>(), 2 * per_frame);
+  EXPECT_EQ(j["all"]["estimated"].get<size_t>(), per_frame);
+  EXPECT_NE(r.output.find("| **ALL** |"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -17,11 +17,11 @@ void paint(LabelImage& img, int u0, int v0, int u1, int v1, std::int32_t value) 
 
 TEST(MaskMetrics, RectanglesGiveHandComputedIoU) {
   LabelImage gt(40, 30, 0), pred(40, 30, 0);
-  paint(gt, 0, 0, 10, 10, 1);     // instance 1, class 4: 100 px
-  paint(gt, 20, 0, 30, 10, 2);    // instance 2, class 6: 100 px
-  paint(pred, 5, 0, 15, 10, 7);   // class 4, overlaps instance 1 by 50 px: IoU 50/150
-  paint(pred, 20, 0, 30, 5, 8);   // class 6, inside instance 2: IoU 50/100
-  paint(pred, 0, 20, 5, 30, 9);   // class 6, overlapping nothing: a false positive
+  paint(gt, 0, 0, 10, 10, 1);    // instance 1, class 4: 100 px
+  paint(gt, 20, 0, 30, 10, 2);   // instance 2, class 6: 100 px
+  paint(pred, 5, 0, 15, 10, 7);  // class 4, overlaps instance 1 by 50 px: IoU 50/150
+  paint(pred, 20, 0, 30, 5, 8);  // class 6, inside instance 2: IoU 50/100
+  paint(pred, 0, 20, 5, 30, 9);  // class 6, overlapping nothing: a false positive
   const LabelClasses gt_classes{{1, 4}, {2, 6}}, pred_classes{{7, 4}, {8, 6}, {9, 6}};
   const auto r = evaluate_instance_masks(gt, gt_classes, pred, pred_classes);
   ASSERT_EQ(r.instances.size(), 2u);

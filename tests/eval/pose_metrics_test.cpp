@@ -215,8 +215,9 @@ TEST(PoseResults, MatchesByKeyTakesHighestScoreAndCountsMisses) {
   for (const auto& g : s.gt) {
     if (g.im_id == 5) continue;  // image 5: all missed
     const auto& pts = g.class_id == 1 ? s.pts_a : s.pts_b;
-    const SE3 est = g.T_cam_obj * SE3::exp((Vec6() << 0.002 * g.im_id, 0.01, -0.004, 0.05 * g.im_id,
-                                            0.02, 0.1).finished());
+    const SE3 est =
+        g.T_cam_obj *
+        SE3::exp((Vec6() << 0.002 * g.im_id, 0.01, -0.004, 0.05 * g.im_id, 0.02, 0.1).finished());
     rows.push_back(row(g.im_id, g.class_id, 0.9, est));
     // A worse and a better-fitting row with lower scores are ignored.
     rows.push_back(row(g.im_id, g.class_id, 0.5, g.T_cam_obj));
@@ -239,7 +240,7 @@ TEST(PoseResults, MatchesByKeyTakesHighestScoreAndCountsMisses) {
   EXPECT_EQ(ev.classes[0].instances, 6u);
   EXPECT_EQ(ev.classes[0].estimated, 5u);
   EXPECT_NEAR(ev.classes[0].adds_auc, ycb_auc_percent(adds_1), 1e-9);
-  EXPECT_NEAR(ev.classes[0].add_s_auc, ycb_auc_percent(add_1), 1e-9);   // plain: ADD
+  EXPECT_NEAR(ev.classes[0].add_s_auc, ycb_auc_percent(add_1), 1e-9);  // plain: ADD
   EXPECT_NEAR(ev.classes[1].adds_auc, ycb_auc_percent(adds_2), 1e-9);
   EXPECT_NEAR(ev.classes[1].add_s_auc, ycb_auc_percent(adds_2), 1e-9);  // symmetric: ADD-S
   EXPECT_NEAR(ev.classes[1].add_auc, ycb_auc_percent(add_2), 1e-9);
@@ -339,10 +340,12 @@ TEST(PoseResults, ReadsGroundTruthAndModelsFromTheDataset) {
     frames[i].objects_gt.push_back(o);
   }
   // Frame 10: 1 cm off; frame 11: a quarter turn (ADD-S 0, ADD 0.1).
-  PoseResultRow r1 = row(10, 5, 1.0, SE3(frames[0].objects_gt[0].T_cam_obj.rotation(),
-                                         frames[0].objects_gt[0].T_cam_obj.translation() + Vec3(0.01, 0, 0)));
-  PoseResultRow r2 = row(11, 5, 1.0, frames[1].objects_gt[0].T_cam_obj *
-                                         SE3(so3_exp(Vec3(0, 0, M_PI / 2)), Vec3::Zero()));
+  PoseResultRow r1 = row(10, 5, 1.0,
+                         SE3(frames[0].objects_gt[0].T_cam_obj.rotation(),
+                             frames[0].objects_gt[0].T_cam_obj.translation() + Vec3(0.01, 0, 0)));
+  PoseResultRow r2 =
+      row(11, 5, 1.0,
+          frames[1].objects_gt[0].T_cam_obj * SE3(so3_exp(Vec3(0, 0, M_PI / 2)), Vec3::Zero()));
   r1.scene_id = r2.scene_id = 3;
   const FakeReader reader(info, frames);
   const auto ev = evaluate_pose_results(reader, {r1, r2}, {});

@@ -15,7 +15,8 @@ namespace {
 
 // ---- Independent references written for the tests ----
 
-/// TUM associate.py transcribed literally: all pairs, Python tuple sort, greedy, then sort by stamps.
+/// TUM associate.py transcribed literally: all pairs, Python tuple sort, greedy, then sort by
+/// stamps.
 std::vector<std::pair<double, double>> tum_associate(std::vector<double> first,
                                                      std::vector<double> second, double max_diff) {
   std::sort(first.begin(), first.end());
@@ -156,7 +157,8 @@ TEST(Alignment, UmeyamaSvdEqualsHornQuaternion) {
     std::vector<Vec3> est, gt;
     for (int i = 0; i < 50; ++i) {
       est.emplace_back(n(rng), 2.0 * n(rng), 0.5 * n(rng));
-      gt.push_back(s * (T.rotation() * est.back()) + T.translation() + 0.05 * Vec3(n(rng), n(rng), n(rng)));
+      gt.push_back(s * (T.rotation() * est.back()) + T.translation() +
+                   0.05 * Vec3(n(rng), n(rng), n(rng)));
     }
     for (bool with_scale : {false, true}) {
       const auto a = align_umeyama(est, gt, with_scale);

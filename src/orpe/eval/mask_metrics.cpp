@@ -68,8 +68,10 @@ MaskFrameResult evaluate_instance_masks(const LabelImage& gt_labels, const Label
     if (g && p) ++overlap[{g, p}];
   }
   // Pixel counts per class, from the areas (one pass above; classes looked up once per label).
-  for (const auto& [g, area] : gt_area) result.class_pixels[class_of(gt_classes, g, "ground-truth")];
-  for (const auto& [p, area] : pred_area) result.class_pixels[class_of(pred_classes, p, "predicted")];
+  for (const auto& [g, area] : gt_area)
+    result.class_pixels[class_of(gt_classes, g, "ground-truth")];
+  for (const auto& [p, area] : pred_area)
+    result.class_pixels[class_of(pred_classes, p, "predicted")];
   std::map<int, size_t> gt_class_area, pred_class_area, same_class_overlap;
   for (const auto& [g, area] : gt_area) gt_class_area[gt_classes.at(g)] += area;
   for (const auto& [p, area] : pred_area) pred_class_area[pred_classes.at(p)] += area;
@@ -92,8 +94,8 @@ MaskFrameResult evaluate_instance_masks(const LabelImage& gt_labels, const Label
   for (const auto& [gp, count] : overlap) {
     const auto [g, p] = gp;
     if (gt_classes.at(g) != pred_classes.at(p)) continue;
-    const double iou = static_cast<double>(count) /
-                       static_cast<double>(gt_area[g] + pred_area[p] - count);
+    const double iou =
+        static_cast<double>(count) / static_cast<double>(gt_area[g] + pred_area[p] - count);
     if (iou > params.min_match_iou) candidates.push_back({iou, g, p});
   }
   std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
@@ -120,7 +122,8 @@ MaskFrameResult evaluate_instance_masks(const LabelImage& gt_labels, const Label
     result.instances.push_back(inst);
   }
   result.false_positive_instances = pred_area.size() - match_of_gt.size();
-  result.mean_iou = result.instances.empty() ? 0.0 : sum / static_cast<double>(result.instances.size());
+  result.mean_iou =
+      result.instances.empty() ? 0.0 : sum / static_cast<double>(result.instances.size());
   return result;
 }
 
@@ -133,7 +136,8 @@ const MaskFrameResult& MaskEvaluator::add_frame(const LabelImage& gt_labels,
                                                 const LabelClasses& gt_classes,
                                                 const LabelImage& pred_labels,
                                                 const LabelClasses& pred_classes) {
-  frames_.push_back(evaluate_instance_masks(gt_labels, gt_classes, pred_labels, pred_classes, params_));
+  frames_.push_back(
+      evaluate_instance_masks(gt_labels, gt_classes, pred_labels, pred_classes, params_));
   return frames_.back();
 }
 
@@ -189,13 +193,14 @@ std::string MaskEvaluation::report() const {
   std::string out = fmt::format("{:<28} {:>9} {:>8} {:>13} {:>10}\n", "class", "instances",
                                 "matched", "instance IoU", "pixel IoU");
   auto line = [&](const MaskClassSummary& s) {
-    return fmt::format("{:<28} {:>9} {:>8} {:>13.4f} {:>10.4f}\n", s.name, s.gt_instances, s.matched,
-                       s.mean_instance_iou, s.pixel_iou);
+    return fmt::format("{:<28} {:>9} {:>8} {:>13.4f} {:>10.4f}\n", s.name, s.gt_instances,
+                       s.matched, s.mean_instance_iou, s.pixel_iou);
   };
   for (const auto& c : classes) out += line(c);
   out += line(all);
-  out += fmt::format("frames: {}, false-positive instances: {}, mIoU (mean of class pixel IoU): {:.4f}\n",
-                     frames, false_positive_instances, mean_class_pixel_iou);
+  out += fmt::format(
+      "frames: {}, false-positive instances: {}, mIoU (mean of class pixel IoU): {:.4f}\n", frames,
+      false_positive_instances, mean_class_pixel_iou);
   return out;
 }
 

@@ -1,14 +1,14 @@
 // Instance mask metrics: per-frame IoU of predicted vs ground-truth instance masks, per class and
 // overall (used by `orpe eval masks` and the semantic stage's tests).
 //
-// An image's instances are a label image (0 = no instance, v > 0 = instance v) plus the class of each
-// label value. Per frame, predicted instances are matched one-to-one to ground-truth instances of the
-// same class, greedily by largest IoU (ties by gt label, then predicted label), a match needing
-// IoU > min_match_iou. A ground-truth instance without a match scores IoU 0; a predicted instance
-// without a match is a false positive.
-// Two summaries:
+// An image's instances are a label image (0 = no instance, v > 0 = instance v) plus the class of
+// each label value. Per frame, predicted instances are matched one-to-one to ground-truth instances
+// of the same class, greedily by largest IoU (ties by gt label, then predicted label), a match
+// needing IoU > min_match_iou. A ground-truth instance without a match scores IoU 0; a predicted
+// instance without a match is a false positive. Two summaries:
 //  - instance IoU: the mean over ground-truth instances of their matched IoU (per class and all);
-//  - pixel (semantic) IoU per class, accumulated over all frames: TP / (TP + FP + FN), where a pixel
+//  - pixel (semantic) IoU per class, accumulated over all frames: TP / (TP + FP + FN), where a
+//  pixel
 //    is TP for class c when both images give it class c. "ALL" pools the pixels of every class, and
 //    the mean of the per-class values is reported as mIoU.
 #pragma once
@@ -58,8 +58,8 @@ struct MaskFrameResult {
   double mean_iou = 0;                      ///< over `instances`; 0 when there are none
 };
 
-/// Scores one frame. Throws std::invalid_argument when the images differ in size or a non-zero label
-/// value has no class.
+/// Scores one frame. Throws std::invalid_argument when the images differ in size or a non-zero
+/// label value has no class.
 MaskFrameResult evaluate_instance_masks(const LabelImage& gt_labels, const LabelClasses& gt_classes,
                                         const LabelImage& pred_labels,
                                         const LabelClasses& pred_classes,

@@ -3,9 +3,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cctype>
-#include <filesystem>
+#include <cmath>
 #include <fstream>
 #include <limits>
 #include <nanoflann.hpp>
@@ -34,17 +33,20 @@ struct PointsAdaptor {
 };
 
 // nanoflann 1.4: the index type defaults to uint32_t (unsigned int).
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>,
-                                                   PointsAdaptor, 3, unsigned int>;
+using KdTree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>,
+                                        PointsAdaptor, 3, unsigned int>;
 
-std::string percent(double fraction_or_percent) { return fmt::format("{:.2f}", fraction_or_percent); }
+std::string percent(double fraction_or_percent) {
+  return fmt::format("{:.2f}", fraction_or_percent);
+}
 
 nlohmann::json summary_json(const PoseClassSummary& s) {
-  return {{"class_id", s.class_id},       {"name", s.name},
-          {"symmetric", s.symmetric},     {"instances", s.instances},
-          {"estimated", s.estimated},     {"adds_auc", s.adds_auc},
-          {"add_s_auc", s.add_s_auc},     {"add_auc", s.add_auc},
-          {"adds_below", s.adds_below},   {"add_s_below", s.add_s_below},
+  return {{"class_id", s.class_id},      {"name", s.name},
+          {"symmetric", s.symmetric},    {"instances", s.instances},
+          {"estimated", s.estimated},    {"adds_auc", s.adds_auc},
+          {"add_s_auc", s.add_s_auc},    {"add_auc", s.add_auc},
+          {"adds_below", s.adds_below},  {"add_s_below", s.add_s_below},
           {"adds_mean_m", s.adds_mean_m}};
 }
 
@@ -237,9 +239,12 @@ PoseEvaluation evaluate_pose_results(const std::vector<PoseGroundTruthInstance>&
   size_t unmatched = 0, other_scene = 0;
   for (size_t r = 0; r < rows.size(); ++r) {
     const Key key{rows[r].scene_id, rows[r].im_id, rows[r].obj_id};
-    if (!gt_scenes.count(rows[r].scene_id)) ++other_scene;
-    else if (!gt_by_key.count(key)) ++unmatched;
-    else rows_by_key[key].push_back(r);
+    if (!gt_scenes.count(rows[r].scene_id))
+      ++other_scene;
+    else if (!gt_by_key.count(key))
+      ++unmatched;
+    else
+      rows_by_key[key].push_back(r);
   }
   const std::set<int> symmetric(symmetric_classes.begin(), symmetric_classes.end());
 
@@ -269,9 +274,9 @@ PoseEvaluation evaluate_pose_results(const std::vector<PoseGroundTruthInstance>&
     std::vector<Pair> pairs;
     for (size_t gi = 0; gi < gt_indices.size(); ++gi)
       for (size_t ri = 0; ri < cand.size(); ++ri)
-        pairs.push_back({adds_distance(model, ground_truth[gt_indices[gi]].T_cam_obj,
-                                       rows[cand[ri]].T_cam_obj),
-                         gi, ri});
+        pairs.push_back(
+            {adds_distance(model, ground_truth[gt_indices[gi]].T_cam_obj, rows[cand[ri]].T_cam_obj),
+             gi, ri});
     std::stable_sort(pairs.begin(), pairs.end(),
                      [](const Pair& a, const Pair& b) { return a.adds < b.adds; });
     std::vector<char> gt_used(gt_indices.size(), 0), row_used(cand.size(), 0);
@@ -283,7 +288,8 @@ PoseEvaluation evaluate_pose_results(const std::vector<PoseGroundTruthInstance>&
       s.estimated = true;
       s.score = row.score;
       s.adds_m = p.adds;
-      s.add_m = add_distance(model.points(), ground_truth[gt_indices[p.gi]].T_cam_obj, row.T_cam_obj);
+      s.add_m =
+          add_distance(model.points(), ground_truth[gt_indices[p.gi]].T_cam_obj, row.T_cam_obj);
     }
   }
   PoseEvaluation ev = summarize_pose_scores(std::move(scores), class_names, params);
@@ -312,9 +318,10 @@ FrameSet read_keyframe_list(const std::string& path) {
         if (!std::isdigit(static_cast<unsigned char>(line[i]))) return false;
       return true;
     };
-    if (slash == std::string::npos || !all_digits(first, slash) || !all_digits(slash + 1, end + 1) ||
-        end + 1 - (slash + 1) > 9 || slash - first > 9)
-      throw IoError(path, fmt::format("line {}: expected 'video/frame' such as 0048/000001", line_no));
+    if (slash == std::string::npos || !all_digits(first, slash) ||
+        !all_digits(slash + 1, end + 1) || end + 1 - (slash + 1) > 9 || slash - first > 9)
+      throw IoError(path,
+                    fmt::format("line {}: expected 'video/frame' such as 0048/000001", line_no));
     frames.emplace(std::stoi(line.substr(first, slash - first)),
                    std::stoi(line.substr(slash + 1, end - slash)));
   }
@@ -324,8 +331,7 @@ FrameSet read_keyframe_list(const std::string& path) {
 
 PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& readers,
                                      const std::vector<PoseResultRow>& rows,
-                                     const PoseMetricsParams& params,
-                                     const FrameSet* only_frames) {
+                                     const PoseMetricsParams& params, const FrameSet* only_frames) {
   std::vector<PoseGroundTruthInstance> gt;
   std::map<int, std::string> model_paths, class_names;
   std::map<int, double> model_units;
@@ -342,7 +348,7 @@ PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& re
     class_names.insert(info.class_names.begin(), info.class_names.end());
     if (symmetric.empty()) symmetric = info.symmetric_classes;
     for (size_t i = 0; i < reader->size(); ++i) {
-      const RgbdFrame frame = reader->read(i);
+      const RgbdFrame frame = reader->read_annotations(i);
       if (only_frames && !only_frames->count({info.scene_id, frame.index})) continue;
       for (const auto& o : frame.objects_gt)
         gt.push_back({info.scene_id, frame.index, o.class_id, o.T_cam_obj});
@@ -355,28 +361,24 @@ PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& re
     if (it == model_paths.end())
       throw IoError(readers.front()->info().root,
                     fmt::format("no model points file for class {} in the dataset", g.class_id));
-    const std::string ext = std::filesystem::path(it->second).extension().string();
-    if (ext != ".xyz" && ext != ".txt")
-      throw IoError(it->second, "model points must be an 'x y z' text file (.xyz); other formats are "
-                                "not supported by orpe eval yet");
-    models.emplace(g.class_id, ModelPoints(read_xyz_points(it->second, model_units[g.class_id])));
+    // YCB points.xyz (metres) or a BOP model PLY's vertices (mm), by extension.
+    models.emplace(g.class_id, ModelPoints(read_model_points(it->second, model_units[g.class_id])));
   }
   return evaluate_pose_results(gt, rows, models, symmetric, class_names, params);
 }
 
 PoseEvaluation evaluate_pose_results(const DatasetReader& reader,
                                      const std::vector<PoseResultRow>& rows,
-                                     const PoseMetricsParams& params,
-                                     const FrameSet* only_frames) {
+                                     const PoseMetricsParams& params, const FrameSet* only_frames) {
   return evaluate_pose_results(std::vector<const DatasetReader*>{&reader}, rows, params,
                                only_frames);
 }
 
 std::string PoseEvaluation::report() const {
   const double thr_cm = params.accuracy_threshold_m * 100.0;
-  std::string out = fmt::format("{:<28} {:>9} {:>9} {:>10} {:>12} {:>12}\n", "class", "instances",
-                                "estimated", "ADD-S AUC", "ADD(-S) AUC",
-                                fmt::format("ADD-S<{:g}cm", thr_cm));
+  std::string out =
+      fmt::format("{:<28} {:>9} {:>9} {:>10} {:>12} {:>12}\n", "class", "instances", "estimated",
+                  "ADD-S AUC", "ADD(-S) AUC", fmt::format("ADD-S<{:g}cm", thr_cm));
   auto line = [&](const PoseClassSummary& s) {
     return fmt::format("{:<28} {:>9} {:>9} {:>10} {:>12} {:>12}\n",
                        s.name + (s.symmetric ? " *" : ""), s.instances, s.estimated,
@@ -422,7 +424,9 @@ std::string PoseEvaluation::to_json() const {
   // Per instance, so that runs over several scenes can be pooled later; misses have null distances.
   j["instances"] = nlohmann::json::array();
   for (const auto& p : instances) {
-    nlohmann::json i = {{"scene_id", p.scene_id}, {"im_id", p.im_id}, {"class_id", p.class_id},
+    nlohmann::json i = {{"scene_id", p.scene_id},
+                        {"im_id", p.im_id},
+                        {"class_id", p.class_id},
                         {"estimated", p.estimated}};
     i["score"] = p.estimated ? nlohmann::json(p.score) : nlohmann::json(nullptr);
     i["add_m"] = p.estimated ? nlohmann::json(p.add_m) : nlohmann::json(nullptr);

@@ -5,9 +5,9 @@
 //   ADD   = mean_x || (R' x + t') - (R x + t) ||
 //   ADD-S = mean_x min_y || (R x + t) - (R' y + t') ||     (closest estimated point per true point)
 //   ADD(-S) = ADD-S for symmetric classes, ADD otherwise.
-// AUC (YCB-Video toolbox VOCap, max distance 0.1 m): one distance per ground-truth instance, a missed
-// instance is +inf; distances above the maximum become +inf; sort; accuracy_k = k / n over all n
-// instances; mrec = [0; d_finite; max], mpre = [0; acc; acc_last], running max of mpre, area
+// AUC (YCB-Video toolbox VOCap, max distance 0.1 m): one distance per ground-truth instance, a
+// missed instance is +inf; distances above the maximum become +inf; sort; accuracy_k = k / n over
+// all n instances; mrec = [0; d_finite; max], mpre = [0; acc; acc_last], running max of mpre, area
 // sum_i (mrec_i - mrec_{i-1}) mpre_i over the points where mrec changes, divided by max, x100.
 // Closed form (derived in docs/EVALUATION.md, checked in tests):
 //   AUC = (100 / n) [ sum_{d_k <= max} (1 - d_k / max) + d_largest_finite / max ].
@@ -29,8 +29,8 @@ namespace orpe {
 class DatasetReader;
 
 struct PoseMetricsParams {
-  double auc_max_distance_m = 0.1;      ///< YCB-Video: 0.1
-  double accuracy_threshold_m = 0.02;   ///< the "< 2 cm" column
+  double auc_max_distance_m = 0.1;     ///< YCB-Video: 0.1
+  double accuracy_threshold_m = 0.02;  ///< the "< 2 cm" column
 
   template <class V>
   void visit(V&& v) {
@@ -94,12 +94,12 @@ struct PoseClassSummary {
   bool symmetric = false;
   size_t instances = 0;
   size_t estimated = 0;
-  double adds_auc = 0;         ///< percent
-  double add_s_auc = 0;        ///< ADD(-S), percent
-  double add_auc = 0;          ///< plain ADD for every class, percent
-  double adds_below = 0;       ///< fraction of instances with ADD-S < accuracy_threshold_m
-  double add_s_below = 0;      ///< same with ADD(-S)
-  double adds_mean_m = 0;      ///< mean ADD-S over the estimated instances (0 if none)
+  double adds_auc = 0;     ///< percent
+  double add_s_auc = 0;    ///< ADD(-S), percent
+  double add_auc = 0;      ///< plain ADD for every class, percent
+  double adds_below = 0;   ///< fraction of instances with ADD-S < accuracy_threshold_m
+  double add_s_below = 0;  ///< same with ADD(-S)
+  double adds_mean_m = 0;  ///< mean ADD-S over the estimated instances (0 if none)
 };
 
 struct PoseEvaluation {
@@ -107,16 +107,17 @@ struct PoseEvaluation {
   std::vector<PoseClassSummary> classes;  ///< sorted by class id
   PoseClassSummary all;
   std::vector<PoseInstanceScore> instances;
-  size_t result_rows = 0;           ///< rows read
-  size_t unmatched_rows = 0;        ///< rows with no ground-truth instance (ignored, as the toolbox)
-  size_t other_scene_rows = 0;      ///< rows whose scene_id is not an evaluated scene
+  size_t result_rows = 0;       ///< rows read
+  size_t unmatched_rows = 0;    ///< rows with no ground-truth instance (ignored, as the toolbox)
+  size_t other_scene_rows = 0;  ///< rows whose scene_id is not an evaluated scene
 
   std::string report() const;    ///< aligned text table
   std::string markdown() const;  ///< Markdown table
   std::string to_json() const;
 };
 
-/// Per-class and pooled summaries of instance scores. `class_names` may omit classes (the id is used).
+/// Per-class and pooled summaries of instance scores. `class_names` may omit classes (the id is
+/// used).
 PoseEvaluation summarize_pose_scores(std::vector<PoseInstanceScore> instances,
                                      const std::map<int, std::string>& class_names,
                                      const PoseMetricsParams& params);
@@ -129,11 +130,11 @@ struct PoseGroundTruthInstance {
   SE3 T_cam_obj;
 };
 
-/// Scores results against ground truth. Rows match instances by (scene_id, im_id, obj_id = class id).
-/// When an image holds k instances of a class, the k highest-scoring rows of that class are matched
-/// one-to-one, greedily by smallest ADD-S (k = 1: the highest-scoring row). Instances without a row
-/// are misses. `models` must hold every class that has a ground-truth instance (std::invalid_argument
-/// otherwise).
+/// Scores results against ground truth. Rows match instances by (scene_id, im_id, obj_id = class
+/// id). When an image holds k instances of a class, the k highest-scoring rows of that class are
+/// matched one-to-one, greedily by smallest ADD-S (k = 1: the highest-scoring row). Instances
+/// without a row are misses. `models` must hold every class that has a ground-truth instance
+/// (std::invalid_argument otherwise).
 PoseEvaluation evaluate_pose_results(const std::vector<PoseGroundTruthInstance>& ground_truth,
                                      const std::vector<PoseResultRow>& rows,
                                      const std::map<int, ModelPoints>& models,
@@ -150,7 +151,8 @@ FrameSet read_keyframe_list(const std::string& path);
 
 /// Reads the objects_gt of every frame of every reader (scene_id from DatasetInfo, im_id =
 /// frame.index), keeping only the frames in `only_frames` when it is given, loads the model points
-/// of the classes present (DatasetInfo.model_points_paths, divided by model_units_per_m; class
+/// of the classes present (DatasetInfo.model_points_paths: .xyz text or PLY vertices, divided by
+/// model_units_per_m; class
 /// names and symmetric classes from the first reader that has them), and scores `rows`.
 /// Throws IoError naming the file for an unreadable frame or model, a class without model points,
 /// or a dataset without object models.

@@ -55,8 +55,9 @@ std::vector<TimestampMatch> associate_timestamps(const std::vector<double>& gt_s
   const auto gt = unique_stamps_keep_last(gt_stamps_s);
   const auto est = unique_stamps_keep_last(est_stamps_s);
 
-  // Candidates (|a - b|, a, b) with |a - b| < max, found by a sorted sweep instead of TUM's all-pairs
-  // loop; the widened search bounds only collect candidates, the test itself is TUM's expression.
+  // Candidates (|a - b|, a, b) with |a - b| < max, found by a sorted sweep instead of TUM's
+  // all-pairs loop; the widened search bounds only collect candidates, the test itself is TUM's
+  // expression.
   struct Candidate {
     double diff;
     size_t gt_pos, est_pos;
@@ -209,8 +210,8 @@ std::string TrajectoryEvaluation::report() const {
   out += fmt::format(
       "RPE (delta {} frames, {}): translation rmse {:.6f} m, mean {:.6f} m, median {:.6f} m, "
       "max {:.6f} m; rotation rmse {:.6f} deg, mean {:.6f} deg, max {:.6f} deg ({} pairs)\n",
-      rpe.delta_frames, rpe.all_pairs ? "all pairs" : "consecutive pairs", t.rmse, t.mean,
-      t.median, t.max, r.rmse, r.mean, r.max, t.count);
+      rpe.delta_frames, rpe.all_pairs ? "all pairs" : "consecutive pairs", t.rmse, t.mean, t.median,
+      t.max, r.rmse, r.mean, r.max, t.count);
   return out;
 }
 

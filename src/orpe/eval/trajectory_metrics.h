@@ -1,16 +1,18 @@
 // Camera trajectory metrics: ATE and RPE, as defined by the TUM RGB-D benchmark and evo.
 //
-// Ground truth Q_i and estimate P_i are T_world_cam poses (camera-to-world, metres), one per timestamp.
-//  - Association (TUM associate.py): every (gt, est) timestamp pair with |t_gt - t_est| < max_difference
-//    is a candidate; candidates are taken greedily by smallest difference (ties by gt stamp, then est
-//    stamp), each timestamp used at most once. Matches are ordered by gt timestamp. As in TUM's dict
-//    based reader, a timestamp repeated within one trajectory keeps its last pose.
+// Ground truth Q_i and estimate P_i are T_world_cam poses (camera-to-world, metres), one per
+// timestamp.
+//  - Association (TUM associate.py): every (gt, est) timestamp pair with |t_gt - t_est| <
+//  max_difference
+//    is a candidate; candidates are taken greedily by smallest difference (ties by gt stamp, then
+//    est stamp), each timestamp used at most once. Matches are ordered by gt timestamp. As in TUM's
+//    dict based reader, a timestamp repeated within one trajectory keeps its last pose.
 //  - ATE (TUM evaluate_ate.py / evo APE translation): the estimated positions are aligned onto the
-//    ground-truth positions by the least-squares rigid motion (Horn / Umeyama; optionally a similarity,
-//    Umeyama's scale), and the errors are the distances ||q_i - (s R p_i + t)||.
+//    ground-truth positions by the least-squares rigid motion (Horn / Umeyama; optionally a
+//    similarity, Umeyama's scale), and the errors are the distances ||q_i - (s R p_i + t)||.
 //  - RPE (evo RPE, Sturm et al.): with a fixed frame delta d over the associated pairs,
-//    E_i = (Q_i^-1 Q_{i+d})^-1 (P_i^-1 P_{i+d}); translation error ||trans(E_i)|| (m), rotation error
-//    angle(rot(E_i)) (deg). Pairs (i, i+d) for every i (TUM evaluate_rpe --fixed_delta, evo
+//    E_i = (Q_i^-1 Q_{i+d})^-1 (P_i^-1 P_{i+d}); translation error ||trans(E_i)|| (m), rotation
+//    error angle(rot(E_i)) (deg). Pairs (i, i+d) for every i (TUM evaluate_rpe --fixed_delta, evo
 //    --all_pairs), or, with all_pairs off, (0, d), (d, 2d), ... (evo's default).
 #pragma once
 
@@ -36,7 +38,8 @@ struct TrajectoryMetricsParams {
       "ATE alignment with scale (Umeyama Sim3, for monocular estimates); false = rigid (TUM)");
     v("rpe_delta_frames", rpe_delta_frames, "RPE frame delta d over the associated pairs (>= 1)");
     v("rpe_all_pairs", rpe_all_pairs,
-      "RPE over every pair (i, i+d) (TUM --fixed_delta, evo --all_pairs); false = i = 0, d, 2d, ...");
+      "RPE over every pair (i, i+d) (TUM --fixed_delta, evo --all_pairs); false = i = 0, d, 2d, "
+      "...");
   }
   bool IsValid(std::string* why) const;
 };
@@ -60,10 +63,10 @@ struct SimilarityAlignment {
   Vec3 apply(const Vec3& p) const { return scale * (R * p) + t; }
 };
 
-/// Least-squares alignment of `est` onto `gt` (same size, >= 1 point) by SVD of the cross-covariance
-/// (Umeyama 1991; the rotation is TUM evaluate_ate.py's). Scale as Umeyama when `with_scale`, else 1.
-/// Degenerate inputs (fewer than 3 non-collinear points) give one of the equally good rotations; the
-/// residual norms do not depend on which.
+/// Least-squares alignment of `est` onto `gt` (same size, >= 1 point) by SVD of the
+/// cross-covariance (Umeyama 1991; the rotation is TUM evaluate_ate.py's). Scale as Umeyama when
+/// `with_scale`, else 1. Degenerate inputs (fewer than 3 non-collinear points) give one of the
+/// equally good rotations; the residual norms do not depend on which.
 SimilarityAlignment align_umeyama(const std::vector<Vec3>& est, const std::vector<Vec3>& gt,
                                   bool with_scale);
 
@@ -89,7 +92,7 @@ struct RpeResult {
 };
 
 struct TrajectoryEvaluation {
-  size_t gt_poses = 0;   ///< input sizes
+  size_t gt_poses = 0;  ///< input sizes
   size_t est_poses = 0;
   std::vector<TimestampMatch> matches;
   bool scale_aligned = false;
@@ -103,7 +106,8 @@ struct TrajectoryEvaluation {
 };
 
 /// Associates, aligns, and computes ATE and RPE. Throws ConfigError for invalid params. With no
-/// associated pair the result has empty `matches` and zero counts (callers report that as an error).
+/// associated pair the result has empty `matches` and zero counts (callers report that as an
+/// error).
 TrajectoryEvaluation evaluate_trajectory(const std::vector<StampedPose>& gt,
                                          const std::vector<StampedPose>& est,
                                          const TrajectoryMetricsParams& params);

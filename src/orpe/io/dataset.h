@@ -1,6 +1,7 @@
 // One interface over the dataset layouts orpe reads: a random-access sequence of RGB-D frames plus
 // whatever ground truth the dataset has. Readers convert to library conventions at this edge:
 // depth in metres (per-dataset depth scale), colour RGB8, poses as T_world_cam / T_cam_obj in metres.
+// Layouts, presets, detection rules and depth scales: docs/DATASETS.md.
 #pragma once
 
 #include <map>
@@ -49,7 +50,7 @@ struct DatasetInfo {
   std::string root;    ///< the folder that was opened
   int scene_id = 0;    ///< YCB video number / BOP scene id (for BOP result rows)
   PinholeIntrinsics intrinsics;  ///< of the first frame (frames may carry their own)
-  double depth_units_per_m = 0;  ///< the scale actually used
+  double depth_units_per_m = 0;  ///< the scale used (of the first selected frame; 0 if none was found)
   std::map<int, std::string> class_names;  ///< class id -> name (YCB: classes.txt; BOP: obj_XXXXXX)
   std::map<int, std::string> model_points_paths;  ///< class id -> points file (YCB points.xyz, BOP ply)
   std::map<int, std::string> model_mesh_paths;    ///< class id -> mesh (OBJ/PLY), when present
@@ -72,6 +73,16 @@ class DatasetReader {
   /// Reads frame i (0 <= i < size()). Throws IoError naming the file for a bad frame
   /// (missing/corrupt file, colour/depth size mismatch, ...).
   virtual RgbdFrame read(size_t i) const = 0;
+  /// Frame i without pixels: index, timestamp, name, intrinsics, T_world_cam_gt and objects_gt, but
+  /// no colour, depth or labels_gt. Much cheaper than read() (no image decoding), e.g. for
+  /// evaluation. Throws IoError like read() for bad annotation files (not for bad images).
+  virtual RgbdFrame read_annotations(size_t i) const {
+    RgbdFrame f = read(i);
+    f.color = {};
+    f.depth = {};
+    f.labels_gt = {};
+    return f;
+  }
   /// Ground-truth camera trajectory of the selected frames, when the dataset has one.
   virtual std::vector<StampedPose> ground_truth_trajectory() const { return {}; }
 };

@@ -13,6 +13,7 @@
 #include "orpe/semantic/segmenter.h"
 #include "orpe/semantic/semantic_fusion.h"
 #include "orpe/slam/slam_system.h"
+#include "orpe/synth/synth_params.h"
 
 namespace orpe {
 
@@ -30,6 +31,7 @@ struct OrpeConfig {
   TrajectoryMetricsParams eval_trajectory;
   PoseMetricsParams eval_pose;
   MaskMetricsParams eval_masks;
+  SynthParams synth;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -44,6 +46,7 @@ struct OrpeConfig {
     v("eval_trajectory", eval_trajectory);
     v("eval_pose", eval_pose);
     v("eval_masks", eval_masks);
+    v("synth", synth);
   }
 
   bool IsValid(std::string* why) const;

@@ -1,0 +1,322 @@
+#include "orpe/synth/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+#include "orpe/render/primitives.h"
+#include "orpe/synth/textures.h"
+
+namespace orpe::synth {
+namespace {
+
+using Poly = std::vector<Eigen::Vector2d>;
+
+double polygon_area(const Poly& p) {
+  double a = 0;
+  for (size_t i = 0; i < p.size(); ++i)
+    a += p[i].x() * p[(i + 1) % p.size()].y() - p[(i + 1) % p.size()].x() * p[i].y();
+  return 0.5 * std::abs(a);
+}
+
+/// Smallest signed distance of p to the edges of a CCW convex polygon (positive inside).
+double inside_margin(const Poly& poly, const Eigen::Vector2d& p) {
+  double m = 1e9;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const Eigen::Vector2d a = poly[i], e = poly[(i + 1) % poly.size()] - a;
+    const double len = e.norm();
+    if (len > 0) m = std::min(m, (e.x() * (p.y() - a.y()) - e.y() * (p.x() - a.x())) / len);
+  }
+  return m;
+}
+
+Poly rect(double x0, double y0, double x1, double y1) {
+  return {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
+}
+
+Mat3 rot_z(double a) {
+  return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix();
+}
+
+std::shared_ptr<TriangleMesh> textured(TriangleMesh m, std::shared_ptr<const ColorImage> tex) {
+  m.texture = std::move(tex);
+  return std::make_shared<TriangleMesh>(std::move(m));
+}
+
+std::shared_ptr<TriangleMesh> coloured(TriangleMesh m, Rgb8 c) {
+  m.uvs.clear();
+  m.base_color = c;
+  return std::make_shared<TriangleMesh>(std::move(m));
+}
+
+/// A box of `size` whose faces map the texture at `px_per_m` (repeating) — for boards and slabs.
+TriangleMesh slab(const Eigen::Vector3f& size, float px_per_m, int tex_w, int tex_h) {
+  auto fw = [&](float a) { return a * px_per_m / tex_w; };
+  auto fh = [&](float b) { return b * px_per_m / tex_h; };
+  std::array<UvRect, 6> uv;
+  const float d[6][2] = {{size.y(), size.z()}, {size.y(), size.z()}, {size.x(), size.z()},
+                         {size.x(), size.z()}, {size.x(), size.y()}, {size.x(), size.y()}};
+  for (int f = 0; f < 6; ++f) uv[f] = {0, 0, fw(d[f][0]), fh(d[f][1])};
+  return make_box(size, 0.25f, &uv);
+}
+
+void add_floor_and_walls(SynthScene& s, std::uint64_t seed) {
+  auto concrete = std::make_shared<ColorImage>(draw_concrete(512, seed));
+  s.environment.push_back({textured(make_quad(16.0f, 16.0f, 8, 8, 8, 8), concrete), SE3()});
+  auto wall_tex = std::make_shared<ColorImage>(draw_painted_wall(256, seed + 1, {214, 216, 210}));
+  auto wall = textured(make_quad(16.0f, 5.0f, 8, 3, 4, 1), wall_tex);
+  Mat3 R;  // quad x -> world x, quad y -> world z, quad normal -> world -y: a wall at +y facing the
+           // centre
+  R.col(0) = Vec3::UnitX(), R.col(1) = Vec3::UnitZ(), R.col(2) = -Vec3::UnitY();
+  for (int k = 0; k < 4; ++k) {
+    const Mat3 Rz = rot_z(k * M_PI / 2);
+    s.environment.push_back({wall, SE3(Rz * R, Rz * Vec3(0, 7.0, 2.5))});
+  }
+}
+
+void add_table(SynthScene& s, std::uint64_t seed) {
+  const float L = 1.6f, D = 0.9f, top_t = 0.04f, H = 0.75f, leg = 0.05f;
+  auto wood = std::make_shared<ColorImage>(draw_wood(512, 512, seed + 2, {180, 140, 95}));
+  s.environment.push_back({textured(slab({L, D, top_t}, 220, 512, 512), wood),
+                           SE3(Mat3::Identity(), Vec3(0, 0, H - top_t / 2))});
+  auto leg_mesh = coloured(make_box({leg, leg, H - top_t}, 0.25f), {70, 70, 75});
+  for (int i = 0; i < 4; ++i) {
+    const double x = (i % 2 ? 1 : -1) * (L / 2 - 0.08), y = (i / 2 ? 1 : -1) * (D / 2 - 0.08);
+    s.environment.push_back({leg_mesh, SE3(Mat3::Identity(), Vec3(x, y, (H - top_t) / 2))});
+  }
+  s.supports.push_back({rect(-L / 2, -D / 2, L / 2, D / 2), H, 1e9, -1});
+  s.default_elevation_deg = 40;
+}
+
+void add_shelf(SynthScene& s, std::uint64_t seed) {
+  const float W = 2.0f, D = 0.6f, board_t = 0.03f, beam_h = 0.08f, post = 0.07f, top_h = 1.95f;
+  const float levels[4] = {0.12f, 0.58f, 1.04f, 1.50f};  // top surfaces of the boards
+  auto chip = std::make_shared<ColorImage>(draw_wood(512, 512, seed + 3, {200, 175, 130}));
+  auto board = textured(slab({W, D, board_t}, 250, 512, 512), chip);
+  auto beam = coloured(make_box({W + post, 0.05f, beam_h}, 0.25f), {235, 110, 20});
+  auto upright = coloured(make_box({post, post, top_h}, 0.25f), {30, 70, 150});
+  for (int i = 0; i < 4; ++i) {
+    const double x = (i % 2 ? 1 : -1) * (W / 2 + post / 2),
+                 y = (i / 2 ? 1 : -1) * (D / 2 - post / 2);
+    s.environment.push_back({upright, SE3(Mat3::Identity(), Vec3(x, y, top_h / 2))});
+  }
+  for (int l = 0; l < 4; ++l) {
+    const double z = levels[l];
+    s.environment.push_back({board, SE3(Mat3::Identity(), Vec3(0, 0, z - board_t / 2))});
+    for (int side = -1; side <= 1; side += 2)
+      s.environment.push_back(
+          {beam, SE3(Mat3::Identity(), Vec3(0, side * (D / 2 - 0.025), z - board_t - beam_h / 2))});
+    const double next_bottom = l + 1 < 4 ? levels[l + 1] - board_t - beam_h : top_h + 0.3;
+    s.supports.push_back({rect(-W / 2, -D / 2, W / 2, D / 2), z, next_bottom - z, -1});
+  }
+  // Back panel (mesh-like grey sheet) behind the shelf.
+  auto back = coloured(make_box({W, 0.01f, top_h}, 0.25f), {150, 152, 155});
+  s.environment.push_back({back, SE3(Mat3::Identity(), Vec3(0, D / 2 + 0.01, top_h / 2))});
+  s.view_azimuth_rad = -M_PI / 2;  // cameras in front (-y side)
+  s.default_elevation_deg = 15;
+}
+
+double max_footprint_area(const ObjectModel& m) {
+  double a = 0;
+  for (const auto& r : m.resting_poses) a = std::max(a, polygon_area(r.footprint));
+  return a;
+}
+
+template <class T>
+size_t pick_weighted(const std::vector<T>& weights, std::mt19937_64& rng) {
+  const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
+  if (!(total > 0)) return 0;
+  double r = std::uniform_real_distribution<double>(0, total)(rng);
+  for (size_t i = 0; i < weights.size(); ++i) {
+    r -= weights[i];
+    if (r < 0) return i;
+  }
+  return weights.size() - 1;
+}
+
+}  // namespace
+
+bool polygons_overlap(const Poly& a, const Poly& b, double gap) {
+  for (const Poly* p : {&a, &b}) {
+    for (size_t i = 0; i < p->size(); ++i) {
+      const Eigen::Vector2d e = (*p)[(i + 1) % p->size()] - (*p)[i];
+      if (e.norm() <= 0) continue;
+      const Eigen::Vector2d n(-e.y() / e.norm(), e.x() / e.norm());
+      double a0 = 1e30, a1 = -1e30, b0 = 1e30, b1 = -1e30;
+      for (const auto& q : a) a0 = std::min(a0, n.dot(q)), a1 = std::max(a1, n.dot(q));
+      for (const auto& q : b) b0 = std::min(b0, n.dot(q)), b1 = std::max(b1, n.dot(q));
+      if (a1 + gap <= b0 || b1 + gap <= a0) return false;
+    }
+  }
+  return true;
+}
+
+SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& instance_types,
+                       const SceneLayoutParams& p, std::mt19937_64& rng) {
+  SynthScene s;
+  s.kind = p.kind;
+  s.types = std::move(types);
+  for (int t : instance_types)
+    if (t < 0 || t >= static_cast<int>(s.types.size()))
+      throw std::invalid_argument("build_scene: bad type index");
+  const std::uint64_t env_seed = rng();
+  add_floor_and_walls(s, env_seed);
+  bool any_pallet = false;
+  double total_area = 0, max_len = 0;
+  for (int t : instance_types) {
+    any_pallet |= s.types[t].is_pallet;
+    total_area += max_footprint_area(s.types[t]);
+    for (const auto& r : s.types[t].resting_poses)
+      for (const auto& q : r.footprint) max_len = std::max(max_len, q.norm());
+  }
+  if (p.kind == "floor") {
+    const double half =
+        std::max({0.5, 0.5 * std::sqrt(total_area / std::max(0.05, p.floor_fill)), max_len + 0.05});
+    s.supports.push_back({rect(-half, -half, half, half), 0.0, 1e9, -1});
+    s.default_elevation_deg = 38;
+  } else if (p.kind == "table") {
+    add_table(s, env_seed);
+  } else if (p.kind == "shelf") {
+    add_shelf(s, env_seed);
+  } else {
+    throw std::invalid_argument("scene kind must be floor, table or shelf (got '" + p.kind + "')");
+  }
+  const size_t env_supports = s.supports.size();
+
+  // Placement order: pallets first, then larger footprints (stable: ties keep the given order).
+  std::vector<size_t> order(instance_types.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const auto& ta = s.types[instance_types[a]];
+    const auto& tb = s.types[instance_types[b]];
+    if (ta.is_pallet != tb.is_pallet) return ta.is_pallet;
+    return max_footprint_area(ta) > max_footprint_area(tb) + 1e-9;
+  });
+
+  std::uniform_real_distribution<double> U(0, 1);
+  std::normal_distribution<double> N(0, 1);
+  std::vector<ObjectInstance> placed_by_slot(instance_types.size());
+  std::vector<bool> placed(instance_types.size(), false);
+  std::vector<int> slot_of_placed;  // placement order -> slot
+  for (size_t slot : order) {
+    const int type = instance_types[slot];
+    const ObjectModel& model = s.types[type];
+    if (model.is_pallet && p.kind != "floor") {
+      s.warnings.push_back(model.name + ": pallets are placed on the floor scene only; dropped");
+      continue;
+    }
+    bool ok = false;
+    for (int attempt = 0; attempt < p.max_attempts && !ok; ++attempt) {
+      // Support: sometimes another object's top, else an environment surface (by area).
+      std::vector<double> w_env, w_top;
+      std::vector<size_t> env_idx, top_idx;
+      for (size_t k = 0; k < s.supports.size(); ++k) {
+        const double a = polygon_area(s.supports[k].polygon);
+        if (k < env_supports)
+          env_idx.push_back(k), w_env.push_back(a);
+        else if (!model.is_pallet)
+          top_idx.push_back(k), w_top.push_back(a);
+      }
+      size_t sup;
+      if (!top_idx.empty() && U(rng) < p.stack_probability)
+        sup = top_idx[pick_weighted(w_top, rng)];
+      else
+        sup = env_idx[pick_weighted(w_env, rng)];
+      const SupportSurface support = s.supports[sup];  // a copy: supports grows below
+      std::vector<double> w_pose;
+      for (const auto& r : model.resting_poses) w_pose.push_back(r.weight);
+      const size_t pose_i = pick_weighted(w_pose, rng);
+      const RestingPose& rp = model.resting_poses[pose_i];
+      const double yaw =
+          U(rng) < 0.5 ? std::floor(U(rng) * 4) * M_PI / 2 + 0.08 * N(rng) : 2 * M_PI * U(rng);
+      const Eigen::Matrix2d R2 = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+      Poly fp;
+      for (const auto& q : rp.footprint) fp.push_back(R2 * q);
+      if (support.owner >= 0) {
+        // On another object: smaller than its top; on a pallet deck wide enough to span the board
+        // gaps.
+        if (polygon_area(fp) > 0.7 * polygon_area(support.polygon)) continue;
+        const auto& below = s.types[placed_by_slot[support.owner].type];
+        if (below.is_pallet) {
+          Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+          for (const auto& q : rp.footprint) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+          if ((hi - lo).minCoeff() < 0.15) continue;
+        }
+      }
+      if (rp.height_m > support.clearance_m - 0.01) continue;
+      Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+      for (const auto& q : support.polygon) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+      const Eigen::Vector2d xy(lo.x() + U(rng) * (hi.x() - lo.x()),
+                               lo.y() + U(rng) * (hi.y() - lo.y()));
+      Poly fpw;
+      bool inside = true;
+      for (const auto& q : fp) {
+        fpw.push_back(q + xy);
+        inside &= inside_margin(support.polygon, fpw.back()) >= p.edge_margin_m;
+      }
+      if (!inside) continue;
+      const double bottom = support.height_m, top = bottom + rp.height_m;
+      bool collide = false;
+      for (int other_slot : slot_of_placed) {
+        const ObjectInstance& o = placed_by_slot[other_slot];
+        if (bottom < o.top_m - 1e-9 && o.bottom_m < top - 1e-9 &&
+            polygons_overlap(fpw, o.footprint_world, p.min_gap_m)) {
+          collide = true;
+          break;
+        }
+      }
+      if (collide) continue;
+      ObjectInstance inst;
+      inst.type = type;
+      inst.resting_pose = static_cast<int>(pose_i);
+      inst.support = static_cast<int>(sup);
+      inst.footprint_world = fpw;
+      inst.bottom_m = bottom;
+      inst.top_m = top;
+      inst.T_world_obj =
+          SE3(rot_z(yaw) * rp.R_support_obj, Vec3(xy.x(), xy.y(), bottom + rp.z_offset_m));
+      placed_by_slot[slot] = inst;
+      placed[slot] = true;
+      slot_of_placed.push_back(static_cast<int>(slot));
+      ok = true;
+      // Its top becomes a support for smaller objects.
+      if (rp.flat_top && polygon_area(fpw) > 0.02 && support.clearance_m - rp.height_m > 0.08) {
+        Poly top_poly = convex_hull_2d(fpw);
+        s.supports.push_back(
+            {top_poly, top, support.clearance_m - rp.height_m, static_cast<int>(slot)});
+      }
+    }
+    if (!ok)
+      s.warnings.push_back(model.name + ": no free place found after " +
+                           std::to_string(p.max_attempts) + " attempts; dropped");
+  }
+  // Instances in the caller's order (skipping dropped ones); support owners refer to slots, remap.
+  std::vector<int> slot_to_instance(instance_types.size(), -1);
+  for (size_t slot = 0; slot < instance_types.size(); ++slot)
+    if (placed[slot]) {
+      slot_to_instance[slot] = static_cast<int>(s.objects.size());
+      s.objects.push_back(placed_by_slot[slot]);
+    }
+  for (auto& sup : s.supports)
+    if (sup.owner >= 0) sup.owner = slot_to_instance[sup.owner];
+
+  // Bounds of what the camera should look at.
+  Eigen::AlignedBox3d box;
+  for (const auto& o : s.objects)
+    for (const auto& q : o.footprint_world) {
+      box.extend(Vec3(q.x(), q.y(), o.bottom_m));
+      box.extend(Vec3(q.x(), q.y(), o.top_m));
+    }
+  if (box.isEmpty()) box.extend(Vec3(-0.3, -0.3, 0)), box.extend(Vec3(0.3, 0.3, 0.3));
+  s.centre_world = box.center();
+  s.radius_m = 0;
+  for (const auto& o : s.objects)
+    for (const auto& q : o.footprint_world)
+      for (double z : {o.bottom_m, o.top_m})
+        s.radius_m = std::max(s.radius_m, (Vec3(q.x(), q.y(), z) - s.centre_world).norm());
+  s.radius_m = std::max(s.radius_m, 0.15);
+  return s;
+}
+
+}  // namespace orpe::synth

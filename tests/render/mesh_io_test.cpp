@@ -1,0 +1,226 @@
+#include "orpe/render/mesh_io.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+
+#include "orpe/core/error.h"
+#include "orpe/io/image_io.h"
+#include "orpe/render/primitives.h"
+#include "support/test_data.h"
+
+namespace orpe {
+namespace {
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream os(path, std::ios::binary);
+  os << text;
+}
+
+/// Expects `f` to throw IoError whose message names `path`; returns the message.
+template <class F>
+std::string expect_io_error(const std::string& path, F&& f) {
+  try {
+    f();
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_EQ(e.path(), path);
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected IoError, got " << e.what();
+    return {};
+  }
+  ADD_FAILURE() << "expected IoError for " << path;
+  return {};
+}
+
+const char* kCubeObj = R"(# a unit cube in millimetres, quads, with uvs, normals and a material
+mtllib cube.mtl
+v -500 -500 -500
+v 500 -500 -500
+v 500 500 -500
+v -500 500 -500
+v -500 -500 500
+v 500 -500 500
+v 500 500 500
+v -500 500 500
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+vn 0 0 -1
+vn 0 0 1
+vn 0 -1 0
+vn 1 0 0
+vn 0 1 0
+vn -1 0 0
+usemtl boxmat
+f 1/1/1 4/4/1 3/3/1 2/2/1
+f 5/1/2 6/2/2 7/3/2 8/4/2
+f 1/1/3 2/2/3 6/3/3 5/4/3
+f 2/1/4 3/2/4 7/3/4 6/4/4
+f 3/1/5 4/2/5 8/3/5 7/4/5
+f -4/1/6 -8/2/6 -5/3/6 -1/4/6
+)";
+
+TEST(MeshIo, ObjWithMaterialTextureAndUnitScale) {
+  const std::string dir = test::scratch_dir("obj");
+  write_text(dir + "/cube.obj", kCubeObj);
+  write_text(dir + "/cube.mtl", "newmtl boxmat\nKd 0.5 0.5 0.5\nmap_Kd tex.png\n");
+  ColorImage tex(8, 4, Rgb8{10, 200, 30});
+  write_color_png(dir + "/tex.png", tex);
+  MeshLoadOptions opt;
+  opt.metres_per_unit = 0.001;
+  const TriangleMesh m = load_mesh(dir + "/cube.obj", opt);
+  EXPECT_EQ(m.num_triangles(), 12u);
+  EXPECT_EQ(m.num_vertices(), 24u);  // 6 faces x 4 corners with distinct (v, vt, vn)
+  const auto box = m.bounds();
+  EXPECT_NEAR(box.min().x(), -0.5, 1e-6);
+  EXPECT_NEAR(box.max().z(), 0.5, 1e-6);
+  ASSERT_TRUE(m.has_texture());
+  EXPECT_EQ(m.texture->width(), 8);
+  EXPECT_EQ(m.texture->at(3, 2), (Rgb8{10, 200, 30}));
+  for (const auto& n : m.normals) EXPECT_NEAR(n.norm(), 1.0, 1e-5);
+  EXPECT_NEAR(m.surface_area(), 6.0, 1e-6);
+  EXPECT_NEAR(m.diameter(), std::sqrt(3.0), 1e-6);
+}
+
+TEST(MeshIo, ObjMissingTextureStillLoadsWithMaterialColour) {
+  const std::string dir = test::scratch_dir("objnotex");
+  write_text(dir + "/cube.obj", kCubeObj);
+  write_text(dir + "/cube.mtl", "newmtl boxmat\nKd 0.2 0.4 0.6\nmap_Kd missing.png\n");
+  const TriangleMesh m = load_mesh(dir + "/cube.obj");
+  EXPECT_FALSE(m.has_texture());
+  EXPECT_EQ(m.base_color, (Rgb8{51, 102, 153}));
+}
+
+TEST(MeshIo, PlyRoundTripAsciiAndBinary) {
+  TriangleMesh box = make_box(Eigen::Vector3f(0.2f, 0.1f, 0.05f), 0.04f);
+  box.colors.resize(box.num_vertices());
+  for (size_t i = 0; i < box.colors.size(); ++i)
+    box.colors[i] = {static_cast<std::uint8_t>(i % 256), static_cast<std::uint8_t>((7 * i) % 256),
+                     99};
+  const std::string dir = test::scratch_dir("ply");
+  for (bool binary : {false, true}) {
+    PlyWriteOptions w;
+    w.binary = binary;
+    w.units_per_metre = 1000.0;
+    const std::string path = dir + (binary ? "/b.ply" : "/a.ply");
+    write_ply(path, box, w);
+    MeshLoadOptions r;
+    r.metres_per_unit = 0.001;
+    const TriangleMesh m = load_mesh(path, r);
+    ASSERT_EQ(m.num_vertices(), box.num_vertices());
+    ASSERT_EQ(m.num_triangles(), box.num_triangles());
+    for (size_t i = 0; i < m.num_vertices(); ++i) {
+      ASSERT_LT((m.vertices[i] - box.vertices[i]).norm(), 1e-6) << "binary=" << binary;
+      ASSERT_EQ(m.colors[i], box.colors[i]);
+      ASSERT_LT((m.normals[i] - box.normals[i]).norm(), 1e-4);
+    }
+    EXPECT_EQ(m.triangles, box.triangles);
+  }
+}
+
+TEST(MeshIo, PlyTextureReferenceAndBigEndian) {
+  const std::string dir = test::scratch_dir("plytex");
+  TriangleMesh quad = make_quad(1.0f, 1.0f, 2, 2);
+  auto tex = std::make_shared<ColorImage>(4, 4, Rgb8{255, 0, 0});
+  quad.texture = tex;
+  write_color_png(dir + "/t.png", *tex);
+  PlyWriteOptions w;
+  w.texture_file = "t.png";
+  write_ply(dir + "/q.ply", quad, w);
+  const TriangleMesh m = load_ply(dir + "/q.ply", {0.001, true});
+  ASSERT_TRUE(m.has_texture());
+  EXPECT_EQ(m.uvs.size(), m.num_vertices());
+  EXPECT_TRUE(m.colors.empty());  // dropped: the texture carries colour
+
+  // Hand-made big-endian file: one triangle.
+  std::string be =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  auto put_f = [&](float f) {
+    std::uint32_t u;
+    std::memcpy(&u, &f, 4);
+    for (int s = 24; s >= 0; s -= 8) be.push_back(static_cast<char>((u >> s) & 0xff));
+  };
+  auto put_i = [&](std::int32_t i) {
+    for (int s = 24; s >= 0; s -= 8)
+      be.push_back(static_cast<char>((static_cast<std::uint32_t>(i) >> s) & 0xff));
+  };
+  for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 2.f, 0.f}) put_f(f);
+  be.push_back(3);
+  put_i(0), put_i(1), put_i(2);
+  write_text(dir + "/be.ply", be);
+  const TriangleMesh t = load_ply(dir + "/be.ply");
+  ASSERT_EQ(t.num_triangles(), 1u);
+  EXPECT_FLOAT_EQ(t.vertices[2].y(), 2.0f);
+  EXPECT_NEAR(t.surface_area(), 1.0, 1e-9);
+}
+
+TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
+  const std::string dir = test::scratch_dir("bad");
+  struct Case {
+    std::string name, text, expect;
+  };
+  const std::vector<Case> cases = {
+      {"missing.obj", "", "not found"},
+      {"badnum.obj", "v 0 0 zero\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "line 1"},
+      {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"},
+      {"noface.obj", "v 0 0 0\nv 1 0 0\n", "no faces"},
+      {"shortface.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "at least 3"},
+      {"nomagic.ply", "hello\n", "magic"},
+      {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header"},
+      {"trunc.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n",
+       "unexpected end"},
+      {"short.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0 0\n0 1 0\n3 0 "
+       "1 2\n",
+       "too few values"},
+      {"badidx.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 "
+       "0 1 9\n",
+       "out of range"},
+      {"truncbin.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
+       "y\n"
+       "property float z\nend_header\n\x01\x02",
+       "unexpected end"},
+      {"cube.stl", "solid x\n", "unsupported"},
+  };
+  for (const auto& c : cases) {
+    const std::string path = dir + "/" + c.name;
+    if (c.name != "missing.obj") write_text(path, c.text);
+    const std::string msg = expect_io_error(path, [&] { load_mesh(path); });
+    EXPECT_NE(msg.find(c.expect), std::string::npos) << c.name << ": " << msg;
+  }
+}
+
+TEST(MeshIo, YcbBananaWithTexture) {
+  ORPE_REQUIRE_DATA(data, "ycbv/models/011_banana/textured_simple.obj");
+  const TriangleMesh m = load_mesh(data + "/ycbv/models/011_banana/textured_simple.obj");
+  EXPECT_EQ(m.num_triangles(), 15728u);
+  ASSERT_TRUE(m.has_texture());
+  EXPECT_EQ(m.texture->width(), 4096);
+  // The model points of the ADD metric lie on this mesh: same bounding box within a few mm.
+  std::ifstream is(data + "/ycbv/models/011_banana/points.xyz");
+  Eigen::AlignedBox3f pts;
+  double x, y, z;
+  while (is >> x >> y >> z)
+    pts.extend(
+        Eigen::Vector3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
+  const auto b = m.bounds();
+  EXPECT_LT((b.min() - pts.min()).cwiseAbs().maxCoeff(), 0.005);
+  EXPECT_LT((b.max() - pts.max()).cwiseAbs().maxCoeff(), 0.005);
+}
+
+}  // namespace
+}  // namespace orpe

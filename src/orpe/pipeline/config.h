@@ -19,6 +19,10 @@ namespace orpe {
 
 struct OrpeConfig {
   DatasetParams dataset;
+  TrajectoryMetricsParams eval_trajectory;
+  PoseMetricsParams eval_pose;
+  MaskMetricsParams eval_masks;
+  SynthParams synth;
   slam::SlamOptions slam;                 ///< dense SLAM system options
   slam::PreprocessParams slam_preprocess; ///< SLAM depth filter / pyramids
   slam::TrackerParams slam_tracking;      ///< SLAM frame-to-model tracking
@@ -28,25 +32,21 @@ struct OrpeConfig {
   slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
   SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
   SemanticParams semantic;          ///< instance-aware semantic fusion
-  TrajectoryMetricsParams eval_trajectory;
-  PoseMetricsParams eval_pose;
-  MaskMetricsParams eval_masks;
-  SynthParams synth;
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
   void visit_sections(V&& v) {
     v("dataset", dataset);
+    v("eval_trajectory", eval_trajectory);
+    v("eval_pose", eval_pose);
+    v("eval_masks", eval_masks);
+    v("synth", synth);
     v("slam", slam);
     v("slam_preprocess", slam_preprocess);
     v("slam_tracking", slam_tracking);
     v("slam_fusion", slam_fusion);
     v("segmentation", segmentation);
     v("semantic", semantic);
-    v("eval_trajectory", eval_trajectory);
-    v("eval_pose", eval_pose);
-    v("eval_masks", eval_masks);
-    v("synth", synth);
   }
 
   bool IsValid(std::string* why) const;

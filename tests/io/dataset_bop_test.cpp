@@ -129,6 +129,7 @@ TEST(BopReader, ReadsSceneGroundTruthMasksAndModels) {
     EXPECT_EQ(f.labels_gt.at(4, 5), 0);
   }
   EXPECT_EQ(reader->ground_truth_trajectory().size(), 3u);
+  test::expect_annotations_match_frames(*reader);
 }
 
 TEST(BopReader, DatasetRootPicksSceneAndFindsModels) {
@@ -159,6 +160,8 @@ TEST(BopReader, BadEntriesAreErrorsNamingTheFile) {
   EXPECT_NO_THROW(reader->read(0));
   test::expect_io_error_naming([&] { reader->read(1); }, "scene_camera.json");
   test::expect_io_error_naming([&] { reader->read(2); }, "scene_camera.json");
+  EXPECT_NO_THROW(reader->read_annotations(1));  // depth scale not needed without pixels
+  test::expect_io_error_naming([&] { reader->read_annotations(2); }, "scene_camera.json");
   FrameStream stream(*reader);
   RgbdFrame f;
   while (stream.next(f)) {

@@ -15,6 +15,7 @@
 
 #include "orpe/core/error.h"
 #include "orpe/core/se3.h"
+#include "orpe/io/dataset.h"
 #include "orpe/io/image_io.h"
 
 namespace orpe::test {
@@ -84,6 +85,30 @@ inline void write_float_tiff(const std::string& path, const std::vector<float>& 
   cv::Mat m(kH, kW, CV_32F, cv::Scalar(fill));
   for (size_t i = 0; i < first_row.size(); ++i) m.at<float>(0, static_cast<int>(i)) = first_row[i];
   ASSERT_TRUE(cv::imwrite(path, m));
+}
+
+/// read_annotations(i) carries the same metadata and ground truth as read(i), without pixels.
+inline void expect_annotations_match_frames(const DatasetReader& reader) {
+  for (size_t i = 0; i < reader.size(); ++i) {
+    const RgbdFrame f = reader.read(i);
+    const RgbdFrame a = reader.read_annotations(i);
+    EXPECT_TRUE(a.color.empty() && a.depth.empty() && a.labels_gt.empty());
+    EXPECT_EQ(a.index, f.index);
+    EXPECT_EQ(a.timestamp_s, f.timestamp_s);
+    EXPECT_EQ(a.name, f.name);
+    EXPECT_EQ(a.intrinsics, f.intrinsics);
+    ASSERT_EQ(a.T_world_cam_gt.has_value(), f.T_world_cam_gt.has_value());
+    if (a.T_world_cam_gt) {
+      EXPECT_EQ(a.T_world_cam_gt->matrix(), f.T_world_cam_gt->matrix());
+    }
+    ASSERT_EQ(a.objects_gt.size(), f.objects_gt.size());
+    for (size_t k = 0; k < a.objects_gt.size(); ++k) {
+      EXPECT_EQ(a.objects_gt[k].class_id, f.objects_gt[k].class_id);
+      EXPECT_EQ(a.objects_gt[k].instance_id, f.objects_gt[k].instance_id);
+      EXPECT_EQ(a.objects_gt[k].visible_fraction, f.objects_gt[k].visible_fraction);
+      EXPECT_EQ(a.objects_gt[k].T_cam_obj.matrix(), f.objects_gt[k].T_cam_obj.matrix());
+    }
+  }
 }
 
 /// Expects `fn` to throw IoError whose message contains `needle` (a file name).

@@ -58,6 +58,7 @@ TEST(TumReader, PairsFramesDepthScaleAndGroundTruth) {
                 1e-6);
     }
   }
+  test::expect_annotations_match_frames(*reader);
   const auto gt = reader->ground_truth_trajectory();
   ASSERT_EQ(gt.size(), 3u);
   EXPECT_NEAR(gt[2].timestamp_s, 100.1, 1e-6);
@@ -88,6 +89,9 @@ TEST(TumReader, FrameSelectionIntrinsicsOverridesAndMaxDepth) {
   EXPECT_THROW(open_dataset(dir, p), ConfigError);
   p.first_frame = 0;
   p.stride = 0;
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
+  p.stride = 1;
+  p.depth_units_per_m = -5000;  // a wrong depth scale is refused up front
   EXPECT_THROW(open_dataset(dir, p), ConfigError);
 }
 
@@ -144,6 +148,7 @@ TEST(SevenScenesReader, ReadsFramesPosesAndPresets) {
               1e-9);
   }
   EXPECT_EQ(reader->ground_truth_trajectory().size(), 3u);
+  test::expect_annotations_match_frames(*reader);
 }
 
 TEST(SevenScenesReader, MissingOrNonFinitePoseMeansNoGroundTruth) {
@@ -210,6 +215,9 @@ class BadFrame : public ::testing::Test {
 TEST_F(BadFrame, MissingColour) {
   expect_bad_frame([](const std::string& p) { std::filesystem::remove(p); },
                    "frame-000001.color.png");
+  // Annotations need no pixels: still readable.
+  auto reader = open_dataset(dir_, DatasetParams{});
+  EXPECT_TRUE(reader->read_annotations(1).T_world_cam_gt);
 }
 TEST_F(BadFrame, TruncatedDepthPng) {
   expect_bad_frame([](const std::string& p) { test::truncate_file(p, 60); },

@@ -171,6 +171,7 @@ TEST(YcbReader, ReadsFramesObjectsLabelsAndInfo) {
     EXPECT_EQ(f.labels_gt.at(1, 0), 0);
   }
   EXPECT_EQ(reader->ground_truth_trajectory().size(), 3u);
+  test::expect_annotations_match_frames(*reader);
 }
 
 TEST(YcbReader, SceneSelectionAndVideoFolder) {

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "io/dataset_fixtures.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/model_io.h"
 #include "support/test_data.h"
@@ -89,7 +90,8 @@ TEST(RealYcbVideo, AllModelPointSetsLoad) {
   EXPECT_EQ(info.model_mesh_paths.size(), 21u);
   for (const auto& [id, path] : info.model_points_paths) {
     const auto pts = read_model_points(path, info.model_units_per_m);
-    // The YCB-Video evaluation point sets: 2,620 points for 002_master_chef_can, 2,621 for the others.
+    // The YCB-Video evaluation point sets: 2,620 points for 002_master_chef_can, 2,621 for the
+    // others.
     EXPECT_GE(pts.size(), 2620u) << path;
     EXPECT_LE(pts.size(), 2621u) << path;
     double extent = 0;
@@ -146,6 +148,7 @@ TEST(RealYcbVideo, AllFramesLoadAndGroundTruthPosesProjectOntoTheirLabels) {
     EXPECT_EQ(info.model_points_paths.size(), 21u);
     EXPECT_EQ(info.symmetric_classes.size(), 5u);
     EXPECT_EQ(reader->ground_truth_trajectory().size(), 20u);
+    if (std::string(video) == "0001") test::expect_annotations_match_frames(*reader);
     std::map<int, SE3> first_world_pose;
     for (size_t i = 0; i < reader->size(); ++i) {
       const RgbdFrame f = reader->read(i);

@@ -63,7 +63,7 @@ TEST(ModelRegistration, UniformRotationsCoverSo3) {
 }
 
 TEST(ModelRegistration, BoxFromOneSideWithNoise) {
-  const SurfaceSamples dense = test::sample_box({0.10f, 0.07f, 0.04f}, 0.0012f);
+  const SurfaceSamples dense = test::sample_box({0.10f, 0.07f, 0.04f}, 0.0008f);
   const ObjectModel model = test::make_model(test::sample_box({0.10f, 0.07f, 0.04f}, 0.004f));
   std::mt19937 rng(11);
   SceneOptions opt;
@@ -80,7 +80,7 @@ TEST(ModelRegistration, BoxFromOneSideWithNoise) {
 }
 
 TEST(ModelRegistration, CylinderPartialView) {
-  const SurfaceSamples dense = test::sample_cylinder(0.035f, 0.10f, 0.0012f);
+  const SurfaceSamples dense = test::sample_cylinder(0.035f, 0.10f, 0.0008f);
   const ObjectModel model = test::make_model(test::sample_cylinder(0.035f, 0.10f, 0.004f));
   std::mt19937 rng(12);
   SceneOptions opt;
@@ -99,7 +99,7 @@ TEST(ModelRegistration, CylinderPartialView) {
 }
 
 TEST(ModelRegistration, AsymmetricShapeRecoversFullRotationUnderOcclusion) {
-  const SurfaceSamples dense = test::sample_l_shape(0.0012f);
+  const SurfaceSamples dense = test::sample_l_shape(0.0008f);
   const ObjectModel model = test::make_model(test::sample_l_shape(0.004f));
   std::mt19937 rng(13);
   SceneOptions opt;
@@ -127,7 +127,7 @@ TEST(ModelRegistration, AsymmetricShapeRecoversFullRotationUnderOcclusion) {
 
 TEST(ModelRegistration, NoisyMaskBoundaryWithBackgroundLeak) {
   // Dilate the mask by 3 px so that it includes the support plane around the object.
-  const SurfaceSamples dense = test::sample_box({0.09f, 0.06f, 0.05f}, 0.0012f);
+  const SurfaceSamples dense = test::sample_box({0.09f, 0.06f, 0.05f}, 0.0008f);
   const ObjectModel model = test::make_model(test::sample_box({0.09f, 0.06f, 0.05f}, 0.004f));
   std::mt19937 rng(14);
   const SE3 T_gt = random_pose(rng, 0.6);
@@ -140,7 +140,8 @@ TEST(ModelRegistration, NoisyMaskBoundaryWithBackgroundLeak) {
     for (int u = 0; u < view.mask.width(); ++u)
       for (int dv = -3; dv <= 3; ++dv)
         for (int du = -3; du <= 3; ++du)
-          if (view.mask.in_bounds(u + du, v + dv) && view.mask.at(u + du, v + dv)) dilated.at(u, v) = 1;
+          if (view.mask.in_bounds(u + du, v + dv) && view.mask.at(u + du, v + dv))
+            dilated.at(u, v) = 1;
   SingleViewInput in;
   in.mask = &dilated;
   in.depth = &view.depth;
@@ -152,7 +153,7 @@ TEST(ModelRegistration, NoisyMaskBoundaryWithBackgroundLeak) {
 }
 
 TEST(ModelRegistration, PriorHypothesisIsUsed) {
-  const SurfaceSamples dense = test::sample_l_shape(0.0012f);
+  const SurfaceSamples dense = test::sample_l_shape(0.0008f);
   const ObjectModel model = test::make_model(test::sample_l_shape(0.004f));
   std::mt19937 rng(15);
   const SE3 T_gt = random_pose(rng, 0.6);
@@ -170,7 +171,8 @@ TEST(ModelRegistration, PriorHypothesisIsUsed) {
   in.T_cam_obj_prior = T_gt * SE3(so3_exp(Vec3(0.1, -0.1, 0.05)), Vec3(0.005, 0.0, -0.005));
   const SingleViewPose est = ModelRegistrationEstimator(p).estimate(in);
   ASSERT_TRUE(est.valid) << est.reason;
-  EXPECT_LT(test::add(model.points, est.T_cam_obj, T_gt), 0.003) << est.report();
+  // Seen face-on, the in-plane position rests on the silhouette alone: a few mm, not cm.
+  EXPECT_LT(test::add(model.points, est.T_cam_obj, T_gt), 0.005) << est.report();
 }
 
 TEST(ModelRegistration, BadInputsGiveInvalidWithReason) {

@@ -54,7 +54,8 @@ TEST(ObjectModel, ObjMeshNormalsAndLoadWithMesh) {
   const MeshVerticesNormals mesh = read_obj_vertices_normals(dir + "/cube.obj");
   ASSERT_EQ(mesh.vertices.size(), 8u);
   const Eigen::Vector3f centre(0.5f, 0.5f, 0.5f);
-  for (size_t i = 0; i < 8; ++i) EXPECT_GT(mesh.normals[i].dot(mesh.vertices[i] - centre), 0.5f) << i;
+  for (size_t i = 0; i < 8; ++i)
+    EXPECT_GT(mesh.normals[i].dot(mesh.vertices[i] - centre), 0.5f) << i;
   write_text(dir + "/pts.xyz", "0.01 0.01 0.0\n0.99 0.5 0.99\n0.5 0.99 0.02\n0.0 0.5 0.5\n1 1 1\n");
   ModelLoadOptions opt;
   opt.mesh_path = dir + "/cube.obj";
@@ -62,7 +63,8 @@ TEST(ObjectModel, ObjMeshNormalsAndLoadWithMesh) {
   ASSERT_TRUE(m.has_normals());
   EXPECT_TRUE(m.prepared());
   EXPECT_EQ(m.class_id, 3);
-  for (size_t i = 0; i < m.points.size(); ++i) EXPECT_GT(m.normals[i].dot(m.points[i] - centre), 0.0f);
+  for (size_t i = 0; i < m.points.size(); ++i)
+    EXPECT_GT(m.normals[i].dot(m.points[i] - centre), 0.0f);
   write_text(dir + "/bad.obj", "v 0 0 0\nf 1 2 3\n");
   EXPECT_THROW(read_obj_vertices_normals(dir + "/bad.obj"), IoError);
 }
@@ -139,7 +141,8 @@ TEST(ObjectModel, YcbModelsLoadWithMeshNormals) {
   for (const auto& p : bottle.points) c += p;
   c /= static_cast<float>(bottle.points.size());
   int outward = 0;
-  for (size_t i = 0; i < bottle.points.size(); ++i) outward += bottle.normals[i].dot(bottle.points[i] - c) > 0;
+  for (size_t i = 0; i < bottle.points.size(); ++i)
+    outward += bottle.normals[i].dot(bottle.points[i] - c) > 0;
   EXPECT_GT(outward, static_cast<int>(0.9 * bottle.points.size()));
 }
 

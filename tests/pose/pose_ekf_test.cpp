@@ -34,7 +34,8 @@ TEST(PoseEkf, FirstMeasurementInitialisesWithPaperCovariance) {
   EXPECT_TRUE(s.initialised);
   EXPECT_LT((ekf.T_world_obj().matrix() - T_world_obj.matrix()).norm(), 1e-12);
   EXPECT_LT((ekf.covariance() - 0.004 * Mat6::Identity()).norm(), 1e-15);  // R = mu I
-  EXPECT_LT((s.T_cam_obj_fused.matrix() - (T_world_cam.inverse() * T_world_obj).matrix()).norm(), 1e-12);
+  EXPECT_LT((s.T_cam_obj_fused.matrix() - (T_world_cam.inverse() * T_world_obj).matrix()).norm(),
+            1e-12);
 }
 
 TEST(PoseEkf, ScalarGainTranslation) {
@@ -68,8 +69,8 @@ TEST(PoseEkf, ScalarGainRotationAndScaledR) {
 }
 
 TEST(PoseEkf, BodyFrameInnovationWithRotatedState) {
-  // State rotated 90 deg about z at (1, 0, 0); a measurement translated by (0, 0.02, 0) in the world
-  // is an innovation along -x of the body frame; equal noises -> half of it.
+  // State rotated 90 deg about z at (1, 0, 0); a measurement translated by (0, 0.02, 0) in the
+  // world is an innovation along -x of the body frame; equal noises -> half of it.
   PoseEkf ekf;
   const SE3 X = rot_z(90, Vec3(1, 0, 0));
   ekf.update(meas(X, 0.01));
@@ -101,7 +102,8 @@ TEST(PoseEkf, GatingRejectsAnOutlierAndKeepsTheState) {
   for (int i = 0; i < 5; ++i) ekf.update(meas(truth, 0.002, i));
   const SE3 before = ekf.T_world_obj();
   const Mat6 P_before = ekf.covariance();
-  const PoseEkfStep s = ekf.update(meas(truth * SE3(so3_exp(Vec3(1.2, 0, 0)), Vec3::Zero()), 0.002, 5));
+  const PoseEkfStep s =
+      ekf.update(meas(truth * SE3(so3_exp(Vec3(1.2, 0, 0)), Vec3::Zero()), 0.002, 5));
   EXPECT_FALSE(s.accepted);
   EXPECT_GT(s.mahalanobis_sq, p.gate_chi2);
   EXPECT_LT((ekf.T_world_obj().matrix() - before.matrix()).norm(), 1e-15);
@@ -148,7 +150,8 @@ TEST(PoseEkf, InconsistentRejectionsDoNotRestart) {
   const SE3 truth = rot_z(0, Vec3(0.3, 0.1, 0.9));
   for (int i = 0; i < 3; ++i) ekf.update(meas(truth, 0.002, i));
   // Outliers scattered all over: never three in agreement.
-  for (int i = 0; i < 6; ++i) ekf.update(meas(rot_z(40.0 + 50.0 * i, Vec3(0.3, 0.1, 0.9)), 0.002, 3 + i));
+  for (int i = 0; i < 6; ++i)
+    ekf.update(meas(rot_z(40.0 + 50.0 * i, Vec3(0.3, 0.1, 0.9)), 0.002, 3 + i));
   EXPECT_EQ(ekf.result().num_reinitialisations, 0);
   EXPECT_EQ(ekf.result().num_rejected, 6);
   EXPECT_LT(rotation_distance_rad(ekf.T_world_obj().rotation(), truth.rotation()), 1e-9);
@@ -228,7 +231,8 @@ TEST(PoseEkf, DiscreteSymmetryPicksTheClosestEquivalent) {
   const SE3 truth = SE3(so3_exp(Vec3(0.1, 0.7, -0.3)), Vec3(0.1, 0.2, 0.7));
   ekf.update(meas(truth, 0.002));
   for (int i = 0; i < 3; ++i) {
-    const PoseEkfStep s = ekf.update(meas(truth * box.discrete[static_cast<size_t>(i)], 0.002, i + 1));
+    const PoseEkfStep s =
+        ekf.update(meas(truth * box.discrete[static_cast<size_t>(i)], 0.002, i + 1));
     EXPECT_TRUE(s.accepted);
     EXPECT_LT(s.mahalanobis_sq, 1e-12);
     EXPECT_LT((s.T_world_obj_measured.matrix() - truth.matrix()).norm(), 1e-9);

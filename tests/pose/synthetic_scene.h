@@ -55,7 +55,8 @@ inline SurfaceSamples sample_cylinder(float radius, float height, float step) {
   for (int i = 0; i < n_around; ++i) {
     const float a = static_cast<float>(2 * M_PI * i / n_around);
     const Eigen::Vector3f n(std::cos(a), std::sin(a), 0);
-    for (int j = 0; j <= n_up; ++j) s.add(Eigen::Vector3f(radius * n.x(), radius * n.y(), -height / 2 + height * j / n_up), n);
+    for (int j = 0; j <= n_up; ++j)
+      s.add(Eigen::Vector3f(radius * n.x(), radius * n.y(), -height / 2 + height * j / n_up), n);
   }
   const int n_r = std::max(1, static_cast<int>(std::ceil(radius / step)));
   for (int sign : {-1, 1})
@@ -110,16 +111,19 @@ struct SceneOptions {
   unsigned seed = 1;
 };
 
-/// Renders the dense object samples at T_cam_obj (plus plane and occluder) into a 320x240 view.
-inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_obj, const SceneOptions& opt) {
+/// Renders the dense object samples at T_cam_obj (plus plane and occluder) into a 640x480 view
+/// (f = 600 px: a pixel is 1 mm at 0.6 m, so the samples must be denser than that).
+inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_obj,
+                                 const SceneOptions& opt) {
   SyntheticView v;
-  v.K.width = 320;
-  v.K.height = 240;
-  v.K.fx = v.K.fy = 300;
-  v.K.cx = 159.5;
-  v.K.cy = 119.5;
-  v.depth = DepthImage(320, 240, 0.0f);
-  LabelImage id(320, 240, 0);
+  const int W = 640, H = 480;
+  v.K.width = W;
+  v.K.height = H;
+  v.K.fx = v.K.fy = 600;
+  v.K.cx = 319.5;
+  v.K.cy = 239.5;
+  v.depth = DepthImage(W, H, 0.0f);
+  LabelImage id(W, H, 0);
   auto splat = [&](const Eigen::Vector3d& p, int label) {
     if (p.z() <= 0.05) return;
     const Eigen::Vector2d uv = v.K.project(p);
@@ -134,8 +138,8 @@ inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_o
   for (const auto& p : dense.points) splat(T_cam_obj * p.cast<double>(), 1);
   // Object's image extent for the occluder.
   int umin = 1 << 30, umax = -1;
-  for (int w = 0; w < 240; ++w)
-    for (int u = 0; u < 320; ++u)
+  for (int w = 0; w < H; ++w)
+    for (int u = 0; u < W; ++u)
       if (id.at(u, w) == 1) {
         umin = std::min(umin, u);
         umax = std::max(umax, u);
@@ -143,7 +147,7 @@ inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_o
   if (opt.occluded_fraction > 0 && umax >= umin) {
     const int ucut = umin + static_cast<int>(opt.occluded_fraction * (umax - umin));
     const double z_occ = T_cam_obj.translation().z() - 0.12;
-    for (int w = 0; w < 240; ++w)
+    for (int w = 0; w < H; ++w)
       for (int u = 0; u <= ucut; ++u) {
         v.depth.at(u, w) = static_cast<float>(z_occ);
         id.at(u, w) = 2;
@@ -151,8 +155,8 @@ inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_o
   }
   if (opt.plane_depth_m > 0) {
     // Plane z = d + 0.2 y (camera frame), behind everything else.
-    for (int w = 0; w < 240; ++w)
-      for (int u = 0; u < 320; ++u) {
+    for (int w = 0; w < H; ++w)
+      for (int u = 0; u < W; ++u) {
         if (v.depth.at(u, w) > 0) continue;
         const double ry = (w - v.K.cy) / v.K.fy;
         const double z = opt.plane_depth_m / (1.0 - 0.2 * ry);
@@ -161,9 +165,9 @@ inline SyntheticView render_view(const SurfaceSamples& dense, const SE3& T_cam_o
   }
   std::mt19937 rng(opt.seed);
   std::normal_distribution<float> noise(0.0f, static_cast<float>(opt.noise_std_m));
-  v.mask = MaskImage(320, 240, 0);
-  for (int w = 0; w < 240; ++w)
-    for (int u = 0; u < 320; ++u) {
+  v.mask = MaskImage(W, H, 0);
+  for (int w = 0; w < H; ++w)
+    for (int u = 0; u < W; ++u) {
       if (v.depth.at(u, w) > 0 && opt.noise_std_m > 0) v.depth.at(u, w) += noise(rng);
       v.mask.at(u, w) = id.at(u, w) == 1 ? 1 : 0;
     }

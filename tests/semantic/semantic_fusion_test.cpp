@@ -297,20 +297,26 @@ TEST(SemanticFusion, AMissedDetectionDoesNotPullSurfelsTowardsBackground) {
     const int W = s.K.width, H = s.K.height;
     const auto object = test::rect_detection(W, H, 1, 0.95f, 10, 10, 29, 29, 0.6f, 0.0f);
     fusion.integrate(s.frame(0), {object}, SE3(), s.map, &s.pixel_surfel);
-    const auto rep = fusion.integrate(s.frame(1), {}, SE3(), s.map, &s.pixel_surfel);  // missed
+    // A tentative instance (one detection) does not protect its surfels...
+    RgbdFrame elsewhere = s.frame(1);
+    elsewhere.depth.fill(3.0f);  // ...(this frame observes no surfel, so nothing changes)
+    EXPECT_EQ(fusion.integrate(elsewhere, {}, SE3(), s.map).missed_instances, 0);
+    // Confirmed by a second detection, then missed.
+    fusion.integrate(s.frame(2), {object}, SE3(), s.map, &s.pixel_surfel);
+    const auto rep = fusion.integrate(s.frame(3), {}, SE3(), s.map, &s.pixel_surfel);
     EXPECT_EQ(rep.missed_instances, 1);
     const auto inside = s.surfel(20, 20), near = s.surfel(33, 20), far = s.surfel(60, 50);
     if (skip) {
       EXPECT_NEAR(s.map.p_object[inside], 0.6f, 1e-6);
-      EXPECT_EQ(s.map.object_obs_count[inside], 1);
-      EXPECT_EQ(s.map.object_obs_count[near], 1);  // within 6 px of the projection: skipped too
+      EXPECT_EQ(s.map.object_obs_count[inside], 2);
+      EXPECT_EQ(s.map.object_obs_count[near], 2);  // within 6 px of the projection: skipped too
       EXPECT_EQ(rep.surfels_skipped, 32 * 32);  // the 20x20 projection dilated by 6 px (square window)
       EXPECT_EQ(s.map.instance_id[inside], fusion.instances().begin()->first);
     } else {
-      EXPECT_NEAR(s.map.p_object[inside], 0.3f, 1e-6);
-      EXPECT_EQ(s.map.instance_id[inside], 0);  // released: p_o 0.3 <= 0.4
+      EXPECT_NEAR(s.map.p_object[inside], 0.4f, 1e-6);
+      EXPECT_EQ(s.map.instance_id[inside], 0);  // released: p_o 0.4 <= 0.4
     }
-    EXPECT_EQ(s.map.object_obs_count[far], 2);
+    EXPECT_EQ(s.map.object_obs_count[far], 3);
   }
 }
 

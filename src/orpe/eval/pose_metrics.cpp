@@ -348,7 +348,7 @@ PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& re
     class_names.insert(info.class_names.begin(), info.class_names.end());
     if (symmetric.empty()) symmetric = info.symmetric_classes;
     for (size_t i = 0; i < reader->size(); ++i) {
-      const RgbdFrame frame = reader->read(i);
+      const RgbdFrame frame = reader->read_annotations(i);
       if (only_frames && !only_frames->count({info.scene_id, frame.index})) continue;
       for (const auto& o : frame.objects_gt)
         gt.push_back({info.scene_id, frame.index, o.class_id, o.T_cam_obj});

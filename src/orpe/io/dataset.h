@@ -73,6 +73,16 @@ class DatasetReader {
   /// Reads frame i (0 <= i < size()). Throws IoError naming the file for a bad frame
   /// (missing/corrupt file, colour/depth size mismatch, ...).
   virtual RgbdFrame read(size_t i) const = 0;
+  /// Frame i without pixels: index, timestamp, name, intrinsics, T_world_cam_gt and objects_gt, but
+  /// no colour, depth or labels_gt. Much cheaper than read() (no image decoding), e.g. for
+  /// evaluation. Throws IoError like read() for bad annotation files (not for bad images).
+  virtual RgbdFrame read_annotations(size_t i) const {
+    RgbdFrame f = read(i);
+    f.color = {};
+    f.depth = {};
+    f.labels_gt = {};
+    return f;
+  }
   /// Ground-truth camera trajectory of the selected frames, when the dataset has one.
   virtual std::vector<StampedPose> ground_truth_trajectory() const { return {}; }
 };

@@ -78,13 +78,19 @@ class SevenScenesReader final : public SelectedFramesReader {
   }
 
   RgbdFrame read(size_t i) const override {
+    RgbdFrame f = read_annotations(i);
+    const SevenScenesFrame& fr = frames_[position(i)];
+    load_color_and_depth(fr.color, fr.depth, info_.depth_units_per_m, params_, f);
+    return f;
+  }
+
+  RgbdFrame read_annotations(size_t i) const override {
     const SevenScenesFrame& fr = frames_[position(i)];
     RgbdFrame f;
     f.index = fr.number;
     f.timestamp_s = fr.number / kFrameRateHz;
     f.name = fs::path(fr.color).filename().string();
-    f.intrinsics = intrinsics_;
-    load_color_and_depth(fr.color, fr.depth, info_.depth_units_per_m, params_, f);
+    f.intrinsics = info_.intrinsics;
     f.T_world_cam_gt = read_pose(fr.pose);
     return f;
   }

@@ -148,32 +148,40 @@ class BopReader final : public SelectedFramesReader {
                                                             : 0.0;
   }
 
-  RgbdFrame read(size_t i) const override {
+  RgbdFrame read_annotations(size_t i) const override {
     const BopImage& im = images_[position(i)];
-    const std::string camera_file = (scene_dir_ / "scene_camera.json").string();
     if (!im.camera.error.empty())
-      throw IoError(camera_file, fmt::format("image {}: {}", im.im_id, im.camera.error));
+      throw IoError((scene_dir_ / "scene_camera.json").string(),
+                    fmt::format("image {}: {}", im.im_id, im.camera.error));
     if (!im.gt_error.empty())
       throw IoError((scene_dir_ / "scene_gt.json").string(),
                     fmt::format("image {}: {}", im.im_id, im.gt_error));
-    double units = params_.depth_units_per_m;
-    if (units <= 0) {
-      if (!im.camera.depth_scale_mm)
-        throw IoError(
-            camera_file,
-            fmt::format("image {}: no 'depth_scale'; set dataset.depth_units_per_m", im.im_id));
-      units = kMmPerM / *im.camera.depth_scale_mm;
-    }
     RgbdFrame f;
     f.index = im.im_id;
     f.timestamp_s = im.im_id / kFrameRateHz;
     f.name = fmt::format("{}/{:06d}", scene_dir_.filename().string(), im.im_id);
     f.intrinsics = apply_intrinsics_overrides(im.camera.K, params_);
+    f.intrinsics.width = info_.intrinsics.width;
+    f.intrinsics.height = info_.intrinsics.height;
+    f.T_world_cam_gt = im.camera.T_world_cam;
+    f.objects_gt = im.objects;
+    return f;
+  }
+
+  RgbdFrame read(size_t i) const override {
+    RgbdFrame f = read_annotations(i);
+    const BopImage& im = images_[position(i)];
+    double units = params_.depth_units_per_m;
+    if (units <= 0) {
+      if (!im.camera.depth_scale_mm)
+        throw IoError(
+            (scene_dir_ / "scene_camera.json").string(),
+            fmt::format("image {}: no 'depth_scale'; set dataset.depth_units_per_m", im.im_id));
+      units = kMmPerM / *im.camera.depth_scale_mm;
+    }
     const std::string depth_path =
         first_existing(scene_dir_ / "depth", fmt::format("{:06d}", im.im_id), {".png", ".tif"});
     load_color_and_depth(color_path(im.im_id), depth_path, units, params_, f);
-    f.T_world_cam_gt = im.camera.T_world_cam;
-    f.objects_gt = im.objects;
     const fs::path mask_dir = scene_dir_ / "mask_visib";
     if (!f.objects_gt.empty() && fs::is_directory(mask_dir)) {
       f.labels_gt = LabelImage(f.depth.width(), f.depth.height(), 0);

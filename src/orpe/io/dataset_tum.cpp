@@ -192,15 +192,21 @@ class TumReader final : public SelectedFramesReader {
   }
 
   RgbdFrame read(size_t i) const override {
+    RgbdFrame f = read_annotations(i);
+    const FramePair& pair = pairs_[position(i)];
+    load_color_and_depth(file(pair.rgb.path), file(pair.depth.path), info_.depth_units_per_m,
+                         params_, f);
+    return f;
+  }
+
+  RgbdFrame read_annotations(size_t i) const override {
     const size_t p = position(i);
     const FramePair& pair = pairs_[p];
     RgbdFrame f;
     f.index = static_cast<int>(p);
     f.timestamp_s = pair.rgb.timestamp_s;
     f.name = pair.rgb.path;
-    f.intrinsics = intrinsics_;
-    load_color_and_depth(file(pair.rgb.path), file(pair.depth.path), info_.depth_units_per_m,
-                         params_, f);
+    f.intrinsics = info_.intrinsics;
     if (p < gt_of_pair_.size()) f.T_world_cam_gt = gt_of_pair_[p];
     return f;
   }

@@ -326,23 +326,11 @@ class YcbReader final : public SelectedFramesReader {
             "no 'factor_depth' (depth scale); set dataset.depth_units_per_m to read this frame");
       units = *meta.factor_depth;
     }
-    RgbdFrame f;
-    f.index = fr.number;
-    f.timestamp_s = fr.number / kFrameRateHz;
-    f.name = fmt::format("{:04d}/{}", info_.scene_id, fs::path(fr.color).filename().string());
-    f.intrinsics = apply_intrinsics_overrides(
-        meta.K ? intrinsics_from(*meta.K) : preset_intrinsics(), params_);
+    RgbdFrame f = annotations(fr, meta);
     load_color_and_depth(fr.color, fr.depth, units, params_, f);
-    if (meta.T_cam_world) f.T_world_cam_gt = meta.T_cam_world->inverse();
     std::map<int, int> label_of_class;  // class id -> objects_gt index + 1
-    for (size_t k = 0; k < meta.class_ids.size(); ++k) {
-      ObjectGroundTruth o;
-      o.class_id = meta.class_ids[k];
-      o.instance_id = o.class_id;  // one instance per class in YCB-Video
-      o.T_cam_obj = meta.T_cam_obj[k];
-      f.objects_gt.push_back(o);
-      label_of_class.emplace(o.class_id, static_cast<int>(k) + 1);
-    }
+    for (size_t k = 0; k < f.objects_gt.size(); ++k)
+      label_of_class.emplace(f.objects_gt[k].class_id, static_cast<int>(k) + 1);
     if (fs::exists(fr.label)) {
       f.labels_gt = load_labels_matching(fr.label, f);
       size_t unmatched = 0;
@@ -363,6 +351,11 @@ class YcbReader final : public SelectedFramesReader {
     return f;
   }
 
+  RgbdFrame read_annotations(size_t i) const override {
+    const YcbFrame& fr = frames_[position(i)];
+    return annotations(fr, read_meta(fr.meta, true));
+  }
+
   std::vector<StampedPose> ground_truth_trajectory() const override {
     std::vector<StampedPose> out;
     for (size_t p : selected_) {
@@ -378,6 +371,27 @@ class YcbReader final : public SelectedFramesReader {
   }
 
  private:
+  /// The frame's fields from meta.mat (no pixels; image size from the dataset's first frame).
+  RgbdFrame annotations(const YcbFrame& fr, const YcbMeta& meta) const {
+    RgbdFrame f;
+    f.index = fr.number;
+    f.timestamp_s = fr.number / kFrameRateHz;
+    f.name = fmt::format("{:04d}/{}", info_.scene_id, fs::path(fr.color).filename().string());
+    f.intrinsics = apply_intrinsics_overrides(
+        meta.K ? intrinsics_from(*meta.K) : preset_intrinsics(), params_);
+    f.intrinsics.width = info_.intrinsics.width;
+    f.intrinsics.height = info_.intrinsics.height;
+    if (meta.T_cam_world) f.T_world_cam_gt = meta.T_cam_world->inverse();
+    for (size_t k = 0; k < meta.class_ids.size(); ++k) {
+      ObjectGroundTruth o;
+      o.class_id = meta.class_ids[k];
+      o.instance_id = o.class_id;  // one instance per class in YCB-Video
+      o.T_cam_obj = meta.T_cam_obj[k];
+      f.objects_gt.push_back(o);
+    }
+    return f;
+  }
+
   void scan_frames(const fs::path& video_dir) {
     std::map<int, YcbFrame> frames;
     for (const auto& e : fs::directory_iterator(video_dir)) {

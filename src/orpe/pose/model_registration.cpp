@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numeric>
 
@@ -23,7 +24,8 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (outlier_radius_factor < 0) return fail("outlier_radius_factor must be >= 0");
   if (num_rotations < 1) return fail("num_rotations must be >= 1");
   if (coarse_points < 6) return fail("coarse_points must be >= 6");
-  if (coarse_iterations < 0 || refine_iterations < 1) return fail("ICP iteration counts must be positive");
+  if (coarse_iterations < 0 || refine_iterations < 1)
+    return fail("ICP iteration counts must be positive");
   if (coarse_max_corr_factor <= 0 || refine_max_corr_factor <= 0)
     return fail("association distance factors must be > 0");
   if (refine_top_k < 1) return fail("refine_top_k must be >= 1");
@@ -32,9 +34,13 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (point_to_point_weight < 0) return fail("point_to_point_weight must be >= 0");
   if (inlier_distance_m <= 0) return fail("inlier_distance_m must be > 0");
   if (free_space_margin_m <= 0) return fail("free_space_margin_m must be > 0");
-  if (free_space_weight < 0 || free_space_icp_weight < 0) return fail("free-space weights must be >= 0");
+  if (free_space_weight < 0 || free_space_icp_weight < 0 || support_weight < 0)
+    return fail("score weights must be >= 0");
+  if (free_space_window_px < 0 || free_space_window_px > 10)
+    return fail("free_space_window_px must be in [0, 10]");
   if (free_space_model_points < 10) return fail("free_space_model_points must be >= 10");
-  if (min_inlier_fraction < 0 || min_inlier_fraction > 1) return fail("min_inlier_fraction must be in [0, 1]");
+  if (min_inlier_fraction < 0 || min_inlier_fraction > 1)
+    return fail("min_inlier_fraction must be in [0, 1]");
   return true;
 }
 
@@ -78,41 +84,53 @@ struct Hypothesis {
   double fit = 0;
   double inliers = 0;
   double violation = 0;
+  double support = 0;
 };
 
-/// What scoring needs of the frame: depth min-filtered over 3x3 (a model point is a free-space
+/// What scoring needs of the frame: depth min-filtered over a window (a model point is a free-space
 /// violation only if it is in front of every observed depth around its pixel: robust to mixed
-/// pixels at depth edges) and a subset of the model points.
+/// pixels and the sensor's depth bleeding at object edges) and subsets of the model points.
 struct ScoringContext {
-  DepthImage depth_min3;
+  DepthImage depth_min;
   PinholeIntrinsics K;
   std::vector<Vec3f> model_subset;
   std::vector<Vec3f> normal_subset;
   std::vector<Vec3f> coarse_model_subset;  ///< smaller, for the coarse stage
+  std::vector<Vec3f> coarse_normal_subset;
+  const DepthImage* depth = nullptr;                 ///< raw depth (metres)
   std::unique_ptr<ModelSearchIndex> observed_index;  ///< over the segmented points (camera frame)
 };
 
-DepthImage min_filter3(const DepthImage& depth) {
+/// Minimum of the valid (non-zero) depths over a (2r+1)^2 window; separable (rows, then columns).
+DepthImage min_filter(const DepthImage& depth, int r) {
+  if (r <= 0) return depth;
   const int w = depth.width(), h = depth.height();
+  const float inf = std::numeric_limits<float>::infinity();
+  Image<float> rows(w, h, inf);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      float m = inf;
+      for (int k = std::max(0, u - r); k <= std::min(w - 1, u + r); ++k) {
+        const float z = depth.at(k, v);
+        if (z > 0 && z < m) m = z;
+      }
+      rows.at(u, v) = m;
+    }
   DepthImage out(w, h, 0.0f);
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u) {
-      float m = 0;
-      for (int dv = -1; dv <= 1; ++dv)
-        for (int du = -1; du <= 1; ++du) {
-          const int uu = u + du, vv = v + dv;
-          if (uu < 0 || vv < 0 || uu >= w || vv >= h) continue;
-          const float z = depth.at(uu, vv);
-          if (z > 0 && (m == 0 || z < m)) m = z;
-        }
-      out.at(u, v) = m;
+      float m = inf;
+      for (int k = std::max(0, v - r); k <= std::min(h - 1, v + r); ++k)
+        m = std::min(m, rows.at(u, k));
+      out.at(u, v) = std::isfinite(m) ? m : 0.0f;
     }
   return out;
 }
 
 class Registration {
  public:
-  Registration(const ModelRegistrationParams& p, const ObjectModel& model, const ScoringContext& ctx)
+  Registration(const ModelRegistrationParams& p, const ObjectModel& model,
+               const ScoringContext& ctx)
       : p_(p), model_(model), index_(*model.search_index), ctx_(ctx) {}
 
   /// Robust point-to-plane ICP of the observed points `obs` (camera frame) onto the model.
@@ -224,7 +242,8 @@ class Registration {
       // Distance to the surface: the plane distance, unless the point is farther from the nearest
       // sample than the sampling explains.
       const float dp = std::sqrt(d2);
-      const float d = std::max(std::abs(model_.normals[j].dot(pt - model_.points[j])), dp - spacing);
+      const float d =
+          std::max(std::abs(model_.normals[j].dot(pt - model_.points[j])), dp - spacing);
       fit += std::max(0.0, 1.0 - d / tau);
       inliers += d < tau;
     }
@@ -233,20 +252,38 @@ class Registration {
 
     const Mat3f Rc = h.T_cam_obj.rotation().cast<float>();
     const Vec3f tc = h.T_cam_obj.translation().cast<float>();
-    int violations = 0;
-    for (const auto& m : model_subset) violations += violates_free_space(Rc * m + tc);
+    const std::vector<Vec3f>& normal_subset =
+        coarse ? ctx_.coarse_normal_subset : ctx_.normal_subset;
+    int violations = 0, visible = 0;
+    double supported = 0;
+    for (size_t i = 0; i < model_subset.size(); ++i) {
+      const Vec3f pc = Rc * model_subset[i] + tc;
+      violations += violates_free_space(pc);
+      // Support: a camera-facing model point that nothing observed hides should lie on the observed
+      // depth, inside the mask or not (a cut or partial mask still sees the object's depth).
+      if (p_.support_weight <= 0 || pc.z() <= 0.01f || (Rc * normal_subset[i]).dot(pc) >= 0)
+        continue;
+      const int u = static_cast<int>(std::lround(ctx_.K.fx * pc.x() / pc.z() + ctx_.K.cx));
+      const int v = static_cast<int>(std::lround(ctx_.K.fy * pc.y() / pc.z() + ctx_.K.cy));
+      if (!ctx_.depth->in_bounds(u, v)) continue;
+      const float z = ctx_.depth->at(u, v);
+      if (!(z > 0) || z < pc.z() - static_cast<float>(tau)) continue;  // unknown or occluded
+      ++visible;
+      supported += std::max(0.0, 1.0 - std::abs(z - pc.z()) / tau);
+    }
     h.violation = static_cast<double>(violations) / static_cast<double>(model_subset.size());
-    h.score = h.fit - p_.free_space_weight * h.violation;
+    h.support = visible > 0 ? supported / visible : 0.0;
+    h.score = h.fit - p_.free_space_weight * h.violation + p_.support_weight * h.support;
   }
 
-  /// A camera-frame model point in front of the observed depth (3x3 minimum) by more than the
+  /// A camera-frame model point in front of the observed depth (window minimum) by more than the
   /// margin, or behind the camera: the sensor saw through where the object would be.
   bool violates_free_space(const Vec3f& pc) const {
     if (pc.z() <= 0.01f) return true;
     const int u = static_cast<int>(std::lround(ctx_.K.fx * pc.x() / pc.z() + ctx_.K.cx));
     const int v = static_cast<int>(std::lround(ctx_.K.fy * pc.y() / pc.z() + ctx_.K.cy));
-    if (!ctx_.depth_min3.in_bounds(u, v)) return false;
-    const float z = ctx_.depth_min3.at(u, v);
+    if (!ctx_.depth_min.in_bounds(u, v)) return false;
+    const float z = ctx_.depth_min.at(u, v);
     return z > 0 && pc.z() < z - static_cast<float>(p_.free_space_margin_m);
   }
 
@@ -329,7 +366,8 @@ void search(const ModelRegistrationParams& params, const std::vector<Mat3>& rota
     refine.push_back(h);
   }
 
-  const double refine_start = std::max(params.refine_max_corr_factor * diameter, params.final_max_corr_m);
+  const double refine_start =
+      std::max(params.refine_max_corr_factor * diameter, params.final_max_corr_m);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int i = 0; i < static_cast<int>(refine.size()); ++i) {
     Hypothesis& h = refine[static_cast<size_t>(i)];
@@ -397,7 +435,7 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
   }
 
   ScoringContext ctx;
-  ctx.depth_min3 = min_filter3(*input.depth);
+  ctx.depth_min = min_filter(*input.depth, params.free_space_window_px);
   ctx.K = input.intrinsics;
   {
     const size_t n = model->points.size();
@@ -408,6 +446,8 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
       ctx.normal_subset.push_back(model->normals[static_cast<size_t>(k)]);
     }
     ctx.coarse_model_subset = strided_subset(ctx.model_subset, params.coarse_points);
+    ctx.coarse_normal_subset = strided_subset(ctx.normal_subset, params.coarse_points);
+    ctx.depth = input.depth;
   }
   ctx.observed_index = std::make_unique<ModelSearchIndex>(cloud.points);
   const Registration reg(params_, *model, ctx);
@@ -421,9 +461,8 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
   } else {
     search(params_, rotations_, reg, cloud, diameter, input, refine);
   }
-  const auto best = std::max_element(refine.begin(), refine.end(), [](const auto& a, const auto& b) {
-    return a.score < b.score;
-  });
+  const auto best = std::max_element(
+      refine.begin(), refine.end(), [](const auto& a, const auto& b) { return a.score < b.score; });
 
   out.T_cam_obj = best->T_cam_obj;
   out.score = best->score;

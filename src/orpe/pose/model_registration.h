@@ -1,14 +1,16 @@
 // Model-based single-view pose: global registration of the instance's segmented depth points to the
 // object's 3D model. No training; only the model is needed.
 //
-//  1. Segmented cloud: mask (eroded) x valid depth, back-projected; points farther than a fraction of
+//  1. Segmented cloud: mask (eroded) x valid depth, back-projected; points farther than a fraction
+//  of
 //     the model diameter from the median point are dropped (background leaking into the mask).
 //  2. Hypotheses: a uniform grid of rotations (super-Fibonacci sampling of SO(3)); for each, the
 //     translation puts the centroid of the model's camera-facing half on the observed centroid.
 //  3. Coarse stage, every hypothesis: a few iterations of robust point-to-plane ICP (Huber loss,
 //     trimmed by a shrinking association distance, back-facing model points rejected; a small
 //     point-to-point term keeps flat faces from sliding; model points seen in front of the observed
-//     depth are pulled onto the nearest observed point) on a small subset of the points; then a score.
+//     depth are pulled onto the nearest observed point) on a small subset of the points; then a
+//     score.
 //  4. Refine the best distinct hypotheses on all points, score again, keep the best.
 //
 // Score = fit - free_space_weight * violations, where fit = mean over the observed points of
@@ -31,8 +33,8 @@ struct ModelRegistrationParams {
   int max_points = 1000;
   double outlier_radius_factor = 0.6;
   // Hypotheses and ICP.
-  int num_rotations = 240;
-  int coarse_points = 150;
+  int num_rotations = 160;
+  int coarse_points = 100;
   int coarse_iterations = 8;
   double coarse_max_corr_factor = 0.3;
   int refine_top_k = 5;
@@ -45,20 +47,25 @@ struct ModelRegistrationParams {
   // Scoring and validity.
   double inlier_distance_m = 0.01;
   double free_space_margin_m = 0.015;
+  int free_space_window_px = 2;
   double free_space_weight = 1.0;
   double free_space_icp_weight = 1.0;
+  double support_weight = 0.5;
   int free_space_model_points = 500;
   double min_inlier_fraction = 0.3;
   int seed = 7;
 
   template <class V>
   void visit(V&& v) {
-    v("erode_px", erode_px, "Mask erosion (pixels) against noisy boundaries; skipped when too few points remain");
+    v("erode_px", erode_px,
+      "Mask erosion (pixels) against noisy boundaries; skipped when too few points remain");
     v("min_points", min_points, "Fewer valid segmented points -> invalid estimate");
-    v("max_points", max_points, "Segmented points used for refinement and scoring (deterministic subsample)");
+    v("max_points", max_points,
+      "Segmented points used for refinement and scoring (deterministic subsample)");
     v("outlier_radius_factor", outlier_radius_factor,
       "Drop segmented points farther than this x model diameter from their median point; 0 = off");
-    v("num_rotations", num_rotations, "Rotation hypotheses (uniform super-Fibonacci grid over SO(3))");
+    v("num_rotations", num_rotations,
+      "Rotation hypotheses (uniform super-Fibonacci grid over SO(3))");
     v("coarse_points", coarse_points, "Points per hypothesis in the coarse stage");
     v("coarse_iterations", coarse_iterations, "ICP iterations per hypothesis in the coarse stage");
     v("coarse_max_corr_factor", coarse_max_corr_factor,
@@ -67,20 +74,33 @@ struct ModelRegistrationParams {
     v("refine_iterations", refine_iterations, "ICP iterations per refined hypothesis");
     v("refine_max_corr_factor", refine_max_corr_factor,
       "Refinement: initial association distance as a fraction of the model diameter");
-    v("final_max_corr_m", final_max_corr_m, "Association distance (m) reached at the last ICP iteration");
+    v("final_max_corr_m", final_max_corr_m,
+      "Association distance (m) reached at the last ICP iteration");
     v("huber_delta_m", huber_delta_m, "Huber loss threshold on point-to-plane residuals (m)");
     v("point_to_point_weight", point_to_point_weight,
       "Weight of the point-to-point term next to point-to-plane (0 = pure point-to-plane)");
     v("reject_back_facing", reject_back_facing,
       "Reject associations to model points facing away from the camera (needs outward normals)");
-    v("inlier_distance_m", inlier_distance_m, "Distance (m) under which an observed point fits the model");
+    v("inlier_distance_m", inlier_distance_m,
+      "Distance (m) under which an observed point fits the model");
     v("free_space_margin_m", free_space_margin_m,
       "A model point this far (m) in front of the observed depth is a free-space violation");
-    v("free_space_weight", free_space_weight, "Weight of the free-space violation fraction in the score");
+    v("free_space_window_px", free_space_window_px,
+      "Free-space test against the minimum depth within this radius (pixels): tolerance to edge "
+      "bleeding");
+    v("free_space_weight", free_space_weight,
+      "Weight of the free-space violation fraction in the score");
     v("free_space_icp_weight", free_space_icp_weight,
-      "ICP: weight of pulling free-space-violating model points to the nearest observed point; 0 = off");
-    v("free_space_model_points", free_space_model_points, "Model points used for the free-space test");
-    v("min_inlier_fraction", min_inlier_fraction, "Below this inlier fraction the estimate is invalid");
+      "ICP: weight of pulling free-space-violating model points to the nearest observed point; 0 = "
+      "off");
+    v("support_weight", support_weight,
+      "Score weight of the support term: fraction of camera-facing, unoccluded model points lying "
+      "on "
+      "the observed depth (inside the mask or not)");
+    v("free_space_model_points", free_space_model_points,
+      "Model points used for the free-space test");
+    v("min_inlier_fraction", min_inlier_fraction,
+      "Below this inlier fraction the estimate is invalid");
     v("seed", seed, "Seed of the deterministic point subsampling");
   }
   bool IsValid(std::string* why) const;

@@ -14,8 +14,9 @@ struct PointsAdaptor {
     return false;
   }
 };
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PointsAdaptor>,
-                                                   PointsAdaptor, 3, std::uint32_t>;
+using KdTree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, PointsAdaptor>,
+                                        PointsAdaptor, 3, std::uint32_t>;
 }  // namespace
 
 struct ModelSearchIndex::Tree {

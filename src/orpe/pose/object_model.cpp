@@ -92,7 +92,8 @@ MeshVerticesNormals read_obj_vertices_normals(const std::string& path) {
         const Eigen::Vector3f& b = mesh.vertices[corner[k][0]];
         const Eigen::Vector3f& c = mesh.vertices[corner[k + 1][0]];
         const Eigen::Vector3f fn = (b - a).cross(c - a);
-        for (int i : {0, static_cast<int>(k), static_cast<int>(k + 1)}) from_faces[corner[i][0]] += fn;
+        for (int i : {0, static_cast<int>(k), static_cast<int>(k + 1)})
+          from_faces[corner[i][0]] += fn;
       }
       for (const auto& [v, n] : corner)
         if (n >= 0) from_vn[v] += vn[n];
@@ -112,13 +113,15 @@ MeshVerticesNormals read_obj_vertices_normals(const std::string& path) {
 
 double model_diameter_m(const std::vector<Eigen::Vector3f>& points) {
   const size_t max_points = 20000;
-  const size_t step = points.size() > max_points ? (points.size() + max_points - 1) / max_points : 1;
+  const size_t step =
+      points.size() > max_points ? (points.size() + max_points - 1) / max_points : 1;
   std::vector<Eigen::Vector3f> sub;
   for (size_t i = 0; i < points.size(); i += step) sub.push_back(points[i]);
   float best = 0;
 #pragma omp parallel for reduction(max : best) schedule(dynamic, 64)
   for (size_t i = 0; i < sub.size(); ++i)
-    for (size_t j = i + 1; j < sub.size(); ++j) best = std::max(best, (sub[i] - sub[j]).squaredNorm());
+    for (size_t j = i + 1; j < sub.size(); ++j)
+      best = std::max(best, (sub[i] - sub[j]).squaredNorm());
   return std::sqrt(static_cast<double>(best));
 }
 
@@ -131,8 +134,9 @@ Eigen::Vector3f centroid_of(const std::vector<Eigen::Vector3f>& pts) {
 }
 
 /// Mean distance from each point of `points`, moved by S, to the nearest model point.
-double mean_distance_under(const ModelSearchIndex& index, const std::vector<Eigen::Vector3f>& points,
-                           const SE3& S, size_t stride) {
+double mean_distance_under(const ModelSearchIndex& index,
+                           const std::vector<Eigen::Vector3f>& points, const SE3& S,
+                           size_t stride) {
   const Eigen::Matrix3f R = S.rotation().cast<float>();
   const Eigen::Vector3f t = S.translation().cast<float>();
   double sum = 0;

@@ -82,9 +82,9 @@ struct ModelLoadOptions {
 ObjectModel load_object_model(const std::string& points_path, const ModelLoadOptions& options = {},
                               int class_id = 0, const std::string& name = "");
 
-/// Fills what is missing: diameter, mean spacing, normals (PCA over 12 neighbours, oriented away from the
-/// centroid when no mesh is available), and the search index. Throws std::invalid_argument when the
-/// model has fewer than 4 points or non-finite coordinates.
+/// Fills what is missing: diameter, mean spacing, normals (PCA over 12 neighbours, oriented away
+/// from the centroid when no mesh is available), and the search index. Throws std::invalid_argument
+/// when the model has fewer than 4 points or non-finite coordinates.
 void prepare_object_model(ObjectModel& model);
 
 /// Max pairwise distance (exact up to 20k points, else on a deterministic subset).

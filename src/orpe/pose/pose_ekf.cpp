@@ -30,9 +30,10 @@ std::string FusedObjectPose::report() const {
   os.precision(4);
   const Vec3 t = T_world_obj.translation();
   os << "T_world_obj t = (" << t.x() << ", " << t.y() << ", " << t.z() << ") m, rot "
-     << T_world_obj.rotation_angle_deg() << " deg; fused " << num_fused << ", rejected " << num_rejected
-     << ", restarts " << num_reinitialisations << "; sigma t " << std::sqrt(covariance.diagonal().head<3>().mean())
-     << " m, sigma r " << std::sqrt(covariance.diagonal().tail<3>().mean()) << " rad";
+     << T_world_obj.rotation_angle_deg() << " deg; fused " << num_fused << ", rejected "
+     << num_rejected << ", restarts " << num_reinitialisations << "; sigma t "
+     << std::sqrt(covariance.diagonal().head<3>().mean()) << " m, sigma r "
+     << std::sqrt(covariance.diagonal().tail<3>().mean()) << " rad";
   return os.str();
 }
 
@@ -55,7 +56,9 @@ Mat6 PoseEkf::measurement_covariance(double mu_m) const {
   return R;
 }
 
-Vec6 PoseEkf::innovation(const SE3& z) const { return (T_world_obj_.inverse() * z).log(); }
+Vec6 PoseEkf::innovation(const SE3& z) const {
+  return (T_world_obj_.inverse() * z).log();
+}
 
 void PoseEkf::predict() {
   if (!initialised_) return;
@@ -150,15 +153,16 @@ PoseEkfStep PoseEkf::update(const PoseMeasurement& m) {
           const Pending& first = pending_.front();
           const Mat6 S2_inv = (first.R + R).inverse();
           double d2p = 0;
-          const SE3 aligned = params_.use_symmetry
-                                  ? closest_equivalent_to(first.z, S2_inv, z, symmetry_, &d2p)
-                                  : z;
+          const SE3 aligned =
+              params_.use_symmetry ? closest_equivalent_to(first.z, S2_inv, z, symmetry_, &d2p) : z;
           if (!params_.use_symmetry) {
             const Vec6 nu = (first.z.inverse() * z).log();
             d2p = nu.dot(S2_inv * nu);
           }
-          if (params_.gate_chi2 > 0 && d2p > params_.gate_chi2) pending_.clear();
-          else z = aligned;
+          if (params_.gate_chi2 > 0 && d2p > params_.gate_chi2)
+            pending_.clear();
+          else
+            z = aligned;
         }
         pending_.push_back({z, R});
         if (static_cast<int>(pending_.size()) >= params_.reinit_after_rejections) {

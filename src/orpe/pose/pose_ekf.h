@@ -39,17 +39,21 @@ struct PoseEkfParams {
   void visit(V&& v) {
     v("r_translation_scale", r_translation_scale,
       "Measurement noise, translation block: scale * mu^exponent (paper: 1)");
-    v("r_rotation_scale", r_rotation_scale, "Measurement noise, rotation block: scale * mu^exponent (paper: 1)");
-    v("r_mu_exponent", r_mu_exponent, "Exponent of mu in R (paper: 1, R = mu I; 2 treats mu as a std)");
+    v("r_rotation_scale", r_rotation_scale,
+      "Measurement noise, rotation block: scale * mu^exponent (paper: 1)");
+    v("r_mu_exponent", r_mu_exponent,
+      "Exponent of mu in R (paper: 1, R = mu I; 2 treats mu as a std)");
     v("min_mu_m", min_mu_m, "Floor on mu (m) so that a perfect fit does not freeze the filter");
     v("process_noise_translation_m2", process_noise_translation_m2,
       "Added to the translation variances at each predict (m^2); paper: 0 (static objects)");
     v("process_noise_rotation_rad2", process_noise_rotation_rad2,
       "Added to the rotation variances at each predict (rad^2); paper: 0");
     v("gate_chi2", gate_chi2,
-      "Mahalanobis gate on the innovation (chi-square, 6 dof; 22.46 = p 0.999); <= 0 disables gating");
+      "Mahalanobis gate on the innovation (chi-square, 6 dof; 22.46 = p 0.999); <= 0 disables "
+      "gating");
     v("reinit_after_rejections", reinit_after_rejections,
-      "Restart the filter from this many consecutive rejected but mutually consistent measurements; 0 = never");
+      "Restart the filter from this many consecutive rejected but mutually consistent "
+      "measurements; 0 = never");
     v("use_symmetry", use_symmetry,
       "Replace each measurement by its symmetry-equivalent closest to the state before the update");
   }
@@ -67,9 +71,9 @@ struct PoseMeasurement {
 /// What one update did, and the per-frame record kept in the history.
 struct PoseEkfStep {
   int frame_index = 0;
-  SE3 T_cam_obj_measured;   ///< as given
+  SE3 T_cam_obj_measured;    ///< as given
   SE3 T_world_obj_measured;  ///< z after the symmetry snap
-  SE3 T_cam_obj_fused;      ///< the state after this step, moved into this frame's camera
+  SE3 T_cam_obj_fused;       ///< the state after this step, moved into this frame's camera
   double mu_m = 0;
   double mahalanobis_sq = 0;  ///< of the innovation (0 for the first measurement)
   bool accepted = false;

@@ -38,10 +38,10 @@ std::string SingleViewPose::report() const {
     return os.str();
   }
   const Vec3 t = T_cam_obj.translation();
-  os << "t = (" << t.x() << ", " << t.y() << ", " << t.z() << ") m, rot " << T_cam_obj.rotation_angle_deg()
-     << " deg, score " << score << ", mu " << mu_m * 1000.0 << " mm, inliers " << inlier_fraction
-     << ", free-space violations " << free_space_violation << ", " << num_points << " points, "
-     << time_ms << " ms";
+  os << "t = (" << t.x() << ", " << t.y() << ", " << t.z() << ") m, rot "
+     << T_cam_obj.rotation_angle_deg() << " deg, score " << score << ", mu " << mu_m * 1000.0
+     << " mm, inliers " << inlier_fraction << ", free-space violations " << free_space_violation
+     << ", " << num_points << " points, " << time_ms << " ms";
   return os.str();
 }
 
@@ -91,7 +91,8 @@ SegmentedCloud extract_segmented_cloud(const MaskImage& mask, const DepthImage& 
                                        const PinholeIntrinsics& intrinsics, double diameter_m,
                                        const SegmentedCloudParams& params) {
   SegmentedCloud cloud;
-  if (mask.empty() || mask.width() != depth.width() || mask.height() != depth.height()) return cloud;
+  if (mask.empty() || mask.width() != depth.width() || mask.height() != depth.height())
+    return cloud;
   for (const auto m : mask) cloud.mask_pixels += m != 0;
   std::vector<Eigen::Vector3f> pts;
   if (params.erode_px > 0) collect(erode_mask(mask, params.erode_px), depth, intrinsics, pts);
@@ -133,8 +134,8 @@ SegmentedCloud extract_segmented_cloud(const MaskImage& mask, const DepthImage& 
   return cloud;
 }
 
-double mean_model_distance_m(const std::vector<Eigen::Vector3f>& points_cam, const ObjectModel& model,
-                             const SE3& T_cam_obj) {
+double mean_model_distance_m(const std::vector<Eigen::Vector3f>& points_cam,
+                             const ObjectModel& model, const SE3& T_cam_obj) {
   if (points_cam.empty() || model.points.empty()) return 0.0;
   std::shared_ptr<const ModelSearchIndex> index = model.search_index;
   if (!index) index = std::make_shared<ModelSearchIndex>(model.points);

@@ -27,7 +27,8 @@ struct SingleViewInput {
   PinholeIntrinsics intrinsics;
   int class_id = 0;
   const ObjectModel* model = nullptr;  ///< prepared (prepare_object_model) for speed; required
-  /// Optional guess (e.g. the fused world pose moved into this camera): tried as one more hypothesis.
+  /// Optional guess (e.g. the fused world pose moved into this camera): tried as one more
+  /// hypothesis.
   std::optional<SE3> T_cam_obj_prior;
 
   /// Pointers set, sizes consistent, intrinsics valid, model non-empty.
@@ -42,9 +43,10 @@ struct SingleViewPose {
   /// Mean distance (m) of the segmented object points to the nearest model point under T_cam_obj:
   /// the paper's measurement noise (R = mu I in the EKF).
   double mu_m = 0;
-  int num_points = 0;               ///< segmented points used
-  double inlier_fraction = 0;       ///< of segmented points within the back-end's inlier distance
-  double free_space_violation = 0;  ///< fraction of model points seen in front of the observed depth
+  int num_points = 0;          ///< segmented points used
+  double inlier_fraction = 0;  ///< of segmented points within the back-end's inlier distance
+  double free_space_violation =
+      0;  ///< fraction of model points seen in front of the observed depth
   double time_ms = 0;
   std::string report() const;
 };
@@ -59,11 +61,11 @@ class SingleViewPoseEstimator {
 
 /// How the instance's points are taken from the mask and depth.
 struct SegmentedCloudParams {
-  int erode_px = 2;            ///< mask erosion against boundary pixels (skipped if too few remain)
-  int min_points = 30;         ///< fewer valid points -> invalid estimate
-  int max_points = 1500;       ///< deterministic subsample above this
+  int erode_px = 2;       ///< mask erosion against boundary pixels (skipped if too few remain)
+  int min_points = 30;    ///< fewer valid points -> invalid estimate
+  int max_points = 1500;  ///< deterministic subsample above this
   double outlier_radius_factor = 0.6;  ///< keep points within factor * diameter of the median point
-  unsigned seed = 7;           ///< subsampling seed
+  unsigned seed = 7;                   ///< subsampling seed
 };
 
 struct SegmentedCloud {
@@ -81,7 +83,7 @@ SegmentedCloud extract_segmented_cloud(const MaskImage& mask, const DepthImage& 
 
 /// The paper's mu: mean over `points_cam` of the distance to the nearest model point under
 /// T_cam_obj (m). Uses the model's search index (built on the fly when missing).
-double mean_model_distance_m(const std::vector<Eigen::Vector3f>& points_cam, const ObjectModel& model,
-                             const SE3& T_cam_obj);
+double mean_model_distance_m(const std::vector<Eigen::Vector3f>& points_cam,
+                             const ObjectModel& model, const SE3& T_cam_obj);
 
 }  // namespace orpe

@@ -39,7 +39,7 @@ std::vector<int> match_by_iou(const std::vector<std::vector<long>>& intersection
   return match;
 }
 
-bool MaskEvaluator::add_frame(const RgbdFrame& frame, const std::vector<Detection>& detections,
+bool SemanticMaskEvaluator::add_frame(const RgbdFrame& frame, const std::vector<Detection>& detections,
                               const LabelImage& projected, const std::map<int, InstanceInfo>& instances) {
   const LabelImage& gt = frame.labels_gt;
   if (gt.empty() || frame.objects_gt.empty()) return false;
@@ -113,8 +113,8 @@ bool MaskEvaluator::add_frame(const RgbdFrame& frame, const std::vector<Detectio
   return true;
 }
 
-MaskEvaluationResult MaskEvaluator::result(const std::map<int, InstanceInfo>& final_instances) const {
-  MaskEvaluationResult r;
+SemanticMaskResult SemanticMaskEvaluator::result(const std::map<int, InstanceInfo>& final_instances) const {
+  SemanticMaskResult r;
   r.frames = frames_;
   auto row = [](int class_id, const Accum& a) {
     MaskIouRow out;
@@ -171,7 +171,7 @@ MaskEvaluationResult MaskEvaluator::result(const std::map<int, InstanceInfo>& fi
   return r;
 }
 
-std::string MaskEvaluationResult::report() const {
+std::string SemanticMaskResult::report() const {
   std::string s = fmt::format("mask IoU over {} frames ({} object samples): input {:.3f} ({:.3f} matched, "
                               "{} missed), map-projected {:.3f} ({:.3f} matched, {} missed)\n",
                               frames, overall.samples, overall.input_miou, overall.input_miou_matched,
@@ -191,7 +191,7 @@ std::string MaskEvaluationResult::report() const {
   return s;
 }
 
-std::string MaskEvaluationResult::to_json() const {
+std::string SemanticMaskResult::to_json() const {
   auto row = [](const MaskIouRow& c) {
     return nlohmann::json{{"class_id", c.class_id},
                           {"samples", c.samples},

@@ -43,7 +43,7 @@ struct ObjectInstanceRow {
   int argmax_class = 0;        ///< of its largest owned instance (0 if none)
 };
 
-struct MaskEvaluationResult {
+struct SemanticMaskResult {
   int frames = 0;
   MaskIouRow overall;
   std::vector<MaskIouRow> per_class;  ///< sorted by class id
@@ -56,9 +56,9 @@ struct MaskEvaluationResult {
   std::string to_json() const;  ///< the same as JSON text
 };
 
-class MaskEvaluator {
+class SemanticMaskEvaluator {
  public:
-  explicit MaskEvaluator(float mask_threshold = 0.5f, int min_gt_area_px = 100)
+  explicit SemanticMaskEvaluator(float mask_threshold = 0.5f, int min_gt_area_px = 100)
       : threshold_(mask_threshold), min_gt_area_px_(min_gt_area_px) {}
 
   /// Scores one frame. `projected_instances`: the map's instance image at the frame's pose
@@ -68,7 +68,7 @@ class MaskEvaluator {
                  const LabelImage& projected_instances, const std::map<int, InstanceInfo>& instances);
 
   /// Results so far; instance-level rows use `final_instances` (after finalize()).
-  MaskEvaluationResult result(const std::map<int, InstanceInfo>& final_instances) const;
+  SemanticMaskResult result(const std::map<int, InstanceInfo>& final_instances) const;
 
  private:
   struct Accum {

@@ -47,10 +47,12 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (index_supersample < 1 || index_supersample > 8) return fail("index_supersample must be in [1, 8]");
   if (!(mask_splat_radius_px >= 0.5 && mask_splat_radius_px <= 50))
     return fail("mask_splat_radius_px must be in [0.5, 50]");
+  if (!(mask_depth_tolerance_m >= 0)) return fail("mask_depth_tolerance_m must be >= 0");
   if (!(surfel_depth_tolerance_m > 0) || !(surfel_depth_tolerance_rel >= 0))
     return fail("surfel_depth_tolerance_m must be > 0 and surfel_depth_tolerance_rel >= 0");
   if (min_visible_area_px < 1) return fail("min_visible_area_px must be >= 1");
   if (min_instance_detections < 1) return fail("min_instance_detections must be >= 1");
+  if (min_confirmed_detections < 1) return fail("min_confirmed_detections must be >= 1");
   if (prune_missed_keyframes < 1) return fail("prune_missed_keyframes must be >= 1");
   if (min_instance_surfels < 0) return fail("min_instance_surfels must be >= 0");
   return true;
@@ -178,6 +180,19 @@ SemanticFusion::SemanticFusion(const SemanticParams& params) : params_(params) {
   if (!params_.IsValid(&why)) throw ConfigError("semantic: " + why);
 }
 
+void SemanticFusion::render_instances(const slam::SurfelMap& map, const SE3& T_world_cam,
+                                      const PinholeIntrinsics& K, bool want_color, InstanceImages* out) {
+  instance_renderer_.render(map, T_world_cam, K, static_cast<float>(params_.mask_splat_radius_px),
+                            params_.mask_depth_tolerance_m, want_color, out);
+}
+
+std::map<int, InstanceInfo> SemanticFusion::confirmed_instances() const {
+  std::map<int, InstanceInfo> out;
+  for (const auto& [id, info] : instances_)
+    if (info.detections >= params_.min_confirmed_detections) out.emplace(id, info);
+  return out;
+}
+
 void SemanticFusion::remove_instance(int id, slam::SurfelMap& map) {
   for (size_t i = 0; i < map.size(); ++i)
     if (map.instance_id[i] == id) {
@@ -236,7 +251,8 @@ void SemanticFusion::update_surfel(std::int32_t i, int u, int v,
   }
   // Boundary refinement; window length and count packed in one byte (high / low nibble).
   std::uint8_t& packed = map.boundary_counter[i];
-  if (instance == 0 && p_o > static_cast<float>(params_.boundary_low_probability) &&
+  if (params_.boundary_refinement && instance == 0 &&
+      p_o > static_cast<float>(params_.boundary_low_probability) &&
       p_o < static_cast<float>(params_.boundary_high_probability)) {
     ++counts.candidates;
     int window = (packed >> 4) + 1, count = packed & 0x0f;
@@ -281,11 +297,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
 
   // 1. Instance masks M^ rendered from the map (geometry of this frame, semantics of t - 1).
   auto t0 = Clock::now();
-  slam::RenderOptions splat;
-  splat.want_vertex = splat.want_normal = splat.want_color = false;
-  splat.want_instance = true;
-  splat.max_splat_radius_px = static_cast<float>(params_.mask_splat_radius_px);
-  renderer_.render(map, T_world_cam, K, splat, &view_);
+  render_instances(map, T_world_cam, K, false, &view_);
   rep.render_ms = ms_since(t0);
 
   // 2. Association, in order of decreasing score (ties: input order).
@@ -354,7 +366,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     ++it->second.visible_keyframes;
     if (!frame_classes.count(id)) {
       ++it->second.consecutive_misses;
-      missed.push_back(id);
+      if (it->second.detections >= params_.min_confirmed_detections) missed.push_back(id);
     }
   }
   rep.missed_instances = static_cast<int>(missed.size());

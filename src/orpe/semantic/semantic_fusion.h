@@ -26,6 +26,9 @@
 //    the surfels seen in its projection (dilated by boundary_neighbourhood_px) are not updated in this
 //    keyframe (skip_missed_instances): the paper would average a 0 into their p_o, which unlabels new
 //    surfels and pushes boundary surfels out of the refinement band.
+//  - Only confirmed instances (>= min_confirmed_detections detections) protect their surfels from a
+//    miss: a tentative one (likely spurious) must not blank real surfels around it. The projected
+//    outputs (SemanticMapper::render_instance_labels / render_instance_views) show confirmed ones.
 //  - Spurious instances die: an instance detected in fewer than min_instance_detections keyframes is
 //    removed once it was visible but undetected in prune_missed_keyframes keyframes in a row, and at
 //    finalize(); an instance left without surfels (all released) is removed at once; one with fewer
@@ -43,6 +46,7 @@
 #include "orpe/core/frame.h"
 #include "orpe/core/se3.h"
 #include "orpe/semantic/detection.h"
+#include "orpe/semantic/instance_render.h"
 #include "orpe/slam/map_renderer.h"
 #include "orpe/slam/surfel_map.h"
 
@@ -54,6 +58,7 @@ struct SemanticParams {
   int association_min_projected_area_px = 50;  ///< floor of U's denominator |M^|
   bool merge_same_class_instances = true;  ///< merge instances of one argmax class that one detection overlaps
   double release_probability = 0.4;        ///< a labelled surfel with p_o <= this becomes background
+  bool boundary_refinement = true;         ///< the paper's boundary refinement (off: ablation)
   double boundary_low_probability = 0.4;   ///< boundary candidates: low < p_o < high (paper 0.4, 0.5)
   double boundary_high_probability = 0.5;
   double boundary_pixel_min_probability = 0.4;  ///< criterion (i): pixel probability > this
@@ -65,9 +70,13 @@ struct SemanticParams {
   /// masks): full ElasticFusion splats (sqrt(2) z / f, up to 2x at grazing angles) overhang object
   /// silhouettes by 1-3 px.
   double mask_splat_radius_px = 1.0;
+  /// Instance masks are rendered label-aware (instance_render.h): the nearest labelled surface wins a
+  /// pixel when it lies within this of the map's visible surface (young noisy surfels in front).
+  double mask_depth_tolerance_m = 0.02;
   double surfel_depth_tolerance_m = 0.02;  ///< a surfel is observed when |z_surfel - z_frame| <= max(
   double surfel_depth_tolerance_rel = 0.02;  ///<   tolerance_m, tolerance_rel * z_frame)
   int min_visible_area_px = 50;            ///< an instance rendering this many pixels counts as visible
+  int min_confirmed_detections = 2;        ///< an instance is confirmed after this many detections
   int min_instance_detections = 3;         ///< instances detected in fewer keyframes are pruned
   int prune_missed_keyframes = 5;          ///< ... once visible but undetected this many keyframes in a row
   int min_instance_surfels = 50;           ///< instances with fewer surfels are removed at finalize()
@@ -88,6 +97,8 @@ struct SemanticParams {
       "Merge instances with the same argmax class when one detection overlaps both (U > threshold)");
     v("release_probability", release_probability,
       "A labelled surfel whose averaged p_o falls to <= this becomes background");
+    v("boundary_refinement", boundary_refinement,
+      "Boundary refinement: surfels with p_o just below 0.5 join the closest instance (paper; off = ablation)");
     v("boundary_low_probability", boundary_low_probability,
       "Boundary refinement candidates have low < p_o < high (paper: 0.4)");
     v("boundary_high_probability", boundary_high_probability,
@@ -103,12 +114,17 @@ struct SemanticParams {
     v("index_supersample", index_supersample, "Index map supersampling for surfel updates (1-8)");
     v("mask_splat_radius_px", mask_splat_radius_px,
       "Splat radius cap (px) when rendering instance masks; full splats overhang silhouettes");
+    v("mask_depth_tolerance_m", mask_depth_tolerance_m,
+      "Instance masks: an instance surface within this (m) of the visible surface labels the pixel");
     v("surfel_depth_tolerance_m", surfel_depth_tolerance_m,
       "A surfel is observed by a pixel when |z_surfel - z_pixel| <= max(this (m), rel * z)");
     v("surfel_depth_tolerance_rel", surfel_depth_tolerance_rel,
       "Relative part of the surfel/pixel depth agreement test");
     v("min_visible_area_px", min_visible_area_px,
       "An instance rendering at least this many pixels counts as visible in a keyframe");
+    v("min_confirmed_detections", min_confirmed_detections,
+      "An instance detected in this many keyframes is confirmed: only confirmed instances appear in the "
+      "projected masks / instance views and protect their surfels from a missed detection");
     v("min_instance_detections", min_instance_detections,
       "Instances detected in fewer keyframes are pruned (spurious detections)");
     v("prune_missed_keyframes", prune_missed_keyframes,
@@ -154,7 +170,7 @@ struct SemanticFrameReport {
   int new_instances = 0;
   int merged_instances = 0;
   int pruned_instances = 0;
-  int missed_instances = 0;  ///< visible instances without a detection
+  int missed_instances = 0;  ///< visible confirmed instances without a detection
   int surfels_skipped = 0;   ///< observed surfels not updated because of a missed instance
   int surfels_observed = 0;  ///< surfels updated by this frame
   int surfels_labelled = 0;  ///< surfels that got an instance from a detection
@@ -208,10 +224,15 @@ class SemanticFusion {
 
   const std::map<int, InstanceInfo>& instances() const { return instances_; }
   const SemanticParams& params() const { return params_; }
+  /// The instances detected in >= min_confirmed_detections keyframes.
+  std::map<int, InstanceInfo> confirmed_instances() const;
   /// Pixel labels of the last keyframe's associated detections (instance ids, 0 = none).
   const LabelImage& last_detection_labels() const { return detection_labels_; }
   /// Instance image rendered from the map before the last keyframe's update (the M^ masks).
   const LabelImage& last_rendered_instances() const { return view_.instance_id; }
+  /// The label-aware instance images of the map at a pose, as the association renders them.
+  void render_instances(const slam::SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
+                        bool want_color, InstanceImages* out);
 
  private:
   void merge_into(int keep, int absorb, slam::SurfelMap& map);
@@ -228,7 +249,8 @@ class SemanticFusion {
   std::map<int, InstanceInfo> instances_;
   int next_instance_id_ = 1;
   slam::MapRenderer renderer_;
-  slam::RenderedView view_;
+  InstanceRenderer instance_renderer_;
+  InstanceImages view_;
   slam::IndexMap index_map_;
   LabelImage detection_labels_;
   ProbabilityImage pixel_probability_;

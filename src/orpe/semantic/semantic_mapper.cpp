@@ -5,20 +5,13 @@
 
 namespace orpe {
 
-std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map,
-                                                const std::map<int, InstanceInfo>& instances,
-                                                const SE3& T_world_cam, const PinholeIntrinsics& K,
-                                                slam::MapRenderer& renderer, int min_area_px,
-                                                float max_splat_radius_px) {
-  slam::RenderOptions options;
-  options.max_splat_radius_px = max_splat_radius_px;
-  options.want_vertex = options.want_normal = false;
-  options.want_color = options.want_instance = true;
-  slam::RenderedView view;
-  renderer.render(map, T_world_cam, K, options, &view);
-  const int W = view.depth.width(), H = view.depth.height();
+std::vector<InstanceView> split_instance_views(const InstanceImages& images,
+                                               const std::map<int, InstanceInfo>& instances,
+                                               int min_area_px) {
+  const int W = images.instance_id.width(), H = images.instance_id.height();
+  const bool have_color = images.color.width() == W && images.color.height() == H;
   std::map<int, int> area;
-  for (const auto id : view.instance_id)
+  for (const auto id : images.instance_id)
     if (id > 0) ++area[id];
   std::vector<InstanceView> out;
   for (const auto& [id, pixels] : area) {
@@ -34,27 +27,15 @@ std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map,
     iv.projected_color = ColorImage(W, H, Rgb8{});
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
-        if (view.instance_id.at(u, v) != id) continue;
+        if (images.instance_id.at(u, v) != id) continue;
         iv.projected_mask.at(u, v) = 1;
-        iv.projected_depth.at(u, v) = view.depth.at(u, v);
-        iv.projected_color.at(u, v) = view.color.at(u, v);
+        iv.projected_depth.at(u, v) = images.depth.at(u, v);
+        if (have_color) iv.projected_color.at(u, v) = images.color.at(u, v);
         iv.box.include(u, v);
       }
     out.push_back(std::move(iv));
   }
   return out;
-}
-
-LabelImage render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
-                                  const PinholeIntrinsics& K, slam::MapRenderer& renderer,
-                                  float max_splat_radius_px) {
-  slam::RenderOptions options;
-  options.max_splat_radius_px = max_splat_radius_px;
-  options.want_vertex = options.want_normal = options.want_color = false;
-  options.want_instance = true;
-  slam::RenderedView view;
-  renderer.render(map, T_world_cam, K, options, &view);
-  return std::move(view.instance_id);
 }
 
 SemanticMapper::SemanticMapper(const SegmentationParams& segmentation, const SemanticParams& semantic,
@@ -85,14 +66,20 @@ std::vector<InstanceView> SemanticMapper::render_instance_views(const slam::Surf
                                                                 const SE3& T_world_cam,
                                                                 const PinholeIntrinsics& K,
                                                                 int min_area_px) {
-  return orpe::render_instance_views(map, fusion_.instances(), T_world_cam, K, renderer_, min_area_px,
-                                     static_cast<float>(fusion_.params().mask_splat_radius_px));
+  InstanceImages images;
+  fusion_.render_instances(map, T_world_cam, K, true, &images);
+  return split_instance_views(images, fusion_.confirmed_instances(), min_area_px);
 }
+
 
 LabelImage SemanticMapper::render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
                                                   const PinholeIntrinsics& K) {
-  return orpe::render_instance_labels(map, T_world_cam, K, renderer_,
-                                      static_cast<float>(fusion_.params().mask_splat_radius_px));
+  InstanceImages images;
+  fusion_.render_instances(map, T_world_cam, K, false, &images);
+  const auto confirmed = fusion_.confirmed_instances();
+  for (auto& id : images.instance_id)
+    if (id > 0 && !confirmed.count(id)) id = 0;
+  return std::move(images.instance_id);
 }
 
 std::string SemanticMapper::summary() const {

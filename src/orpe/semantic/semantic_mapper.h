@@ -4,6 +4,7 @@
 //   for each frame: slam.process(frame);  // tracking + fusion
 //                   semantic.process(frame, T_world_cam, slam_map);
 //                   auto views = semantic.render_instance_views(slam_map, T_world_cam, K);  // pose stage
+//                   (pass slam.last_pixel_surfel() to process() when the SLAM fused the frame)
 //   semantic.finalize(slam_map);
 //   write_semantic_outputs(out_dir, slam_map, semantic.fusion().instances(), class_names);
 //
@@ -34,19 +35,11 @@ struct InstanceView {
   ColorImage projected_color;     ///< PC: splatted surfel colour inside the mask, black outside
 };
 
-/// Renders the map once at `T_world_cam` and splits it per instance. Instances rendering fewer than
-/// `min_area_px` pixels are left out. Sorted by instance id. `max_splat_radius_px`: splat radius cap
-/// (SemanticParams::mask_splat_radius_px).
-std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map,
-                                                const std::map<int, InstanceInfo>& instances,
-                                                const SE3& T_world_cam, const PinholeIntrinsics& K,
-                                                slam::MapRenderer& renderer, int min_area_px = 1,
-                                                float max_splat_radius_px = 1.0f);
-
-/// The map's instance labels seen from a pose (0 = background): the projected masks of all instances.
-LabelImage render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
-                                  const PinholeIntrinsics& K, slam::MapRenderer& renderer,
-                                  float max_splat_radius_px = 1.0f);
+/// Splits label-aware instance images (with colour) into per-instance views. Instances with fewer
+/// than `min_area_px` pixels, or not in `instances`, are left out. Sorted by instance id.
+std::vector<InstanceView> split_instance_views(const InstanceImages& images,
+                                               const std::map<int, InstanceInfo>& instances,
+                                               int min_area_px = 1);
 
 /// One frame's semantic step.
 struct SemanticStep {
@@ -70,9 +63,11 @@ class SemanticMapper {
   /// End of the run: removes spurious instances. Returns how many were removed.
   int finalize(slam::SurfelMap& map) { return fusion_.finalize(map); }
 
+  /// PM / PD / PC of every confirmed instance (detected in >= min_confirmed_detections keyframes; the
+  /// tentative ones may still be spurious) seen from a pose, label-aware like the association masks.
   std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map, const SE3& T_world_cam,
                                                   const PinholeIntrinsics& K, int min_area_px = 1);
-  /// The map's instance image at a pose (all projected masks), rendered like the association masks.
+  /// The map's instance image at a pose: the projected masks of the confirmed instances, 0 = none.
   LabelImage render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
                                     const PinholeIntrinsics& K);
 
@@ -87,7 +82,6 @@ class SemanticMapper {
   std::unique_ptr<Segmenter> segmenter_;
   KeyframeSelector keyframe_selector_;
   SemanticFusion fusion_;
-  slam::MapRenderer renderer_;
   SemanticStep step_;
   int frames_ = 0, keyframes_ = 0, detections_ = 0;
   double segment_ms_ = 0, fuse_ms_ = 0;

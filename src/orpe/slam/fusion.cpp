@@ -1,10 +1,12 @@
 #include "orpe/slam/fusion.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 
 #include "orpe/core/error.h"
+#include "orpe/slam/rigid_f.h"
 
 namespace orpe::slam {
 namespace {
@@ -41,6 +43,7 @@ bool FusionParams::IsValid(std::string* why) const {
   if (!(merge_max_distance_factor > 0 && merge_max_distance_factor <= 2))
     return fail("merge_max_distance_factor must be in (0, 2]");
   if (!(merge_max_normal_angle_rad > 0)) return fail("merge_max_normal_angle_rad must be positive");
+  if (fusion_level < 0 || fusion_level > 2) return fail("fusion_level must be 0, 1 or 2");
   return true;
 }
 
@@ -49,12 +52,45 @@ SurfelFusion::SurfelFusion(const FusionParams& params) : params_(params) {
   if (!params_.IsValid(&why)) throw ConfigError("slam_fusion: " + why);
 }
 
+void downsample_color(const ColorImage& in, int level, ColorImage* out) {
+  const int f = 1 << level;
+  const int w = in.width() / f, h = in.height() / f;
+  if (out->width() != w || out->height() != h) *out = ColorImage(w, h);
+  const int inv_n = f * f;
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      int r = 0, g = 0, b = 0;
+      for (int y = v * f; y < v * f + f; ++y)
+        for (int x = u * f; x < u * f + f; ++x) {
+          const Rgb8 c = in.at(x, y);
+          r += c.r;
+          g += c.g;
+          b += c.b;
+        }
+      out->at(u, v) = Rgb8{static_cast<std::uint8_t>((r + inv_n / 2) / inv_n),
+                           static_cast<std::uint8_t>((g + inv_n / 2) / inv_n),
+                           static_cast<std::uint8_t>((b + inv_n / 2) / inv_n)};
+    }
+}
+
 FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam, std::int32_t now,
                                SurfelMap* map, IndexImage* pixel_surfel) {
   const auto t0 = std::chrono::steady_clock::now();
+  auto lap = [t = t0]() mutable {
+    const auto now_t = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now_t - t).count();
+    t = now_t;
+    return ms;
+  };
   FusionStats stats;
-  const FrameLevel& L0 = frame.levels.at(0);
+  // Source images: full resolution raw depth (ElasticFusion), or the half-resolution filtered level.
+  const int level = std::min(params_.fusion_level, static_cast<int>(frame.levels.size()) - 1);
+  const FrameLevel& L0 = frame.levels.at(static_cast<size_t>(level));
   const PinholeIntrinsics& K = L0.K;
+  const DepthImage& depth_in = level == 0 ? frame.raw_depth : L0.depth;
+  if (level > 0) downsample_color(frame.color, level, &color_lowres_);
+  const ColorImage& color_in = level == 0 ? frame.color : color_lowres_;
   const int W = K.width, H = K.height;
   const int s = params_.index_supersample;
 
@@ -62,13 +98,9 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
   opt.active_window_frames = params_.active_window_frames;
   opt.now = now;
   opt.far_m = static_cast<float>(params_.max_depth_m + params_.assoc_max_depth_diff_m);
-  renderer_.render_index_map(*map, T_world_cam, K, s, opt, &index_map_);
+  renderer_.render_index_map(*map, T_world_cam, K, s, opt, &index_map_, true);
 
-  const Eigen::Matrix3f R_wc = T_world_cam.rotation().cast<float>();
-  const Eigen::Vector3f t_wc = T_world_cam.translation().cast<float>();
-  const SE3 T_cam_world = T_world_cam.inverse();
-  const Eigen::Matrix3f R_cw = T_cam_world.rotation().cast<float>();
-  const Eigen::Vector3f t_cw = T_cam_world.translation().cast<float>();
+  const RigidF T_wc(T_world_cam);
   const float fx = static_cast<float>(K.fx), fy = static_cast<float>(K.fy);
   const float cx = static_cast<float>(K.cx), cy = static_cast<float>(K.cy);
   const float f_mean = 0.5f * (fx + fy);
@@ -84,13 +116,13 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
 
   // Observation of pixel (u, v): world point, world normal, weight, radius. False if unusable.
   auto observe = [&](int u, int v, Vec3f* p_w, Vec3f* n_w, float* a, float* r) {
-    const float z = frame.raw_depth.at(u, v);
+    const float z = depth_in.at(u, v);
     if (z <= 0.0f || z > max_z) return false;
     const Vec3f& n_c = L0.normal.at(u, v);
     if (n_c.z() == 0.0f && n_c.x() == 0.0f && n_c.y() == 0.0f) return false;
     const Vec3f p_c((static_cast<float>(u) - cx) * z / fx, (static_cast<float>(v) - cy) * z / fy, z);
-    *p_w = R_wc * p_c + t_wc;
-    *n_w = R_wc * n_c;
+    *p_w = T_wc(p_c);
+    *n_w = T_wc.rotate(n_c);
     const float du = static_cast<float>(u) - cx, dv = static_cast<float>(v) - cy;
     const float g2 = (du * du + dv * dv) / (g_norm * g_norm);
     *a = std::exp(-g2 * inv_2sig2);
@@ -98,43 +130,66 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     return true;
   };
 
+  stats.index_ms = lap();
+
   // ---- association ----
-  if (assoc_.width() != W || assoc_.height() != H) assoc_ = IndexImage(W, H, kNoAssoc);
-  const SurfelMap& cmap = *map;
+  if (assoc_.width() != W || assoc_.height() != H) {
+    assoc_ = IndexImage(W, H, kNoAssoc);
+    home_ = Image<std::uint8_t>(W, H, 0);
+  }
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       std::int32_t& out = assoc_.at(u, v);
       out = kNoAssoc;
-      const float z = frame.raw_depth.at(u, v);
+      const float z = depth_in.at(u, v);
       if (z <= 0.0f || z > max_z) continue;
       const Vec3f& n_c = L0.normal.at(u, v);
       if (n_c.z() == 0.0f && n_c.x() == 0.0f && n_c.y() == 0.0f) continue;
-      const Vec3f n_w = R_wc * n_c;
+      const Vec3f n_w = T_wc.rotate(n_c);
       const Vec3f ray = Vec3f((static_cast<float>(u) - cx) / fx, (static_cast<float>(v) - cy) / fy, 1.0f)
                             .normalized();
       std::int32_t best = kNewSurfel;
       float best_d2 = 0.0f, best_conf = 0.0f;
-      for (int y = v * s; y < v * s + s; ++y) {
-        for (int x = u * s; x < u * s + s; ++x) {
-          const std::int32_t idx = index_map_.surfel_index.at(x, y);
-          if (idx < 0) continue;
-          if (std::fabs(index_map_.depth.at(x, y) - z) >= max_dz) continue;
-          if (cmap.normal_world[idx].dot(n_w) < min_cos) continue;
-          const Vec3f q = R_cw * cmap.position_world[idx] + t_cw;
-          const float along = q.dot(ray);
-          const float d2 = q.squaredNorm() - along * along;  // squared distance from the ray
-          const float c = cmap.confidence[idx];
-          if (best < 0 || d2 < best_d2 || (d2 == best_d2 && c > best_conf)) {
-            best = idx;
-            best_d2 = d2;
-            best_conf = c;
-          }
+      auto consider = [&](int x, int y) {
+        const std::int32_t idx = index_map_.surfel_index.at(x, y);
+        if (idx < 0) return;
+        const Vec3f& q = index_map_.position_cam.at(x, y);
+        if (std::fabs(q.z() - z) >= max_dz) return;
+        const float along = q.dot(ray);
+        const float d2 = q.squaredNorm() - along * along;  // squared distance from the ray
+        const float r = index_map_.radius_m.at(x, y);
+        if (d2 >= r * r) return;  // the ray misses the disc
+        if (index_map_.normal_world.at(x, y).dot(n_w) < min_cos) return;
+        const float c = index_map_.confidence.at(x, y);
+        if (best < 0 || d2 < best_d2 || (d2 == best_d2 && c > best_conf)) {
+          best = idx;
+          best_d2 = d2;
+          best_conf = c;
         }
+      };
+      // The pixel's own cells first: a surfel centred inside the pixel is (almost always) the one
+      // closest to its ray. Only without one, look at the neighbouring pixels' cells.
+      for (int y = v * s; y < v * s + s; ++y)
+        for (int x = u * s; x < u * s + s; ++x) consider(x, y);
+      const bool best_home = best >= 0;
+      if (!best_home) {
+        const int y0 = std::max(0, (v - 1) * s), y1 = std::min(H * s, (v + 2) * s);
+        const int x0 = std::max(0, (u - 1) * s), x1 = std::min(W * s, (u + 2) * s);
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x)
+            if (x / s != u || y / s != v) consider(x, y);
       }
+      home_.at(u, v) = best_home ? 1 : 0;
+      // A surfel covering this pixel from a neighbouring cell counts as seen; only the pixel whose
+      // cell holds its centre updates it (one writer per surfel).
+      if (best >= 0 && !best_home)
+        std::atomic_ref<std::int32_t>(map->last_seen_time[best]).store(now, std::memory_order_relaxed);
       out = best;
     }
   }
+
+  stats.associate_ms = lap();
 
   // ---- updates (each surfel has at most one associated pixel: no races) ----
   size_t updated = 0;
@@ -142,7 +197,7 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {
       const std::int32_t i = assoc_.at(u, v);
-      if (i < 0) continue;
+      if (i < 0 || !home_.at(u, v)) continue;
       Vec3f p_w, n_w;
       float a, r;
       if (!observe(u, v, &p_w, &n_w, &a, &r)) continue;
@@ -153,7 +208,7 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
         Vec3f n = c * map->normal_world[i] + a * n_w;
         const float len = n.norm();
         if (len > 1e-6f) map->normal_world[i] = n / len;
-        map->color[i] = blend(map->color[i], c, frame.color.at(u, v), a);
+        map->color[i] = blend(map->color[i], c, color_in.at(u, v), a);
         map->radius_m[i] = (c * map->radius_m[i] + a * r) * inv;
       }
       map->confidence[i] = c + a;
@@ -186,7 +241,7 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
         observe(u, v, &p_w, &n_w, &a, &r);  // true: checked during association
         map->position_world[k] = p_w;
         map->normal_world[k] = n_w;
-        map->color[k] = frame.color.at(u, v);
+        map->color[k] = color_in.at(u, v);
         map->radius_m[k] = r;
         map->confidence[k] = a;
         map->init_time[k] = now;
@@ -197,6 +252,8 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     }
     stats.created = added;
   }
+
+  stats.update_ms = lap();
 
   // ---- cleaning ----
   const size_t n_all = map->size();
@@ -221,8 +278,8 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     for (int y = 0; y < IH; ++y) {
       for (int x = 0; x < IW; ++x) {
         const std::int32_t i = index_map_.surfel_index.at(x, y);
-        if (i < 0 || removed[i] || map->confidence[i] >= stable || map->always_active[i]) continue;
-        const float z_live = frame.raw_depth.at(x / s, y / s);
+        if (i < 0 || index_map_.confidence.at(x, y) >= stable || removed[i] || map->always_active[i]) continue;
+        const float z_live = depth_in.at(x / s, y / s);
         if (z_live <= 0.0f || z_live > max_z) continue;
         if (index_map_.depth.at(x, y) < z_live - margin) {
           removed[i] = 1;
@@ -245,21 +302,27 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
         std::int32_t& target = merge_target_[static_cast<size_t>(y) * IW + x];
         target = -1;
         const std::int32_t i = index_map_.surfel_index.at(x, y);
-        if (i < 0 || removed[i]) continue;
-        const Vec3f& pi = map->position_world[i];
-        const float ci = map->confidence[i];
+        if (i < 0) continue;
+        // Decisions use the index map's copies (values before this frame's updates): contiguous
+        // reads, and consistent for both sides of a pair.
+        const float ci = index_map_.confidence.at(x, y);
+        if (ci >= stable || removed[i]) continue;  // only unstable surfels are merged away
+        const Vec3f& pi = index_map_.position_cam.at(x, y);
+        const float ri = index_map_.radius_m.at(x, y);
+        const Vec3f& ni = index_map_.normal_world.at(x, y);
         float best_d2 = 0.0f;
         for (int dy = -1; dy <= 1; ++dy) {
           for (int dx = -1; dx <= 1; ++dx) {
             if ((dx == 0 && dy == 0) || x + dx < 0 || y + dy < 0 || x + dx >= IW || y + dy >= IH) continue;
             const std::int32_t j = index_map_.surfel_index.at(x + dx, y + dy);
-            if (j < 0 || removed[j]) continue;
-            const float cj = map->confidence[j];
+            if (j < 0) continue;
+            const float cj = index_map_.confidence.at(x + dx, y + dy);
             if (!(cj > ci || (cj == ci && j < i))) continue;
-            const float lim = factor * std::min(map->radius_m[i], map->radius_m[j]);
-            const float d2 = (map->position_world[j] - pi).squaredNorm();
+            const float lim = factor * std::min(ri, index_map_.radius_m.at(x + dx, y + dy));
+            const float d2 = (index_map_.position_cam.at(x + dx, y + dy) - pi).squaredNorm();
             if (d2 >= lim * lim) continue;
-            if (map->normal_world[j].dot(map->normal_world[i]) < merge_cos) continue;
+            if (index_map_.normal_world.at(x + dx, y + dy).dot(ni) < merge_cos) continue;
+            if (removed[j]) continue;
             if (target < 0 || d2 < best_d2) {
               target = j;
               best_d2 = d2;
@@ -294,6 +357,8 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     stats.merged = merged;
   }
 
+  stats.clean_ms = lap();
+
   // ---- removal ----
   if (!params_.merge_duplicates) merges_.clear();
   std::vector<std::uint32_t> removal_list;
@@ -312,20 +377,27 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     map->remove(removal_list, &moved_from);
     std::vector<std::int32_t> old_to_new(n_all, -1);
     for (size_t i = 0; i < moved_from.size(); ++i) old_to_new[moved_from[i]] = static_cast<std::int32_t>(i);
-    if (pixel_surfel->width() != W || pixel_surfel->height() != H) *pixel_surfel = IndexImage(W, H, -1);
 #pragma omp parallel for schedule(static)
     for (long k = 0; k < static_cast<long>(W) * H; ++k) {
       const std::int32_t i = assoc_[k];
       const std::int32_t r = i < 0 ? -1 : resolve(i);
-      (*pixel_surfel)[k] = r < 0 ? -1 : old_to_new[r];
+      assoc_[k] = r < 0 ? -1 : old_to_new[r];
     }
-  } else {
-    if (!removal_list.empty()) map->remove(removal_list);
-    if (pixel_surfel) {
-      *pixel_surfel = assoc_;
-      for (auto& i : *pixel_surfel) i = std::max(i, -1);
-    }
+  } else if (!removal_list.empty()) {
+    map->remove(removal_list);
   }
+  if (pixel_surfel) {
+    // Per full-resolution pixel (each pixel of a coarser fusion level covers a block).
+    const int FW = frame.raw_depth.width(), FH = frame.raw_depth.height();
+    if (pixel_surfel->width() != FW || pixel_surfel->height() != FH) *pixel_surfel = IndexImage(FW, FH, -1);
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < FH; ++v)
+      for (int u = 0; u < FW; ++u) {
+        const int fu = std::min(u >> level, W - 1), fv = std::min(v >> level, H - 1);
+        pixel_surfel->at(u, v) = std::max(assoc_.at(fu, fv), -1);
+      }
+  }
+  stats.remove_ms = lap();
   stats.surfels = map->size();
   stats.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return stats;

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "orpe/slam/rigid_f.h"
+
 namespace orpe::slam {
 namespace {
 
@@ -31,14 +33,11 @@ inline void atomic_min(std::uint64_t& slot, std::uint64_t key) {
 }
 
 struct CameraF {
-  Eigen::Matrix3f R_cam_world;
-  Eigen::Vector3f t_cam_world;
+  RigidF T_cam_world;
   float fx, fy, cx, cy;
   int width, height;
   CameraF(const SE3& T_world_cam, const PinholeIntrinsics& K, int scale) {
-    const SE3 T_cam_world = T_world_cam.inverse();
-    R_cam_world = T_cam_world.rotation().cast<float>();
-    t_cam_world = T_cam_world.translation().cast<float>();
+    T_cam_world = RigidF(T_world_cam.inverse());
     fx = static_cast<float>(K.fx);
     fy = static_cast<float>(K.fy);
     cx = static_cast<float>(K.cx);
@@ -88,15 +87,15 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
 #pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
   for (long i = 0; i < n; ++i) {
     if (!keep(static_cast<size_t>(i))) continue;
-    const Vec3f p = cam.R_cam_world * map.position_world[i] + cam.t_cam_world;
+    const Vec3f p = cam.T_cam_world(map.position_world[i]);
     const float z = p.z();
     if (z < options.near_m || z > options.far_m) continue;
-    const Vec3f nrm = cam.R_cam_world * map.normal_world[i];
+    const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[i]);
     const float facing = nrm.dot(p);
     if (facing >= 0.0f) continue;  // back-facing
     const float u = cam.fx * p.x() / z + cam.cx;
     const float v = cam.fy * p.y() / z + cam.cy;
-    const float r_m = map.radius_m[i];
+    const float r_m = map.radius_m[i] * options.radius_scale;
     const float r_px = std::min(r_m * f_max / z, options.max_splat_radius_px);
     if (u + r_px < -0.5f || v + r_px < -0.5f || u - r_px > W - 0.5f || v - r_px > H - 0.5f) continue;
     ++drawn;
@@ -111,8 +110,10 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
     // the intersection's depth is t = (n . p) / (n . d).
     const float np = facing;
     bool centre_drawn = false;
+    const float kappa = options.centre_preference;
     for (int y = v0; y <= v1; ++y) {
       const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
+      const float py = static_cast<float>(y) - v;
       for (int x = u0; x <= u1; ++x) {
         const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
         const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
@@ -120,13 +121,16 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
         const float t = np / nd;
         const float ex = dx * t - p.x(), ey = dy * t - p.y(), ez = t - z;
         if (ex * ex + ey * ey + ez * ez > r2 || t < options.near_m) continue;
-        atomic_min(zbuf[static_cast<size_t>(y) * W + x], pack(t, idx));
+        const float px = static_cast<float>(x) - u;
+        atomic_min(zbuf[static_cast<size_t>(y) * W + x], pack(t * (1.0f + kappa * (px * px + py * py)), idx));
         if (x == uc && y == vc) centre_drawn = true;
       }
     }
     // A splat smaller than a pixel (or missed by every pixel ray) still covers its centre's pixel.
-    if (!centre_drawn && uc >= 0 && vc >= 0 && uc < W && vc < H)
-      atomic_min(zbuf[static_cast<size_t>(vc) * W + uc], pack(z, idx));
+    if (!centre_drawn && uc >= 0 && vc >= 0 && uc < W && vc < H) {
+      const float px = static_cast<float>(uc) - u, py = static_cast<float>(vc) - v;
+      atomic_min(zbuf[static_cast<size_t>(vc) * W + uc], pack(z * (1.0f + kappa * (px * px + py * py)), idx));
+    }
   }
 
   ensure_size(out->depth, W, H);
@@ -135,6 +139,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
   if (options.want_normal) ensure_size(out->normal, W, H);
   if (options.want_color) ensure_size(out->color, W, H);
   if (options.want_instance) ensure_size(out->instance_id, W, H);
+  if (options.want_surfel_centre) ensure_size(out->surfel_centre, W, H);
   out->drawn_surfels = drawn;
 
 #pragma omp parallel for schedule(static)
@@ -150,24 +155,32 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
         if (options.want_normal) out->normal[k].setZero();
         if (options.want_color) out->color[k] = Rgb8{};
         if (options.want_instance) out->instance_id[k] = 0;
+        if (options.want_surfel_centre) out->surfel_centre[k].setZero();
         continue;
       }
-      const float t = unpack_depth(key);
       const std::int32_t s = unpack_index(key);
+      // The key's depth carries the centre preference: recompute the ray-plane intersection.
+      const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
+      const Vec3f p = cam.T_cam_world(map.position_world[s]);
+      const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[s]);
+      const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
+      float t = nd < -1e-4f ? nrm.dot(p) / nd : p.z();
+      if (!(t > 0.0f) || std::fabs(t - p.z()) > map.radius_m[s] * options.radius_scale) t = p.z();
       out->depth[k] = t;
       out->surfel_index[k] = s;
-      if (options.want_vertex)
-        out->vertex[k] = Vec3f((static_cast<float>(x) - cam.cx) * inv_fx * t, dy * t, t);
-      if (options.want_normal) out->normal[k] = cam.R_cam_world * map.normal_world[s];
+      if (options.want_vertex) out->vertex[k] = Vec3f(dx * t, dy * t, t);
+      if (options.want_normal) out->normal[k] = nrm;
       if (options.want_color) out->color[k] = map.color[s];
       if (options.want_instance) out->instance_id[k] = map.instance_id[s];
+      if (options.want_surfel_centre) out->surfel_centre[k] = p;
     }
   }
 }
 
 void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,
                                    const PinholeIntrinsics& K, int supersample,
-                                   const RenderOptions& options, IndexMap* out) {
+                                   const RenderOptions& options, IndexMap* out,
+                                   bool want_attributes) {
   const int s = std::max(1, supersample);
   const CameraF cam(T_world_cam, K, s);
   const int W = cam.width, H = cam.height;
@@ -184,7 +197,7 @@ void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,
 #pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
   for (long i = 0; i < n; ++i) {
     if (!keep(static_cast<size_t>(i))) continue;
-    const Vec3f p = cam.R_cam_world * map.position_world[i] + cam.t_cam_world;
+    const Vec3f p = cam.T_cam_world(map.position_world[i]);
     const float z = p.z();
     if (z < options.near_m || z > options.far_m) continue;
     // Cell of the projected centre at s x resolution: pixel u covers [u - 0.5, u + 0.5).
@@ -200,12 +213,31 @@ void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,
   out->supersample = s;
   ensure_size(out->surfel_index, W, H);
   ensure_size(out->depth, W, H);
+  ensure_size(out->position_cam, W, H);
+  if (want_attributes) {
+    ensure_size(out->normal_world, W, H);
+    ensure_size(out->radius_m, W, H);
+    ensure_size(out->confidence, W, H);
+  }
   out->drawn_surfels = drawn;
 #pragma omp parallel for schedule(static)
   for (long k = 0; k < static_cast<long>(ncell); ++k) {
     const std::uint64_t key = zbuf[k];
-    out->surfel_index[k] = key == kEmpty ? -1 : unpack_index(key);
-    out->depth[k] = key == kEmpty ? 0.0f : unpack_depth(key);
+    if (key == kEmpty) {
+      out->surfel_index[k] = -1;
+      out->depth[k] = 0.0f;
+      out->position_cam[k].setZero();
+      continue;
+    }
+    const std::int32_t i = unpack_index(key);
+    out->surfel_index[k] = i;
+    out->depth[k] = unpack_depth(key);
+    out->position_cam[k] = cam.T_cam_world(map.position_world[i]);
+    if (want_attributes) {
+      out->normal_world[k] = map.normal_world[i];
+      out->radius_m[k] = map.radius_m[i];
+      out->confidence[k] = map.confidence[i];
+    }
   }
 }
 

@@ -6,9 +6,10 @@
 // A pixel with no surfel has depth 0, surfel_index -1, instance_id 0, zero vertex/normal, black colour.
 //
 // Splatting: each pixel inside a surfel's projected disc takes the depth of the ray's intersection
-// with the disc's plane; the nearest surface wins (ties broken by the lower surfel index, so the
-// result does not depend on thread timing). Back-facing surfels (normal pointing away from the
-// camera) are skipped.
+// with the disc's plane; the nearest surface wins, where among discs of about the same depth the one
+// whose centre is nearest the pixel wins (RenderOptions::centre_preference); exact ties go to the
+// lower surfel index, so the result does not depend on thread timing. Back-facing surfels (normal
+// pointing away from the camera) are skipped.
 #pragma once
 
 #include <cstdint>
@@ -42,12 +43,20 @@ struct RenderOptions {
   float far_m = 10.0f;   ///< surfels farther than this are skipped
   /// Cap of a splat's radius on screen (pixels), bounding the cost of surfels close to the camera.
   float max_splat_radius_px = 12.0f;
+  /// Splat radius = surfel radius x this. Below 1 trims the overhang of discs past depth edges
+  /// (a disc spacing of one pixel still leaves no holes down to ~0.6).
+  float radius_scale = 1.0f;
+  /// Among overlapping discs of one surface, prefer the one whose centre is nearest the pixel: the
+  /// depth test compares t * (1 + centre_preference * d^2), d = pixel-to-centre distance (px). Without
+  /// it, ties between coplanar discs go to the lowest index, which shifts colours systematically.
+  float centre_preference = 0.003f;
 
   // What to write (index and depth are always written; the rest on request).
   bool want_vertex = true;
   bool want_normal = true;
   bool want_color = true;
   bool want_instance = false;
+  bool want_surfel_centre = false;
 };
 
 /// Images of one rendered view. Image sizes equal the requested intrinsics' width x height.
@@ -58,6 +67,9 @@ struct RenderedView {
   NormalImage normal;        ///< camera frame; only when want_normal
   ColorImage color;          ///< surfel colour; only when want_color
   LabelImage instance_id;    ///< SurfelMap::instance_id of the visible surfel (0 = none); want_instance
+  /// Centre of the visible surfel (camera frame, m), where its colour was measured; z = 0 empty.
+  /// Photometric tracking uses it so that a colour is paired with its own 3D point. want_surfel_centre
+  VertexImage surfel_centre;
   size_t drawn_surfels = 0;  ///< surfels that passed the filters and projected into the image
 };
 
@@ -68,6 +80,12 @@ struct IndexMap {
   int supersample = 1;
   IndexImage surfel_index;  ///< (width * s) x (height * s), -1 = empty
   DepthImage depth;         ///< z (m) of the cell's surfel centre in the camera frame, 0 = empty
+  VertexImage position_cam; ///< the cell's surfel centre in the camera frame (m); zero = empty
+  // Copies of the cell's surfel attributes, so that per-pixel association reads contiguous memory
+  // instead of gathering from the map (filled only when `want_attributes` was passed).
+  NormalImage normal_world;  ///< world frame
+  Image<float> radius_m;
+  Image<float> confidence;
   size_t drawn_surfels = 0;
 };
 
@@ -82,7 +100,8 @@ class MapRenderer {
   /// Renders surfel centres as points into a supersampled index map (fusion's data association).
   /// Uses the filters of `options` (confidence, active window, instance, near/far).
   void render_index_map(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
-                        int supersample, const RenderOptions& options, IndexMap* out);
+                        int supersample, const RenderOptions& options, IndexMap* out,
+                        bool want_attributes = false);
 
  private:
   std::vector<std::uint64_t> zbuffer_;  // packed (depth bits << 32 | surfel index), min wins

@@ -29,6 +29,14 @@ bool SlamOptions::IsValid(std::string* why) const {
     if (why) *why = "reserve_surfels must be >= 0";
     return false;
   }
+  if (prediction_level < 0 || prediction_level > 2) {
+    if (why) *why = "prediction_level must be 0, 1 or 2";
+    return false;
+  }
+  if (!(prediction_radius_scale >= 0.3 && prediction_radius_scale <= 2.0)) {
+    if (why) *why = "prediction_radius_scale must be in [0.3, 2]";
+    return false;
+  }
   return true;
 }
 
@@ -99,9 +107,13 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
     opt.active_window_frames = params_.fusion.active_window_frames;
     opt.now = now;
     opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
-    predict_renderer_.render(map_, T_world_cam_, intrinsics_, opt, &prediction_);
-    build_model_pyramid(prediction_, intrinsics_, params_.preprocess.pyramid_levels,
-                        static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_);
+    opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
+    opt.want_surfel_centre = true;
+    const int pl = std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
+    const PinholeIntrinsics K_pred = intrinsics_.scaled(pl);
+    predict_renderer_.render(map_, T_world_cam_, K_pred, opt, &prediction_);
+    build_model_pyramid(prediction_, K_pred, params_.preprocess.pyramid_levels - pl,
+                        static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_, pl);
     res.predict_ms = ms_since(t);
 
     t = std::chrono::steady_clock::now();

@@ -39,6 +39,11 @@ struct SlamOptions {
   int reserve_surfels = 500000;
   /// Fuse frames whose tracking is DEGRADED (ElasticFusion fuses every frame that is not lost).
   bool fuse_degraded = true;
+  /// Splat radius scale of the model prediction used for tracking (1 = ElasticFusion).
+  double prediction_radius_scale = 1.0;
+  /// Pyramid level at which the model prediction is rendered: 0 = full resolution (ElasticFusion),
+  /// 1 = half (4x fewer pixels to splat; full-resolution frame pixels are aligned against it).
+  int prediction_level = 1;
 
   template <class V>
   void visit(V&& v) {
@@ -46,6 +51,10 @@ struct SlamOptions {
       "Track against unstable surfels seen by the previous frame too (else stable ones only)");
     v("reserve_surfels", reserve_surfels, "Surfel capacity reserved up front");
     v("fuse_degraded", fuse_degraded, "Fuse frames whose tracking is DEGRADED");
+    v("prediction_radius_scale", prediction_radius_scale,
+      "Splat radius scale of the tracking prediction (1 = EF; < 1 trims disc overhang at depth edges)");
+    v("prediction_level", prediction_level,
+      "Resolution level of the tracking prediction: 0 = full (EF), 1 = half (faster)");
   }
   bool IsValid(std::string* why) const;
 };

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "orpe/core/error.h"
+#include "orpe/slam/rigid_f.h"
 
 namespace orpe::slam {
 namespace {
@@ -27,12 +28,20 @@ struct RowSums {
   int overlap;
 };
 
-inline void accumulate(float (&a)[21], float (&b)[6], const float (&J)[6], float r) {
+inline void accumulate(float (&a)[21], float (&b)[6], const float (&J)[6], float r, float w) {
+  float wJ[6];
+  for (int i = 0; i < 6; ++i) wJ[i] = w * J[i];
   int k = 0;
   for (int i = 0; i < 6; ++i) {
-    for (int j = 0; j <= i; ++j) a[k++] += J[i] * J[j];
-    b[i] += J[i] * r;
+    for (int j = 0; j <= i; ++j) a[k++] += wJ[i] * J[j];
+    b[i] += wJ[i] * r;
   }
+}
+
+// Huber weight (delta <= 0: plain least squares).
+inline float huber_weight(float r, float delta) {
+  const float ar = std::fabs(r);
+  return (delta <= 0.0f || ar <= delta) ? 1.0f : delta / ar;
 }
 
 NormalEquations reduce(const std::vector<RowSums>& rows) {
@@ -103,13 +112,15 @@ bool TrackerParams::IsValid(std::string* why) const {
 }
 
 void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, int levels,
-                         float max_depth_jump_m, ModelPyramid* out) {
-  out->levels.resize(static_cast<size_t>(levels));
+                         float max_depth_jump_m, ModelPyramid* out, int first_level) {
+  out->levels.resize(static_cast<size_t>(std::max(1, levels)));
+  out->first_level = first_level;
   ModelLevel& L0 = out->levels[0];
   L0.K = K;
   L0.depth = view.depth;
   L0.vertex = view.vertex;
   L0.normal = view.normal;
+  L0.color_point = view.surfel_centre;
   color_to_intensity(view.color, &L0.intensity);
   for (int l = 1; l < levels; ++l) {
     const ModelLevel& P = out->levels[static_cast<size_t>(l - 1)];
@@ -119,11 +130,12 @@ void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, i
     ensure_size(C.depth, w, h);
     ensure_size(C.normal, w, h);
     ensure_size(C.intensity, w, h);
+    ensure_size(C.color_point, w, h);
 #pragma omp parallel for schedule(static)
     for (int v = 0; v < h; ++v) {
       for (int u = 0; u < w; ++u) {
         float ref = 0.0f, zsum = 0.0f, isum = 0.0f;
-        Vec3f nsum = Vec3f::Zero();
+        Vec3f nsum = Vec3f::Zero(), csum = Vec3f::Zero();
         int n = 0;
         for (int k = 0; k < 4; ++k) {
           const int x = 2 * u + (k & 1), y = 2 * v + (k >> 1);
@@ -134,6 +146,7 @@ void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, i
           zsum += z;
           isum += P.intensity.at(x, y);
           nsum += P.normal.at(x, y);
+          csum += P.color_point.at(x, y);
           ++n;
         }
         const float len = nsum.norm();
@@ -141,11 +154,13 @@ void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, i
           C.depth.at(u, v) = 0.0f;
           C.normal.at(u, v).setZero();
           C.intensity.at(u, v) = 0.0f;
+          C.color_point.at(u, v).setZero();
           continue;
         }
         C.depth.at(u, v) = zsum / static_cast<float>(n);
         C.intensity.at(u, v) = isum / static_cast<float>(n);
         C.normal.at(u, v) = nsum / len;
+        C.color_point.at(u, v) = csum / static_cast<float>(n);
       }
     }
     compute_vertex_map(C.depth, C.K, &C.vertex);
@@ -159,14 +174,14 @@ Tracker::Tracker(const TrackerParams& params) : params_(params) {
 
 NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& model,
                                   const SE3& T_ref_cam, int pixel_step) const {
-  const Eigen::Matrix3f R = T_ref_cam.rotation().cast<float>();
-  const Eigen::Vector3f t = T_ref_cam.translation().cast<float>();
+  const RigidF T(T_ref_cam);
   const int W = live.depth.width(), H = live.depth.height();
   const int MW = model.depth.width(), MH = model.depth.height();
   const float fx = static_cast<float>(model.K.fx), fy = static_cast<float>(model.K.fy);
   const float cx = static_cast<float>(model.K.cx), cy = static_cast<float>(model.K.cy);
   const float max_d2 = static_cast<float>(params_.icp_max_dist_m * params_.icp_max_dist_m);
   const float min_cos = static_cast<float>(std::cos(params_.icp_max_angle_deg * M_PI / 180.0));
+  const float icp_huber = static_cast<float>(params_.icp_huber_m);
   const int step = std::max(1, pixel_step);
   const int rows = (H + step - 1) / step;
   std::vector<RowSums> sums(static_cast<size_t>(rows));
@@ -183,7 +198,7 @@ NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& mode
       if (x.z() <= 0.0f) continue;
       const Vec3f& nl = nrow[u];
       if (nl.z() == 0.0f && nl.x() == 0.0f && nl.y() == 0.0f) continue;
-      const Vec3f q = R * x + t;
+      const Vec3f q = T(x);
       if (q.z() <= 0.0f) continue;
       const int mu = static_cast<int>(std::floor(fx * q.x() / q.z() + cx + 0.5f));
       const int mv = static_cast<int>(std::floor(fy * q.y() / q.z() + cy + 0.5f));
@@ -195,11 +210,11 @@ NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& mode
       ++overlap;
       const Vec3f diff = q - vm;
       if (diff.squaredNorm() > max_d2) continue;
-      if ((R * nl).dot(nm) < min_cos) continue;
+      if (T.rotate(nl).dot(nm) < min_cos) continue;
       const float r = nm.dot(diff);
       const Vec3f qxn = q.cross(nm);
       const float J[6] = {nm.x(), nm.y(), nm.z(), qxn.x(), qxn.y(), qxn.z()};
-      accumulate(a, b, J, r);
+      accumulate(a, b, J, r, huber_weight(r, icp_huber));
       ss += r * r;
       ++count;
     }
@@ -214,11 +229,9 @@ NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& mode
 }
 
 NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& model,
-                                  const SE3& T_ref_cam, float min_gradient, int pixel_step) const {
-  const SE3 T_cam_ref = T_ref_cam.inverse();
-  const Eigen::Matrix3f Rcr = T_cam_ref.rotation().cast<float>();
-  const Eigen::Vector3f tcr = T_cam_ref.translation().cast<float>();
-  const Eigen::Matrix3f Rrc = Rcr.transpose();
+                                  const SE3& T_ref_cam, float min_gradient, int pixel_step,
+                                  float huber_delta) const {
+  const RigidF T_cam_ref(T_ref_cam.inverse());
   const int W = live.depth.width(), H = live.depth.height();
   const int MW = model.depth.width(), MH = model.depth.height();
   const float fx = static_cast<float>(live.K.fx), fy = static_cast<float>(live.K.fy);
@@ -226,6 +239,7 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
   const float max_dz = static_cast<float>(params_.rgb_max_depth_diff_m);
   const float max_z = static_cast<float>(params_.rgb_max_depth_m);
   const float min_g2 = min_gradient * min_gradient;
+  const float rgb_huber = huber_delta;
   const int step = std::max(1, pixel_step);
   const int rows = (MH + step - 1) / step;
   std::vector<RowSums> sums(static_cast<size_t>(rows));
@@ -235,12 +249,12 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
     const int y = ri * step;
     float a[21] = {}, b[6] = {}, ss = 0.0f;
     int count = 0;
-    const Vec3f* vrow = model.vertex.row(y);
+    const Vec3f* vrow = model.color_point.row(y);
     const float* irow = model.intensity.row(y);
     for (int x = 0; x < MW; x += step) {
       const Vec3f& vm = vrow[x];
       if (vm.z() <= 0.0f || vm.z() > max_z) continue;
-      const Vec3f p = Rcr * vm + tcr;
+      const Vec3f p = T_cam_ref(vm);
       if (p.z() <= 0.0f) continue;
       const float iz = 1.0f / p.z();
       const float u = fx * p.x() * iz + cx, v = fy * p.y() * iz + cy;
@@ -249,15 +263,16 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
       const int ui = static_cast<int>(u + 0.5f), vi = static_cast<int>(v + 0.5f);
       const float dl = live.depth.at(ui, vi);
       if (dl <= 0.0f || std::fabs(dl - p.z()) > max_dz) continue;
-      const float gu = bilinear(live.grad_u, u, v), gv = bilinear(live.grad_v, u, v);
+      // Gradients only shape the Jacobian: the nearest pixel's are enough (the residual is bilinear).
+      const float gu = live.grad_u.at(ui, vi), gv = live.grad_v.at(ui, vi);
       if (gu * gu + gv * gv < min_g2) continue;
       const float r = bilinear(live.intensity, u, v) - irow[x];
       // d r / d p = grad . d project / d p
       const Vec3f dp(gu * fx * iz, gv * fy * iz, -(gu * fx * p.x() + gv * fy * p.y()) * iz * iz);
-      const Vec3f c = Rrc * dp;
+      const Vec3f c = T_cam_ref.rotate_inverse(dp);
       const Vec3f cxv = c.cross(vm);
       const float J[6] = {-c.x(), -c.y(), -c.z(), cxv.x(), cxv.y(), cxv.z()};
-      accumulate(a, b, J, r);
+      accumulate(a, b, J, r, huber_weight(r, rgb_huber));
       ss += r * r;
       ++count;
     }
@@ -275,14 +290,19 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
                                const SE3& T_ref_cam_init) const {
   AlignmentResult res;
   SE3 T = T_ref_cam_init;
-  const int levels = static_cast<int>(std::min(live.levels.size(), model.levels.size()));
+  const int levels =
+      static_cast<int>(std::min(live.levels.size(), model.levels.size() + static_cast<size_t>(model.first_level)));
   const double w2 = params_.icp_weight * params_.icp_weight;
   bool numerically_failed = false;
   NormalEquations last_icp, last_rgb;
+  float rgb_sigma = 0.0f;  // RMS photometric residual of the previous iteration (0: none yet)
   for (int level = levels - 1; level >= 0 && !numerically_failed; --level) {
     const FrameLevel& L = live.levels[static_cast<size_t>(level)];
-    const ModelLevel& M = model.levels[static_cast<size_t>(level)];
+    const int model_level = std::max(0, level - model.first_level);
+    const ModelLevel& M = model.levels[static_cast<size_t>(model_level)];
     const int step = level == 0 ? params_.level0_pixel_step : 1;
+    // The photometric loop runs over model pixels: sparser already when the model is coarser.
+    const int rgb_step_px = (level == 0 && model.first_level == 0) ? params_.level0_pixel_step : 1;
     const int iters = iterations_for_level(params_, level);
     for (int it = 0; it < iters; ++it) {
       ++res.iterations;
@@ -294,9 +314,11 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
         b += w2 * last_icp.b;
       }
       if (params_.use_rgb) {
-        last_rgb = rgb_step(L, M, T, gradient_for_level(params_, level), step);
+        const float delta = static_cast<float>(params_.rgb_huber_sigmas) * rgb_sigma;
+        last_rgb = rgb_step(L, M, T, gradient_for_level(params_, level), rgb_step_px, delta);
         if (last_rgb.count > 0) {
           const double sigma2 = std::max(last_rgb.sum_sq / last_rgb.count, 1.0);
+          rgb_sigma = static_cast<float>(std::sqrt(sigma2));
           A += last_rgb.A / sigma2;
           b += last_rgb.b / sigma2;
         }

@@ -8,7 +8,8 @@
 // ICP residual (per live pixel p with vertex x, in the live camera frame):
 //   q = T_ref_cam x,  model pixel = round(project(q)),  r = n_m . (q - v_m)   (metres)
 //   J = [n_m^T, (q x n_m)^T]
-// Photometric residual (per model pixel with vertex v_m and intensity I_m, in the reference frame):
+// Photometric residual (per model pixel with colour point v_m -- the centre of the surfel whose colour
+// I_m it shows -- in the reference frame):
 //   y = T_ref_cam^-1 v_m,  r = I_live(project(y)) - I_m   (0..255, bilinear)
 //   J = grad I_live . d project / d y . R_ref_cam^T [-I, hat(v_m)]
 // Normal equations: A = w_icp^2 A_icp + A_rgb / s^2, b likewise, where s is the RMS photometric residual
@@ -38,6 +39,10 @@ struct TrackerParams {
   double rgb_min_gradient_level1 = 1.0;
   double rgb_min_gradient_level2 = 1.0 / 3.0;
   double rgb_max_depth_m = 6.0;
+  double icp_huber_m = 0.0;   ///< Huber threshold of ICP residuals (m); 0 = plain least squares (EF)
+  /// Huber threshold of photometric residuals in units of their RMS (of the previous iteration);
+  /// 0 = plain least squares (EF)
+  double rgb_huber_sigmas = 0.0;
   /// Step the pixel loops by this at level 0 (1 = every pixel; 2 = every 2nd row and column).
   int level0_pixel_step = 1;
   double convergence_step = 1e-5;  ///< stop a level when |xi| (m, rad) falls below this
@@ -71,6 +76,9 @@ struct TrackerParams {
     v("rgb_min_gradient_level1", rgb_min_gradient_level1, "Photometric: min |grad I| at level 1");
     v("rgb_min_gradient_level2", rgb_min_gradient_level2, "Photometric: min |grad I| at level 2+");
     v("rgb_max_depth_m", rgb_max_depth_m, "Photometric: max depth of a used pixel (m) (EF: 6)");
+    v("icp_huber_m", icp_huber_m, "Huber threshold of ICP residuals (m); 0 = plain least squares (EF)");
+    v("rgb_huber_sigmas", rgb_huber_sigmas,
+      "Huber threshold of photometric residuals, in RMS residuals of the previous iteration; 0 = off (EF)");
     v("level0_pixel_step", level0_pixel_step, "Use every n-th row and column at level 0 (speed; 1 = all)");
     v("convergence_step", convergence_step, "Stop a level when the update norm is below this");
     v("max_translation_update_m", max_translation_update_m, "Reject a frame moving more than this (m) (EF: 0.3)");
@@ -92,16 +100,22 @@ struct TrackerParams {
 struct ModelLevel {
   PinholeIntrinsics K;
   DepthImage depth;
-  VertexImage vertex;
+  VertexImage vertex;        ///< ray / surface intersection per pixel (ICP)
   NormalImage normal;
-  IntensityImage intensity;
+  IntensityImage intensity;  ///< colour of the pixel's surfel
+  VertexImage color_point;   ///< where that colour was measured: the surfel centre (photometric term)
 };
 struct ModelPyramid {
   std::vector<ModelLevel> levels;
+  /// The frame pyramid level of levels[0]: 0 when rendered at full resolution; 1 when rendered at half
+  /// resolution, in which case frame level 0 is aligned against model level 0 (half resolution).
+  int first_level = 0;
 };
-/// Builds the model pyramid from a full-resolution rendered view (vertex, normal, colour required).
+/// Builds the model pyramid from a full-resolution rendered view (vertex, normal, colour and
+/// surfel_centre required).
+/// `K` is the rendered view's intrinsics; `first_level` its level in the frame pyramid.
 void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, int levels,
-                         float max_depth_jump_m, ModelPyramid* out);
+                         float max_depth_jump_m, ModelPyramid* out, int first_level = 0);
 
 /// Outcome of one alignment (no state; the SLAM system turns it into OK / DEGRADED / LOST).
 struct AlignmentResult {
@@ -140,8 +154,9 @@ class Tracker {
   /// One linearisation of each term at `T_ref_cam` on `level` (used by align and the tests).
   NormalEquations icp_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
                            int pixel_step) const;
+  /// `huber_delta` (0..255; <= 0 off) down-weights large photometric residuals.
   NormalEquations rgb_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
-                           float min_gradient, int pixel_step) const;
+                           float min_gradient, int pixel_step, float huber_delta = 0.0f) const;
 
  private:
   TrackerParams params_;

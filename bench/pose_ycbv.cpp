@@ -4,7 +4,7 @@
 //
 //   build/bin/orpe_bench_pose_ycbv [--data DIR] [--videos 0000,0001,0002] [--stride N]
 //       [--set key=value ...] [--csv FILE] [--markdown] [--diagnose] [--classes 5,10]
-//       [--cut F] [--dilate N] [--fuse] [--ekf key=value ...]
+//       [--cut F] [--occlude F] [--dilate N] [--fuse] [--ekf key=value ...]
 //
 // --set takes ModelRegistrationParams fields (pose_registration.* without the prefix also works).
 // --diagnose also scores the ground-truth pose with the estimator's score, to tell search failures
@@ -14,7 +14,8 @@
 // frame moved into that frame's camera, using only the measurements up to that frame. Stress
 // options: --cut F drops the left fraction F of each mask's bounding box (a partial mask, as when a
 // detector misses part of the object); --dilate N grows each mask by N pixels (boundary leaking
-// into the background, as a detector's mask does).
+// into the background, as a detector's mask does); --occlude F is --cut F with an occluder: the cut
+// part of the bounding box (plus 5 px) gets the depth of a surface 10 cm in front of the object.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -72,9 +73,9 @@ int main(int argc, char** argv) {
   std::string csv_path;
   bool markdown = false, diagnose = false;
   std::set<int> only_classes;
-  bool fuse = false;
+  bool fuse = false, prior_gt = false;
   orpe::PoseEkfParams ekf_params;
-  double cut_fraction = 0;
+  double cut_fraction = 0, occlude_fraction = 0;
   int dilate_px = 0;
   orpe::ModelRegistrationParams params;
   try {
@@ -96,6 +97,8 @@ int main(int argc, char** argv) {
         markdown = true;
       else if (a == "--diagnose")
         diagnose = true;
+      else if (a == "--prior-gt")
+        prior_gt = true;
       else if (a == "--fuse")
         fuse = true;
       else if (a == "--ekf") {
@@ -107,6 +110,8 @@ int main(int argc, char** argv) {
           throw orpe::ConfigError("unknown pose_ekf key '" + kv.substr(0, eq) + "'");
       } else if (a == "--cut")
         cut_fraction = std::stod(next());
+      else if (a == "--occlude")
+        occlude_fraction = std::stod(next());
       else if (a == "--dilate")
         dilate_px = std::stoi(next());
       else if (a == "--classes") {
@@ -121,7 +126,8 @@ int main(int argc, char** argv) {
       } else if (a == "--help" || a == "-h") {
         std::printf(
             "usage: %s [--data DIR] [--videos 0000,0001] [--stride N] [--set key=value]... "
-            "[--csv FILE] [--markdown] [--diagnose] [--classes ids] [--cut F] [--dilate N]\n",
+            "[--csv FILE] [--markdown] [--diagnose] [--classes ids] [--cut F] [--occlude F] "
+            "[--dilate N] [--fuse] [--ekf key=value]\n",
             argv[0]);
         return 0;
       } else {
@@ -176,14 +182,31 @@ int main(int argc, char** argv) {
           orpe::MaskImage mask(frame.labels_gt.width(), frame.labels_gt.height(), 0);
           const int label = static_cast<int>(k) + 1;
           for (size_t i = 0; i < mask.size(); ++i) mask[i] = frame.labels_gt[i] == label ? 1 : 0;
-          if (cut_fraction > 0) {
-            int umin = mask.width(), umax = -1;
+          orpe::DepthImage occluded_depth;
+          if (cut_fraction > 0 || occlude_fraction > 0) {
+            const double fraction = cut_fraction > 0 ? cut_fraction : occlude_fraction;
+            int umin = mask.width(), umax = -1, vmin = mask.height(), vmax = -1;
+            std::vector<float> zs;
             for (int v = 0; v < mask.height(); ++v)
               for (int u = 0; u < mask.width(); ++u)
-                if (mask.at(u, v)) umin = std::min(umin, u), umax = std::max(umax, u);
-            const int ucut = umin + static_cast<int>(cut_fraction * (umax - umin + 1));
+                if (mask.at(u, v)) {
+                  umin = std::min(umin, u), umax = std::max(umax, u);
+                  vmin = std::min(vmin, v), vmax = std::max(vmax, v);
+                  if (frame.depth.at(u, v) > 0) zs.push_back(frame.depth.at(u, v));
+                }
+            const int ucut = umin + static_cast<int>(fraction * (umax - umin + 1));
             for (int v = 0; v < mask.height(); ++v)
-              for (int u = umin; u < std::min(ucut, mask.width()); ++u) mask.at(u, v) = 0;
+              for (int u = std::max(umin, 0); u < std::min(ucut, mask.width()); ++u)
+                mask.at(u, v) = 0;
+            if (occlude_fraction > 0 && !zs.empty()) {
+              // An occluder 10 cm in front of the object covers the cut part of its bounding box.
+              std::nth_element(zs.begin(), zs.begin() + zs.size() / 2, zs.end());
+              const float z_occ = std::max(0.1f, zs[zs.size() / 2] - 0.10f);
+              occluded_depth = frame.depth;
+              for (int v = std::max(vmin - 5, 0); v <= std::min(vmax + 5, mask.height() - 1); ++v)
+                for (int u = std::max(umin - 5, 0); u < std::min(ucut, mask.width()); ++u)
+                  occluded_depth.at(u, v) = z_occ;
+            }
           }
           if (dilate_px > 0) {
             const orpe::MaskImage src = mask;
@@ -200,11 +223,12 @@ int main(int argc, char** argv) {
           }
           orpe::SingleViewInput in;
           in.mask = &mask;
-          in.depth = &frame.depth;
+          in.depth = occluded_depth.empty() ? &frame.depth : &occluded_depth;
           in.color = &frame.color;
           in.intrinsics = frame.intrinsics;
           in.class_id = gt.class_id;
           in.model = &models[gt.class_id];
+          if (prior_gt) in.T_cam_obj_prior = gt.T_cam_obj;  // diagnosis: can ICP hold the truth?
 
           Row row;
           row.video = video;

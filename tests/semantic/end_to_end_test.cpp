@@ -119,7 +119,7 @@ TEST(SemanticEndToEnd, NineObjectsDegradedDetections) {
 }
 
 TEST(SemanticEndToEnd, ExactDetectionsGiveNearPerfectMasksAndOutputs) {
-  const test::SyntheticScene scene = test::nine_object_scene(160, 120);
+  const test::SyntheticScene scene = test::nine_object_scene(320, 240);
   const auto poses = test::orbit(10, 0.75, 0.5, 40.0, -20.0);
   SegmentationParams seg;
   seg.gt_degrade = false;

@@ -4,7 +4,8 @@ namespace orpe {
 
 void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam,
                               const PinholeIntrinsics& K, float max_splat_radius_px,
-                              double depth_tolerance_m, bool want_color, InstanceImages* out) {
+                              float splat_radius_scale, double depth_tolerance_m, bool want_color,
+                              InstanceImages* out) {
   // Gather the labelled surfels (only the arrays the renderer reads; the others stay default).
   selected_.clear();
   for (size_t i = 0; i < map.size(); ++i)
@@ -26,6 +27,7 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
 
   slam::RenderOptions options;
   options.max_splat_radius_px = max_splat_radius_px;
+  options.radius_scale = splat_radius_scale;
   options.want_vertex = options.want_normal = options.want_color = false;
   options.want_instance = false;
   renderer_.render(map, T_world_cam, K, options, &all_);

@@ -29,9 +29,10 @@ struct InstanceImages {
 class InstanceRenderer {
  public:
   /// Renders at `T_world_cam` with intrinsics `K` (output size K.width x K.height). Splat radii are
-  /// capped at `max_splat_radius_px`.
+  /// the surfel radii x `splat_radius_scale`, capped at `max_splat_radius_px`.
   void render(const slam::SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
-              float max_splat_radius_px, double depth_tolerance_m, bool want_color, InstanceImages* out);
+              float max_splat_radius_px, float splat_radius_scale, double depth_tolerance_m,
+              bool want_color, InstanceImages* out);
 
  private:
   slam::MapRenderer renderer_;

@@ -48,6 +48,8 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (!(mask_splat_radius_px >= 0.5 && mask_splat_radius_px <= 50))
     return fail("mask_splat_radius_px must be in [0.5, 50]");
   if (!(mask_depth_tolerance_m >= 0)) return fail("mask_depth_tolerance_m must be >= 0");
+  if (!(mask_splat_radius_scale > 0 && mask_splat_radius_scale <= 4))
+    return fail("mask_splat_radius_scale must be in (0, 4]");
   if (!(surfel_depth_tolerance_m > 0) || !(surfel_depth_tolerance_rel >= 0))
     return fail("surfel_depth_tolerance_m must be > 0 and surfel_depth_tolerance_rel >= 0");
   if (min_visible_area_px < 1) return fail("min_visible_area_px must be >= 1");
@@ -183,6 +185,7 @@ SemanticFusion::SemanticFusion(const SemanticParams& params) : params_(params) {
 void SemanticFusion::render_instances(const slam::SurfelMap& map, const SE3& T_world_cam,
                                       const PinholeIntrinsics& K, bool want_color, InstanceImages* out) {
   instance_renderer_.render(map, T_world_cam, K, static_cast<float>(params_.mask_splat_radius_px),
+                            static_cast<float>(params_.mask_splat_radius_scale),
                             params_.mask_depth_tolerance_m, want_color, out);
 }
 
@@ -415,11 +418,32 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     if (pixel_surfel->width() != W || pixel_surfel->height() != H)
       throw ConfigError(fmt::format("semantic fusion: pixel->surfel image is {}x{}, the frame {}x{}",
                                     pixel_surfel->width(), pixel_surfel->height(), W, H));
+    // A surfel may cover several pixels (the SLAM lists the surfel a pixel updated, created or is
+    // covered by): each surfel is updated once, at its listed pixel nearest its projected centre.
     const auto n = static_cast<std::int32_t>(map.size());
-    for (int v = 0; v < H; ++v)  // serial: robust even if a surfel were listed twice
+    const SE3 T_cam_world = T_world_cam.inverse();
+    const Eigen::Matrix3f R = T_cam_world.rotation().cast<float>();
+    const Eigen::Vector3f t = T_cam_world.translation().cast<float>();
+    representative_.assign(map.size(), {std::numeric_limits<float>::max(), -1});
+    for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
         const std::int32_t i = pixel_surfel->at(u, v);
-        if (i >= 0 && i < n) update_surfel(i, u, v, neighbourhood, missed_ptr, map, counts);
+        if (i < 0 || i >= n) continue;
+        const Eigen::Vector3f p = R * map.position_world[i] + t;
+        float d2 = std::numeric_limits<float>::max() / 2;  // behind the camera: any pixel will do
+        if (p.z() > 0) {
+          const float du = static_cast<float>(K.fx) * p.x() / p.z() + static_cast<float>(K.cx) - u;
+          const float dv = static_cast<float>(K.fy) * p.y() / p.z() + static_cast<float>(K.cy) - v;
+          d2 = du * du + dv * dv;
+        }
+        auto& best = representative_[i];
+        if (d2 < best.first) best = {d2, v * W + u};
+      }
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u) {
+        const std::int32_t i = pixel_surfel->at(u, v);
+        if (i >= 0 && i < n && representative_[i].second == v * W + u)
+          update_surfel(i, u, v, neighbourhood, missed_ptr, map, counts);
       }
   } else {
     slam::RenderOptions points;

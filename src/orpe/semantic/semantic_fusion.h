@@ -6,7 +6,8 @@
 //
 // Choices where the paper is silent (docs/SEMANTIC.md has the full rationale):
 //  - Which surfels a frame updates: the surfels this frame's pixels fused into. Given the SLAM's
-//    pixel -> surfel image (SlamSystem::last_pixel_surfel()), exactly those; otherwise the surfels whose
+//    pixel -> surfel image (SlamSystem::last_pixel_surfel()), exactly those, each at its listed pixel
+//    nearest its projected centre (a surfel can cover several pixels); otherwise the surfels whose
 //    centres the supersampled index map puts in a pixel (one pixel per surfel and frame) and whose
 //    depth agrees with the frame's measured depth. Splatted rendering is used only for the association
 //    masks M^ and the per-instance outputs.
@@ -67,9 +68,10 @@ struct SemanticParams {
   int boundary_min_count = 10;             ///< sigma: supporting observations needed (<= n)
   int index_supersample = 4;               ///< index map resolution factor (ElasticFusion: 4)
   /// Cap of a surfel's splat radius on screen when rendering instance masks (M^ and the projected
-  /// masks): full ElasticFusion splats (sqrt(2) z / f, up to 2x at grazing angles) overhang object
-  /// silhouettes by 1-3 px.
-  double mask_splat_radius_px = 1.0;
+  /// masks): bounds the overhang of grazing-angle discs past silhouettes and the cost.
+  double mask_splat_radius_px = 2.0;
+  /// Splat radius = surfel radius x this when rendering instance masks (RenderOptions::radius_scale).
+  double mask_splat_radius_scale = 1.0;
   /// Instance masks are rendered label-aware (instance_render.h): the nearest labelled surface wins a
   /// pixel when it lies within this of the map's visible surface (young noisy surfels in front).
   double mask_depth_tolerance_m = 0.02;
@@ -114,6 +116,8 @@ struct SemanticParams {
     v("index_supersample", index_supersample, "Index map supersampling for surfel updates (1-8)");
     v("mask_splat_radius_px", mask_splat_radius_px,
       "Splat radius cap (px) when rendering instance masks; full splats overhang silhouettes");
+    v("mask_splat_radius_scale", mask_splat_radius_scale,
+      "Instance masks: splat radius = surfel radius x this (< 1 trims the overhang past silhouettes)");
     v("mask_depth_tolerance_m", mask_depth_tolerance_m,
       "Instance masks: an instance surface within this (m) of the visible surface labels the pixel");
     v("surfel_depth_tolerance_m", surfel_depth_tolerance_m,
@@ -255,6 +259,7 @@ class SemanticFusion {
   LabelImage detection_labels_;
   ProbabilityImage pixel_probability_;
   LabelImage missed_labels_;  // rendered pixels of visible instances that got no detection
+  std::vector<std::pair<float, int>> representative_;  // per surfel: (squared px distance, pixel)
 };
 
 }  // namespace orpe

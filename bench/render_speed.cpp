@@ -24,7 +24,8 @@ const Scene& scene() {
     auto tex = std::make_shared<orpe::ColorImage>(256, 256);
     for (int y = 0; y < 256; ++y)
       for (int x = 0; x < 256; ++x)
-        tex->at(x, y) = {static_cast<std::uint8_t>(x), static_cast<std::uint8_t>(y), static_cast<std::uint8_t>((x ^ y) & 0xff)};
+        tex->at(x, y) = {static_cast<std::uint8_t>(x), static_cast<std::uint8_t>(y),
+                         static_cast<std::uint8_t>((x ^ y) & 0xff)};
     sc.meshes.reserve(16);
     // 6 spheres x ~12.4k triangles, 4 textured boxes x ~6.5k, a floor: ~100k triangles.
     for (int i = 0; i < 6; ++i) sc.meshes.push_back(orpe::make_sphere(0.12f, 100, 63));
@@ -46,8 +47,9 @@ const Scene& scene() {
     for (size_t i = 0; i < sc.meshes.size(); ++i) {
       orpe::SE3 T_world_obj;
       if (i + 1 < sc.meshes.size()) {
-        T_world_obj = orpe::SE3(Eigen::AngleAxisd(U(rng) * 6, orpe::Vec3::UnitZ()).toRotationMatrix(),
-                                orpe::Vec3(U(rng), U(rng), 0.12));
+        T_world_obj =
+            orpe::SE3(Eigen::AngleAxisd(U(rng) * 6, orpe::Vec3::UnitZ()).toRotationMatrix(),
+                      orpe::Vec3(U(rng), U(rng), 0.12));
       }
       sc.items.push_back({&sc.meshes[i], T_cam_world * T_world_obj, static_cast<int>(i + 1)});
       sc.triangles += sc.meshes[i].num_triangles();
@@ -74,7 +76,9 @@ void run(benchmark::State& state, unsigned outputs) {
 void BM_RenderFull(benchmark::State& state) {
   run(state, orpe::kRenderDepth | orpe::kRenderIds | orpe::kRenderColor | orpe::kRenderNormals);
 }
-void BM_RenderDepthIds(benchmark::State& state) { run(state, orpe::kRenderDepth | orpe::kRenderIds); }
+void BM_RenderDepthIds(benchmark::State& state) {
+  run(state, orpe::kRenderDepth | orpe::kRenderIds);
+}
 void BM_RenderFullWithSilhouettes(benchmark::State& state) {
   run(state, orpe::kRenderDepth | orpe::kRenderIds | orpe::kRenderColor | orpe::kRenderNormals |
                  orpe::kRenderSilhouettes);

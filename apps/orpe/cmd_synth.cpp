@@ -23,57 +23,75 @@ CommandRegistrar reg(20, [](CLI::App& root) {
   auto s = std::make_shared<SynthCommand>();
   CLI::App* app = root.add_subcommand(
       "synth",
-      "Generate a synthetic RGB-D sequence with exact ground truth (BOP layout): known objects resting on a floor, "
+      "Generate a synthetic RGB-D sequence with exact ground truth (BOP layout): known objects "
+      "resting on a floor, "
       "table or shelf, seen by a hand-held structured-light camera. See docs/SYNTH.md.");
   app->add_option("--out", s->out, "Output folder (BOP scene folder; created)")->required();
-  app->add_option("--seed", s->p.seed, "Random seed; the same seed and options give byte-identical output")
+  app->add_option("--seed", s->p.seed,
+                  "Random seed; the same seed and options give byte-identical output")
       ->capture_default_str();
   app->add_option("--frames", s->p.frames, "Number of frames (30 Hz)")->capture_default_str();
   app->add_option("--objects", s->p.objects, "Number of object instances")->capture_default_str();
   app->add_option("--scene", s->p.scene, "Environment: floor | table | shelf")
       ->check(CLI::IsMember({"floor", "table", "shelf"}))
       ->capture_default_str();
-  app->add_option("--models", s->models,
-                  "OBJ/PLY files or folders (a folder of meshes, or YCB-style <class>/textured_simple.obj); "
-                  "comma-separated or repeated. Default: the built-in warehouse set")
+  app->add_option(
+         "--models", s->models,
+         "OBJ/PLY files or folders (a folder of meshes, or YCB-style <class>/textured_simple.obj); "
+         "comma-separated or repeated. Default: the built-in warehouse set")
       ->delimiter(',');
-  app->add_option("--model-unit-m", s->p.model_unit_m,
-                  "Metres per model-file unit (0.001 for millimetres); 0 = guess from the model size")
+  app->add_option(
+         "--model-unit-m", s->p.model_unit_m,
+         "Metres per model-file unit (0.001 for millimetres); 0 = guess from the model size")
       ->capture_default_str();
   app->add_flag("--repeat-types", s->p.repeat_types,
-                "Allow several instances of one object type (sharing an obj_id); default: one type per instance");
-  app->add_option("--noise", s->noise,
-                  "on: structured-light depth noise + colour noise; off: exact rendered depth and colour")
+                "Allow several instances of one object type (sharing an obj_id); default: one type "
+                "per instance");
+  app->add_option(
+         "--noise", s->noise,
+         "on: structured-light depth noise + colour noise; off: exact rendered depth and colour")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str();
   app->add_option("--width", s->p.width, "Image width (pixels)")->capture_default_str();
   app->add_option("--height", s->p.height, "Image height (pixels)")->capture_default_str();
-  app->add_option("--fx", s->p.fx, "Focal length x (pixels); 0 = 580 * width / 640")->capture_default_str();
+  app->add_option("--fx", s->p.fx, "Focal length x (pixels); 0 = 580 * width / 640")
+      ->capture_default_str();
   app->add_option("--fy", s->p.fy, "Focal length y (pixels); 0 = fx")->capture_default_str();
-  app->add_option("--cx", s->p.cx, "Principal point x (pixels); 0 = (width - 1) / 2")->capture_default_str();
-  app->add_option("--cy", s->p.cy, "Principal point y (pixels); 0 = (height - 1) / 2")->capture_default_str();
+  app->add_option("--cx", s->p.cx, "Principal point x (pixels); 0 = (width - 1) / 2")
+      ->capture_default_str();
+  app->add_option("--cy", s->p.cy, "Principal point y (pixels); 0 = (height - 1) / 2")
+      ->capture_default_str();
   app->add_option("--fps", s->p.fps, "Frame rate (Hz)")->capture_default_str();
-  app->add_option("--span-deg", s->p.span_deg, "Azimuth swept around the scene (deg); shelf: at most 110")
+  app->add_option("--span-deg", s->p.span_deg,
+                  "Azimuth swept around the scene (deg); shelf: at most 110")
       ->capture_default_str();
   app->add_option("--baseline-m", s->p.baseline_m,
                   "If > 0: distance between the first and last camera (m), overriding --span-deg")
       ->capture_default_str();
-  app->add_option("--distance-m", s->p.distance_m, "Mean camera distance to the scene (m); 0 = fit the scene in view")
+  app->add_option("--distance-m", s->p.distance_m,
+                  "Mean camera distance to the scene (m); 0 = fit the scene in view")
       ->capture_default_str();
-  app->add_option("--elevation-deg", s->p.elevation_deg, "Mean camera elevation (deg); 0 = per scene")
+  app->add_option("--elevation-deg", s->p.elevation_deg,
+                  "Mean camera elevation (deg); 0 = per scene")
       ->capture_default_str();
   app->add_option("--preview-stride", s->p.preview_stride,
                   "Write DIR/preview/NNNNNN.png (RGB | depth | masks) every N frames; 0 = none")
       ->capture_default_str();
-  app->add_flag("!--no-masks", s->p.write_masks, "Do not write mask/ and mask_visib/ (saves time and files)");
+  app->add_flag("!--no-masks", s->p.write_masks,
+                "Do not write mask/ and mask_visib/ (saves time and files)");
   app->add_option("--threads", s->p.threads, "Threads; 0 = OpenMP default")->capture_default_str();
   add_config_options(*app, s->options);
   app->footer(
-      "Every synth parameter (also those without an option here, e.g. depth_noise_scale, shake_m) can be set\n"
-      "with --set synth.KEY=VALUE or a --config file; explicit options win. List them: orpe config | grep synth.\n"
-      "Output: DIR/{rgb,depth,mask,mask_visib,instance,preview}/, scene_camera.json, scene_gt.json,\n"
-      "scene_gt_info.json, camera.json, groundtruth.txt (TUM), synth_info.json, models/ (obj_XXXXXX.ply in mm,\n"
-      "obj_XXXXXX_points.xyz in m, models_info.json). Depth PNGs: depth_scale 0.1 (raw units of 0.1 mm).");
+      "Every synth parameter (also those without an option here, e.g. depth_noise_scale, shake_m) "
+      "can be set\n"
+      "with --set synth.KEY=VALUE or a --config file; explicit options win. List them: orpe config "
+      "| grep synth.\n"
+      "Output: DIR/{rgb,depth,mask,mask_visib,instance,preview}/, scene_camera.json, "
+      "scene_gt.json,\n"
+      "scene_gt_info.json, camera.json, groundtruth.txt (TUM), synth_info.json, models/ "
+      "(obj_XXXXXX.ply in mm,\n"
+      "obj_XXXXXX_points.xyz in m, models_info.json). Depth PNGs: depth_scale 0.1 (raw units of "
+      "0.1 mm).");
   app->callback([s, app] {
     OrpeConfig config = resolve_config(s->options);
     SynthParams p = config.synth;

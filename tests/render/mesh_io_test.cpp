@@ -99,7 +99,8 @@ TEST(MeshIo, PlyRoundTripAsciiAndBinary) {
   TriangleMesh box = make_box(Eigen::Vector3f(0.2f, 0.1f, 0.05f), 0.04f);
   box.colors.resize(box.num_vertices());
   for (size_t i = 0; i < box.colors.size(); ++i)
-    box.colors[i] = {static_cast<std::uint8_t>(i % 256), static_cast<std::uint8_t>((7 * i) % 256), 99};
+    box.colors[i] = {static_cast<std::uint8_t>(i % 256), static_cast<std::uint8_t>((7 * i) % 256),
+                     99};
   const std::string dir = test::scratch_dir("ply");
   for (bool binary : {false, true}) {
     PlyWriteOptions w;
@@ -136,15 +137,17 @@ TEST(MeshIo, PlyTextureReferenceAndBigEndian) {
   EXPECT_TRUE(m.colors.empty());  // dropped: the texture carries colour
 
   // Hand-made big-endian file: one triangle.
-  std::string be = "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  std::string be =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
   auto put_f = [&](float f) {
     std::uint32_t u;
     std::memcpy(&u, &f, 4);
     for (int s = 24; s >= 0; s -= 8) be.push_back(static_cast<char>((u >> s) & 0xff));
   };
   auto put_i = [&](std::int32_t i) {
-    for (int s = 24; s >= 0; s -= 8) be.push_back(static_cast<char>((static_cast<std::uint32_t>(i) >> s) & 0xff));
+    for (int s = 24; s >= 0; s -= 8)
+      be.push_back(static_cast<char>((static_cast<std::uint32_t>(i) >> s) & 0xff));
   };
   for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 2.f, 0.f}) put_f(f);
   be.push_back(3);
@@ -170,19 +173,25 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
       {"nomagic.ply", "hello\n", "magic"},
       {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header"},
       {"trunc.ply",
-       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n",
        "unexpected end"},
       {"short.ply",
-       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0 0\n0 1 0\n3 0 "
+       "1 2\n",
        "too few values"},
       {"badidx.ply",
-       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 "
+       "0 1 9\n",
        "out of range"},
       {"truncbin.ply",
-       "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+       "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
+       "y\n"
        "property float z\nend_header\n\x01\x02",
        "unexpected end"},
       {"cube.stl", "solid x\n", "unsupported"},
@@ -205,7 +214,9 @@ TEST(MeshIo, YcbBananaWithTexture) {
   std::ifstream is(data + "/ycbv/models/011_banana/points.xyz");
   Eigen::AlignedBox3f pts;
   double x, y, z;
-  while (is >> x >> y >> z) pts.extend(Eigen::Vector3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
+  while (is >> x >> y >> z)
+    pts.extend(
+        Eigen::Vector3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
   const auto b = m.bounds();
   EXPECT_LT((b.min() - pts.min()).cwiseAbs().maxCoeff(), 0.005);
   EXPECT_LT((b.max() - pts.max()).cwiseAbs().maxCoeff(), 0.005);

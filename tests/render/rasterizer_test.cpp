@@ -26,7 +26,8 @@ double plane_depth(const PinholeIntrinsics& K, int u, int v, const Eigen::Vector
   return d / n.dot(ray);
 }
 
-TriangleMesh single_triangle(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c) {
+TriangleMesh single_triangle(const Eigen::Vector3f& a, const Eigen::Vector3f& b,
+                             const Eigen::Vector3f& c) {
   TriangleMesh m;
   m.vertices = {a, b, c};
   m.triangles = {{0, 1, 2}};
@@ -94,13 +95,13 @@ TEST(Rasterizer, TiltedPlaneDepthIsRayPlaneIntersection) {
 }
 
 TEST(Rasterizer, SharedEdgesAreCoveredExactlyOnce) {
-  // A grid whose vertices sit exactly on pixel centres (the fill rule's hardest case), each triangle a
-  // separate item so that the amodal silhouettes count coverage per triangle.
+  // A grid whose vertices sit exactly on pixel centres (the fill rule's hardest case), each
+  // triangle a separate item so that the amodal silhouettes count coverage per triangle.
   const PinholeIntrinsics K = small_camera(64, 48);
   const double z = 1.0;
   auto to_metric = [&](double u, double v) {
-    return Eigen::Vector3f(static_cast<float>((u - K.cx) * z / K.fx), static_cast<float>((v - K.cy) * z / K.fy),
-                           static_cast<float>(z));
+    return Eigen::Vector3f(static_cast<float>((u - K.cx) * z / K.fx),
+                           static_cast<float>((v - K.cy) * z / K.fy), static_cast<float>(z));
   };
   std::vector<TriangleMesh> meshes;
   const int cols = 6, rows = 4;
@@ -114,7 +115,8 @@ TEST(Rasterizer, SharedEdgesAreCoveredExactlyOnce) {
       meshes.push_back(single_triangle(a, c, d));
     }
   std::vector<RenderItem> items;
-  for (size_t k = 0; k < meshes.size(); ++k) items.push_back({&meshes[k], SE3(), static_cast<int>(k + 1)});
+  for (size_t k = 0; k < meshes.size(); ++k)
+    items.push_back({&meshes[k], SE3(), static_cast<int>(k + 1)});
   Rasterizer r;
   RenderBuffers out = r.render(K, items, kRenderIds | kRenderSilhouettes);
   int inner = 0;
@@ -135,11 +137,13 @@ TEST(Rasterizer, SharedEdgesAreCoveredExactlyOnce) {
 
 TEST(Rasterizer, TextureCoordinatesArePerspectiveCorrect) {
   const PinholeIntrinsics K = small_camera();
-  // Texture whose red channel encodes u (0..255) along x: the rendered colour reveals the sampled u.
+  // Texture whose red channel encodes u (0..255) along x: the rendered colour reveals the sampled
+  // u.
   auto tex = std::make_shared<ColorImage>(256, 4);
   for (int y = 0; y < 4; ++y)
     for (int x = 0; x < 256; ++x) tex->at(x, y) = {static_cast<std::uint8_t>(x), 0, 0};
-  TriangleMesh quad = make_quad(1.0f, 1.0f, 1, 1);  // two triangles only: affine interpolation would be far off
+  TriangleMesh quad =
+      make_quad(1.0f, 1.0f, 1, 1);  // two triangles only: affine interpolation would be far off
   // uv from the quad: u = x + 0.5 in [0, 1]. Map u to texel centres: u' = (u * 255 + 0.5) / 256.
   for (auto& uv : quad.uvs) uv.x() = (uv.x() * 255.0f + 0.5f) / 256.0f, uv.y() = 0.5f;
   quad.texture = tex;
@@ -175,7 +179,8 @@ TEST(Rasterizer, CubeFrontFaceCullingAndOcclusion) {
   TriangleMesh cube = make_box(Eigen::Vector3f(0.3f, 0.3f, 0.3f), 0.1f);
   TriangleMesh wall = make_quad(4.0f, 4.0f, 2, 2);
   const SE3 T_cube(Mat3::Identity(), Vec3(0, 0, 1.5));
-  const SE3 T_wall(Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix(), Vec3(0, 0, 3.0));  // facing the camera
+  const SE3 T_wall(Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix(),
+                   Vec3(0, 0, 3.0));  // facing the camera
   const std::vector<RenderItem> items{{&wall, T_wall, 2}, {&cube, T_cube, 1}};
   RenderBuffers a, b;
   RasterizerParams p;
@@ -205,7 +210,8 @@ TEST(Rasterizer, NearPlaneClippingOfAFloorPassingUnderTheCamera) {
   const PinholeIntrinsics K = small_camera();
   // A 20 m floor 1 m below the camera (y down => floor at y = +1), extending behind the camera.
   TriangleMesh floor = make_quad(20.0f, 20.0f, 1, 1);
-  const Mat3 R = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()).toRotationMatrix();  // quad z -> camera -y
+  const Mat3 R =
+      Eigen::AngleAxisd(M_PI / 2, Vec3::UnitX()).toRotationMatrix();  // quad z -> camera -y
   const SE3 T(R, Vec3(0, 1.0, 0));
   RasterizerParams p;
   p.far_m = 1000;
@@ -253,7 +259,8 @@ TEST(Rasterizer, LambertShadingFollowsTheLight) {
   const PinholeIntrinsics K = small_camera();
   TriangleMesh quad = make_quad(1.0f, 1.0f, 1, 1);
   quad.base_color = {200, 200, 200};
-  const RenderItem item{&quad, SE3(Mat3::Identity(), Vec3(0, 0, 2)), 1};  // quad normal +z: faces away, flipped
+  const RenderItem item{&quad, SE3(Mat3::Identity(), Vec3(0, 0, 2)),
+                        1};  // quad normal +z: faces away, flipped
   RasterizerParams p;
   p.ambient = 0.2;
   p.diffuse = 0.8;
@@ -278,6 +285,37 @@ TEST(Rasterizer, InvalidInputThrows) {
   RasterizerParams p;
   p.near_m = 0;
   EXPECT_THROW(Rasterizer{p}, std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace orpe
+
+namespace orpe {
+namespace {
+
+TEST(Rasterizer, CropEqualsTheCropOfTheFullRender) {
+  // Pose-hypothesis rendering in a region of interest: shifted principal point, smaller size.
+  const PinholeIntrinsics K = small_camera(200, 150);
+  TriangleMesh sphere = make_sphere(0.3f, 40, 20);
+  TriangleMesh box = make_box(Eigen::Vector3f(0.4f, 0.3f, 0.2f), 0.05f);
+  const std::vector<RenderItem> items{
+      {&sphere, SE3(Mat3::Identity(), Vec3(0.1, 0.05, 2.0)), 1},
+      {&box, SE3(Eigen::AngleAxisd(0.5, Vec3::UnitY()).toRotationMatrix(), Vec3(-0.2, 0.1, 1.6)),
+       2}};
+  Rasterizer r;
+  const RenderBuffers full = r.render(K, items, kRenderDepth | kRenderIds);
+  PinholeIntrinsics crop = K;
+  const int u0 = 37, v0 = 21;
+  crop.width = 90, crop.height = 70, crop.cx -= u0, crop.cy -= v0;
+  const RenderBuffers part = r.render(crop, items, kRenderDepth | kRenderIds);
+  int covered = 0;
+  for (int v = 0; v < crop.height; ++v)
+    for (int u = 0; u < crop.width; ++u) {
+      ASSERT_EQ(part.ids.at(u, v), full.ids.at(u + u0, v + v0)) << u << "," << v;
+      ASSERT_NEAR(part.depth.at(u, v), full.depth.at(u + u0, v + v0), 1e-6);
+      covered += part.ids.at(u, v) > 0;
+    }
+  EXPECT_GT(covered, 1000);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // End-to-end checks of the generator's ground truth, read back from the BOP files it writes:
-// poses, masks, depth and model points must agree with each other and with an independent ray caster.
+// poses, masks, depth and model points must agree with each other and with an independent ray
+// caster.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -16,7 +17,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// A BOP folder generated for the current test (ctest runs tests in parallel processes: one folder each).
+/// A BOP folder generated for the current test (ctest runs tests in parallel processes: one folder
+/// each).
 std::string generated(int seed, bool noise, const std::string& scene) {
   const std::string dir = scratch_dir(std::to_string(seed) + (noise ? "n" : "c") + scene);
   SynthParams p = small_synth(seed, 5, noise);
@@ -26,9 +28,9 @@ std::string generated(int seed, bool noise, const std::string& scene) {
 }
 
 struct ModelData {
-  TriangleMesh mesh;           // metres
-  std::vector<Vec3> points;    // metres
-  std::vector<Vec3> normals;   // of the triangle each point lies on
+  TriangleMesh mesh;          // metres
+  std::vector<Vec3> points;   // metres
+  std::vector<Vec3> normals;  // of the triangle each point lies on
 };
 
 ModelData load_model(const std::string& dir, int obj_id) {
@@ -52,7 +54,8 @@ ModelData load_model(const std::string& dir, int obj_id) {
       // Barycentric inside test of p projected onto the plane.
       const Vec3 q = p - un * un.dot(p - a);
       const double area = nn.norm();
-      const double w0 = (b - q).cross(c - q).dot(un) / area, w1 = (c - q).cross(a - q).dot(un) / area;
+      const double w0 = (b - q).cross(c - q).dot(un) / area,
+                   w1 = (c - q).cross(a - q).dot(un) / area;
       if (w0 < -1e-4 || w1 < -1e-4 || 1 - w0 - w1 < -1e-4) continue;
       best = dist;
       n = un;
@@ -85,7 +88,8 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
       const int im = std::stoi(it.key());
       char name[32];
       std::snprintf(name, sizeof(name), "%06d", im);
-      const DepthImage depth = read_depth_image(dir + "/depth/" + name + ".png", 10000.0);  // 1000 / depth_scale
+      const DepthImage depth =
+          read_depth_image(dir + "/depth/" + name + ".png", 10000.0);  // 1000 / depth_scale
       const PinholeIntrinsics K = camera_of(cams[it.key()], depth.width(), depth.height());
       for (size_t k = 0; k < it.value().size(); ++k) {
         const auto& e = it.value()[k];
@@ -100,10 +104,12 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
           const Vec3 p = T * m.points[i];
           if (p.z() <= 0.05) continue;
           const Eigen::Vector2d uv = K.project(p);
-          const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+          const int u = static_cast<int>(std::lround(uv.x())),
+                    v = static_cast<int>(std::lround(uv.y()));
           if (!depth.in_bounds(u, v) || depth.at(u, v) <= 0) continue;
           // Visible: facing the camera, and the surface seen at the pixel lies on the point's own
-          // tangent plane (1 mm). (A bottom face resting on a support is coplanar with it, but faces away.)
+          // tangent plane (1 mm). (A bottom face resting on a support is coplanar with it, but
+          // faces away.)
           const Vec3 q = K.backproject(u, v, depth.at(u, v));
           const Vec3 n = T.rotation() * m.normals[i];
           if (n.dot(p.normalized()) > -0.05) continue;
@@ -112,14 +118,16 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
           on_mask += mask.at(u, v) > 0;
           if (!mask.at(u, v) && std::getenv("ORPE_DEBUG_SYNTH")) {
             const LabelImage inst = read_label_image(dir + "/instance/" + name + ".png");
-            std::cerr << scene << " im " << im << " obj " << k << " px " << uv.transpose() << " inst " << inst.at(u, v)
-                      << " dz " << q.z() - p.z() << " plane " << n.dot(q - p) << "\n";
+            std::cerr << scene << " im " << im << " obj " << k << " px " << uv.transpose()
+                      << " inst " << inst.at(u, v) << " dz " << q.z() - p.z() << " plane "
+                      << n.dot(q - p) << "\n";
           }
         }
       }
     }
     EXPECT_GT(visible, 2000u) << scene;
-    EXPECT_GE(static_cast<double>(on_mask), 0.99 * visible) << scene << ": " << on_mask << " of " << visible;
+    EXPECT_GE(static_cast<double>(on_mask), 0.99 * visible)
+        << scene << ": " << on_mask << " of " << visible;
   }
 }
 
@@ -153,9 +161,9 @@ TEST(SynthGroundTruth, DepthWithoutNoiseIsTheExactModelSurface) {
           const double t = ray_cast(meshes[obj_id], T, ray);
           double err = t > 0 ? std::abs(depth.at(u, v) - t) : 1e9;
           if (err > 1e-4) {
-            // The rasteriser snaps vertices to 1/256 pixel: at a silhouette edge the pixel centre may sit a
-            // hair outside (or inside) the exact triangle. Accept the surface seen by slightly widened
-            // triangles there, but count such pixels.
+            // The rasteriser snaps vertices to 1/256 pixel: at a silhouette edge the pixel centre
+            // may sit a hair outside (or inside) the exact triangle. Accept the surface seen by
+            // slightly widened triangles there, but count such pixels.
             const double tw = ray_cast(meshes[obj_id], T, ray, nullptr, 2e-3);
             if (tw > 0 && std::abs(depth.at(u, v) - tw) <= 1e-4) err = 0, ++edge_pixels;
           }
@@ -197,7 +205,8 @@ TEST(SynthGroundTruth, NoisyDepthStaysWithinTheSensorModelBound) {
         if (z <= 0) continue;
         ++valid;
         const Vec3 ray = Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0).normalized();
-        const double theta = std::acos(std::min(1.0, std::abs(ray.dot(f.normals.at(u, v).cast<double>()))));
+        const double theta =
+            std::acos(std::min(1.0, std::abs(ray.dot(f.normals.at(u, v).cast<double>()))));
         const double err = z - z0;
         within += std::abs(err) <= synth::depth_error_bound_m(z0, theta, K.fx, gen.sensor());
         const double sigma = synth::axial_noise_sigma_m(z0, theta);

@@ -48,7 +48,8 @@ TEST(SynthObjects, BuiltinWarehouseSetIsValid) {
   }
   EXPECT_THROW(synth::make_builtin_object("nope"), std::invalid_argument);
   // Variants differ from the canonical look.
-  const auto a = synth::make_builtin_object("003_jacky_box", 0), b = synth::make_builtin_object("003_jacky_box", 1);
+  const auto a = synth::make_builtin_object("003_jacky_box", 0),
+             b = synth::make_builtin_object("003_jacky_box", 1);
   EXPECT_NE(a.name, b.name);
   EXPECT_FALSE(a.mesh->bounds().max().isApprox(b.mesh->bounds().max(), 1e-6));
 }
@@ -67,10 +68,12 @@ TEST(SynthObjects, ConvexHullAndOverlap) {
 
 TEST(SynthObjects, UserMeshStableRestingPoses) {
   ORPE_REQUIRE_DATA(data, "ycbv/models/003_cracker_box/textured_simple.obj");
-  const auto m = synth::load_object_model(data + "/ycbv/models/003_cracker_box/textured_simple.obj");
+  const auto m =
+      synth::load_object_model(data + "/ycbv/models/003_cracker_box/textured_simple.obj");
   EXPECT_EQ(m.name, "003_cracker_box");
   EXPECT_GE(m.resting_poses.size(), 4u);  // a box is stable on (at least) its four larger faces
-  const auto banana = synth::load_object_model(data + "/ycbv/models/011_banana/textured_simple.obj");
+  const auto banana =
+      synth::load_object_model(data + "/ycbv/models/011_banana/textured_simple.obj");
   EXPECT_FALSE(banana.resting_poses.empty());
 }
 
@@ -106,7 +109,8 @@ int penetrating_points(const synth::SynthScene& s, size_t a, size_t b) {
   for (const auto& p : sample_surface_points(mesh_a, 400, 7 + a)) {
     Vec3 w = oa.T_world_obj * p;
     w += 0.001 * (centre - w).normalized();
-    if (bb.contains(w)) inside += winding_number(mesh_b, ob.T_world_obj, w) > 0.75;  // ~1 inside, 0.5 on the surface
+    if (bb.contains(w))
+      inside += winding_number(mesh_b, ob.T_world_obj, w) > 0.75;  // ~1 inside, 0.5 on the surface
   }
   return inside;
 }
@@ -115,8 +119,10 @@ void check_scene(const synth::SynthScene& s, const std::string& what) {
   for (size_t i = 0; i < s.objects.size(); ++i) {
     const auto& o = s.objects[i];
     Eigen::AlignedBox3d box;
-    for (const auto& v : s.types[o.type].mesh->vertices) box.extend(o.T_world_obj * v.cast<double>());
-    // Resting: the lowest point is on the support surface, and the object fits under the next shelf.
+    for (const auto& v : s.types[o.type].mesh->vertices)
+      box.extend(o.T_world_obj * v.cast<double>());
+    // Resting: the lowest point is on the support surface, and the object fits under the next
+    // shelf.
     const auto& sup = s.supports[o.support];
     EXPECT_NEAR(box.min().z(), sup.height_m, 1e-5) << what << " object " << i;
     EXPECT_LE(box.max().z(), sup.height_m + sup.clearance_m + 1e-6) << what << " object " << i;
@@ -124,7 +130,8 @@ void check_scene(const synth::SynthScene& s, const std::string& what) {
   for (size_t a = 0; a < s.objects.size(); ++a)
     for (size_t b = 0; b < s.objects.size(); ++b)
       if (a != b) {
-        EXPECT_EQ(penetrating_points(s, a, b), 0) << what << ": object " << a << " penetrates object " << b;
+        EXPECT_EQ(penetrating_points(s, a, b), 0)
+            << what << ": object " << a << " penetrates object " << b;
       }
 }
 
@@ -153,8 +160,10 @@ TEST(SynthScene, PenetrationCheckDetectsOverlap) {
   synth::SynthScene s = g.scene();
   ASSERT_GE(s.objects.size(), 2u);
   EXPECT_EQ(penetrating_points(s, 1, 0) + penetrating_points(s, 0, 1), 0);
-  const Vec3 c0 = s.objects[0].T_world_obj * s.types[s.objects[0].type].mesh->bounds().center().cast<double>();
-  const Vec3 c1 = s.objects[1].T_world_obj * s.types[s.objects[1].type].mesh->bounds().center().cast<double>();
+  const Vec3 c0 =
+      s.objects[0].T_world_obj * s.types[s.objects[0].type].mesh->bounds().center().cast<double>();
+  const Vec3 c1 =
+      s.objects[1].T_world_obj * s.types[s.objects[1].type].mesh->bounds().center().cast<double>();
   s.objects[1].T_world_obj.translation() += c0 - c1 + Vec3(0.01, 0, 0);
   EXPECT_GT(penetrating_points(s, 1, 0) + penetrating_points(s, 0, 1), 10);
 }
@@ -182,17 +191,18 @@ TEST(SynthTrajectory, HandHeldPathLooksAtTheSceneFromWideBaselines) {
   for (size_t i = 0; i < T.size(); ++i) {
     const Vec3 to_centre = (c - T[i].translation()).normalized();
     min_dot = std::min(min_dot, to_centre.dot(T[i].rotation().col(2)));  // optical axis
-    EXPECT_LT(std::abs(T[i].rotation().col(0).z()), 0.1);                 // x nearly horizontal (small roll)
+    EXPECT_LT(std::abs(T[i].rotation().col(0).z()), 0.1);  // x nearly horizontal (small roll)
     if (i > 0) max_step = std::max(max_step, (T[i].translation() - T[i - 1].translation()).norm());
   }
   EXPECT_GT(min_dot, std::cos(8.0 * M_PI / 180));  // always looking at the scene
-  EXPECT_LT(max_step, 0.05);                        // smooth at 30 Hz
-  EXPECT_GT(synth::trajectory_extent_m(T), 1.0);    // wide baseline
+  EXPECT_LT(max_step, 0.05);                       // smooth at 30 Hz
+  EXPECT_GT(synth::trajectory_extent_m(T), 1.0);   // wide baseline
   // Baseline option: first-to-last distance.
   p.baseline_m = 0.8;
   p.shake_m = 0;
   const SyntheticSceneGenerator b(p);
-  EXPECT_NEAR((b.trajectory().front().translation() - b.trajectory().back().translation()).norm(), 0.8, 0.25);
+  EXPECT_NEAR((b.trajectory().front().translation() - b.trajectory().back().translation()).norm(),
+              0.8, 0.25);
 }
 
 std::map<std::string, std::string> read_tree(const std::string& dir) {

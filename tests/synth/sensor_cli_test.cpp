@@ -16,7 +16,8 @@ namespace fs = std::filesystem;
 
 PinholeIntrinsics cam(int w, int h) {
   PinholeIntrinsics K;
-  K.width = w, K.height = h, K.fx = K.fy = 580.0 * w / 640.0, K.cx = (w - 1) / 2.0, K.cy = (h - 1) / 2.0;
+  K.width = w, K.height = h, K.fx = K.fy = 580.0 * w / 640.0, K.cx = (w - 1) / 2.0,
+  K.cy = (h - 1) / 2.0;
   return K;
 }
 
@@ -24,7 +25,8 @@ TEST(SynthSensor, NoiseModelFollowsNguyen) {
   // sigma_z(z, 0) = 0.0012 + 0.0019 (z - 0.4)^2
   EXPECT_NEAR(synth::axial_noise_sigma_m(1.0, 0.0), 0.0012 + 0.0019 * 0.36, 1e-12);
   EXPECT_NEAR(synth::axial_noise_sigma_m(3.0, 0.0), 0.0012 + 0.0019 * 6.76, 1e-12);
-  EXPECT_GT(synth::axial_noise_sigma_m(1.0, 1.2), synth::axial_noise_sigma_m(1.0, 0.3));  // grazing is worse
+  EXPECT_GT(synth::axial_noise_sigma_m(1.0, 1.2),
+            synth::axial_noise_sigma_m(1.0, 0.3));  // grazing is worse
   synth::DepthSensorParams p;
   EXPECT_NEAR(synth::quantisation_step_m(1.0, 580, p), 1.0 / (580 * 0.075 * 8), 1e-12);
 }
@@ -79,7 +81,8 @@ TEST(SynthSensor, GrazingSurfacesLoseDepth) {
   const PinholeIntrinsics K = cam(160, 120);
   DepthImage clean(K.width, K.height, 1.5f);
   Image<Eigen::Vector3f> normals(K.width, K.height, Eigen::Vector3f(0, 0, -1));
-  // Top half: surfaces seen at 84 degrees incidence (normal turned 84 deg away from the viewing ray).
+  // Top half: surfaces seen at 84 degrees incidence (normal turned 84 deg away from the viewing
+  // ray).
   for (int v = 0; v < K.height / 2; ++v)
     for (int u = 0; u < K.width; ++u) {
       const Vec3 ray = Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0).normalized();
@@ -92,7 +95,8 @@ TEST(SynthSensor, GrazingSurfacesLoseDepth) {
   const DepthImage d = synth::simulate_depth_sensor(clean, normals, K, p, rng);
   int top_valid = 0, bottom_valid = 0;
   for (int v = 0; v < K.height; ++v)
-    for (int u = 0; u < K.width; ++u) (v < K.height / 2 ? top_valid : bottom_valid) += d.at(u, v) > 0;
+    for (int u = 0; u < K.width; ++u)
+      (v < K.height / 2 ? top_valid : bottom_valid) += d.at(u, v) > 0;
   EXPECT_LT(top_valid, 0.05 * K.width * K.height / 2);
   EXPECT_GT(bottom_valid, 0.95 * K.width * K.height / 2);
 }
@@ -111,24 +115,47 @@ std::string run(const std::string& cmd) {
 
 TEST(SynthCli, HelpDocumentsEveryOption) {
   const std::string help = run(std::string(ORPE_CLI_PATH) + " synth --help");
-  for (const char* opt : {"--out", "--seed", "--frames", "--objects", "--scene", "--models", "--model-unit-m",
-                          "--repeat-types", "--noise", "--width", "--height", "--fx", "--fy", "--cx", "--cy", "--fps",
-                          "--span-deg", "--baseline-m", "--distance-m", "--elevation-deg", "--preview-stride",
-                          "--no-masks", "--threads", "--config", "--set"})
+  for (const char* opt : {"--out",
+                          "--seed",
+                          "--frames",
+                          "--objects",
+                          "--scene",
+                          "--models",
+                          "--model-unit-m",
+                          "--repeat-types",
+                          "--noise",
+                          "--width",
+                          "--height",
+                          "--fx",
+                          "--fy",
+                          "--cx",
+                          "--cy",
+                          "--fps",
+                          "--span-deg",
+                          "--baseline-m",
+                          "--distance-m",
+                          "--elevation-deg",
+                          "--preview-stride",
+                          "--no-masks",
+                          "--threads",
+                          "--config",
+                          "--set"})
     EXPECT_NE(help.find(opt), std::string::npos) << opt;
   EXPECT_NE(help.find("depth_scale 0.1"), std::string::npos);
 }
 
 TEST(SynthCli, WritesABopSceneAndRejectsBadOptions) {
   const std::string dir = scratch_dir("cli");
-  const std::string out = run(std::string(ORPE_CLI_PATH) + " synth --out " + dir +
-                              " --seed 2 --frames 2 --objects 4 --scene table --width 160 --height 120 --noise off"
-                              " --preview-stride 1 --set synth.model_points=500");
+  const std::string out =
+      run(std::string(ORPE_CLI_PATH) + " synth --out " + dir +
+          " --seed 2 --frames 2 --objects 4 --scene table --width 160 --height 120 --noise off"
+          " --preview-stride 1 --set synth.model_points=500");
   EXPECT_NE(out.find("[exit 0]"), std::string::npos) << out;
-  for (const char* f : {"scene_camera.json", "scene_gt.json", "scene_gt_info.json", "groundtruth.txt", "camera.json",
-                        "rgb/000001.png", "depth/000001.png", "mask/000001_000000.png", "mask_visib/000001_000003.png",
-                        "instance/000000.png", "preview/000001.png", "models/models_info.json", "models/obj_000001.ply",
-                        "models/obj_000004_points.xyz", "synth_info.json"})
+  for (const char* f : {"scene_camera.json", "scene_gt.json", "scene_gt_info.json",
+                        "groundtruth.txt", "camera.json", "rgb/000001.png", "depth/000001.png",
+                        "mask/000001_000000.png", "mask_visib/000001_000003.png",
+                        "instance/000000.png", "preview/000001.png", "models/models_info.json",
+                        "models/obj_000001.ply", "models/obj_000004_points.xyz", "synth_info.json"})
     EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
   EXPECT_EQ(read_xyz(dir + "/models/obj_000001_points.xyz").size(), 500u);
   const auto info = read_json(dir + "/synth_info.json");
@@ -136,7 +163,8 @@ TEST(SynthCli, WritesABopSceneAndRejectsBadOptions) {
   EXPECT_EQ(info["params"]["noise"], false);
   const std::string bad = run(std::string(ORPE_CLI_PATH) + " synth --out " + dir + " --scene moon");
   EXPECT_EQ(bad.find("[exit 0]"), std::string::npos);
-  const std::string bad2 = run(std::string(ORPE_CLI_PATH) + " synth --out " + dir + " --set synth.frames=0");
+  const std::string bad2 =
+      run(std::string(ORPE_CLI_PATH) + " synth --out " + dir + " --set synth.frames=0");
   EXPECT_NE(bad2.find("frames"), std::string::npos) << bad2;
   EXPECT_EQ(bad2.find("[exit 0]"), std::string::npos);
 }
@@ -147,8 +175,9 @@ TEST(SynthCli, YcbModelsAsUserMeshes) {
   const std::string models = data + "/ycbv/models/011_banana/textured_simple.obj," + data +
                              "/ycbv/models/005_tomato_soup_can/textured_simple.obj," + data +
                              "/ycbv/models/003_cracker_box/textured_simple.obj";
-  const std::string out = run(std::string(ORPE_CLI_PATH) + " synth --out " + dir + " --models " + models +
-                              " --frames 1 --width 160 --height 120 --set synth.model_points=300");
+  const std::string out =
+      run(std::string(ORPE_CLI_PATH) + " synth --out " + dir + " --models " + models +
+          " --frames 1 --width 160 --height 120 --set synth.model_points=300");
   ASSERT_NE(out.find("[exit 0]"), std::string::npos) << out;
   const auto info = read_json(dir + "/synth_info.json");
   ASSERT_EQ(info["objects"].size(), 3u);
@@ -163,7 +192,8 @@ TEST(SynthCli, YcbModelsAsUserMeshes) {
       EXPECT_LT(d, 300);
     }
   EXPECT_TRUE(found);
-  EXPECT_TRUE(fs::exists(dir + "/models/obj_000001.png") || fs::exists(dir + "/models/obj_000002.png") ||
+  EXPECT_TRUE(fs::exists(dir + "/models/obj_000001.png") ||
+              fs::exists(dir + "/models/obj_000002.png") ||
               fs::exists(dir + "/models/obj_000003.png"));  // the banana's texture
 }
 

@@ -39,7 +39,8 @@ inline nlohmann::json read_json(const std::string& path) {
 inline SE3 bop_pose(const nlohmann::json& e) {
   Mat3 R;
   for (int i = 0; i < 9; ++i) R(i / 3, i % 3) = e["cam_R_m2c"][i].get<double>();
-  Vec3 t(e["cam_t_m2c"][0].get<double>(), e["cam_t_m2c"][1].get<double>(), e["cam_t_m2c"][2].get<double>());
+  Vec3 t(e["cam_t_m2c"][0].get<double>(), e["cam_t_m2c"][1].get<double>(),
+         e["cam_t_m2c"][2].get<double>());
   return SE3(R, t / 1000.0);
 }
 
@@ -52,9 +53,10 @@ inline std::vector<Vec3> read_xyz(const std::string& path) {
 }
 
 /// Nearest positive ray parameter t (origin 0, direction d) over the mesh's triangles in the given
-/// pose, or -1. Moeller-Trumbore in double precision; `edge_tol` widens each triangle (in barycentric units).
-inline double ray_cast(const TriangleMesh& mesh, const SE3& T, const Vec3& d, Vec3* normal = nullptr,
-                       double edge_tol = 1e-9) {
+/// pose, or -1. Moeller-Trumbore in double precision; `edge_tol` widens each triangle (in
+/// barycentric units).
+inline double ray_cast(const TriangleMesh& mesh, const SE3& T, const Vec3& d,
+                       Vec3* normal = nullptr, double edge_tol = 1e-9) {
   double best = -1;
   for (const auto& tri : mesh.triangles) {
     const Vec3 p0 = T * mesh.vertices[tri[0]].cast<double>();
@@ -80,7 +82,8 @@ inline double ray_cast(const TriangleMesh& mesh, const SE3& T, const Vec3& d, Ve
   return best;
 }
 
-/// Generalised winding number of a closed mesh (posed by T) at p: ~1 inside, ~0 outside, 0.5 on the surface.
+/// Generalised winding number of a closed mesh (posed by T) at p: ~1 inside, ~0 outside, 0.5 on the
+/// surface.
 inline double winding_number(const TriangleMesh& mesh, const SE3& T, const Vec3& p) {
   double total = 0;
   for (const auto& tri : mesh.triangles) {

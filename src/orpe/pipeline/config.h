@@ -10,9 +10,13 @@
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/dataset.h"
-#include "orpe/synth/synth_params.h"
+#include "orpe/pipeline/pipeline_params.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
+#include "orpe/semantic/segmenter.h"
+#include "orpe/semantic/semantic_fusion.h"
+#include "orpe/slam/slam_system.h"
+#include "orpe/synth/synth_params.h"
 
 namespace orpe {
 
@@ -21,9 +25,19 @@ struct OrpeConfig {
   TrajectoryMetricsParams eval_trajectory;
   PoseMetricsParams eval_pose;
   MaskMetricsParams eval_masks;
-  SynthParams synth;
+  slam::SlamOptions slam;                 ///< dense SLAM system options
+  slam::PreprocessParams slam_preprocess; ///< SLAM depth filter / pyramids
+  slam::TrackerParams slam_tracking;      ///< SLAM frame-to-model tracking
+  slam::FusionParams slam_fusion;         ///< SLAM surfel fusion
+
+  /// The SLAM system's parameters assembled from the slam* sections.
+  slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
+  SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
+  SemanticParams semantic;          ///< instance-aware semantic fusion
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
+  SynthParams synth;
+  PipelineParams pipeline;  ///< Object-RPE pipeline switches (ablation inputs, EKF, evaluated frames)
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -32,9 +46,16 @@ struct OrpeConfig {
     v("eval_trajectory", eval_trajectory);
     v("eval_pose", eval_pose);
     v("eval_masks", eval_masks);
-    v("synth", synth);
+    v("slam", slam);
+    v("slam_preprocess", slam_preprocess);
+    v("slam_tracking", slam_tracking);
+    v("slam_fusion", slam_fusion);
+    v("segmentation", segmentation);
+    v("semantic", semantic);
     v("pose_registration", pose_registration);
     v("pose_ekf", pose_ekf);
+    v("synth", synth);
+    v("pipeline", pipeline);
   }
 
   bool IsValid(std::string* why) const;

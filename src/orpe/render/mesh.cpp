@@ -13,7 +13,8 @@ bool TriangleMesh::IsValid(std::string* why) const {
     return false;
   };
   const size_t n = vertices.size();
-  if (!normals.empty() && normals.size() != n) return fail("normals must be empty or one per vertex");
+  if (!normals.empty() && normals.size() != n)
+    return fail("normals must be empty or one per vertex");
   if (!colors.empty() && colors.size() != n) return fail("colors must be empty or one per vertex");
   if (!uvs.empty() && uvs.size() != n) return fail("uvs must be empty or one per vertex");
   for (const auto& v : vertices)
@@ -56,7 +57,8 @@ double TriangleMesh::surface_area() const {
   double area = 0;
   for (const auto& t : triangles) {
     const Eigen::Vector3d a = vertices[t[0]].cast<double>();
-    area += 0.5 * (vertices[t[1]].cast<double>() - a).cross(vertices[t[2]].cast<double>() - a).norm();
+    area +=
+        0.5 * (vertices[t[1]].cast<double>() - a).cross(vertices[t[2]].cast<double>() - a).norm();
   }
   return area;
 }
@@ -76,8 +78,10 @@ void TriangleMesh::append(const TriangleMesh& other) {
   auto merge = [&](auto& mine, const auto& theirs, const auto& fill) {
     if (mine.empty() && theirs.empty()) return;
     if (mine.empty()) mine.assign(n_self, fill);
-    if (theirs.empty()) mine.insert(mine.end(), n_other, fill);
-    else mine.insert(mine.end(), theirs.begin(), theirs.end());
+    if (theirs.empty())
+      mine.insert(mine.end(), n_other, fill);
+    else
+      mine.insert(mine.end(), theirs.begin(), theirs.end());
   };
   if (!other.normals.empty() && normals.empty() && n_self > 0) compute_vertex_normals();
   merge(normals, other.normals, Eigen::Vector3f::UnitZ().eval());
@@ -94,7 +98,8 @@ double TriangleMesh::diameter() const {
   if (n < 2) return 0.0;
   auto farthest_from = [&](const Eigen::Vector3f& p) {
     double best = 0;
-    for (const auto& q : vertices) best = std::max(best, static_cast<double>((q - p).squaredNorm()));
+    for (const auto& q : vertices)
+      best = std::max(best, static_cast<double>((q - p).squaredNorm()));
     return best;
   };
   double best_sq = 0;
@@ -112,8 +117,8 @@ double TriangleMesh::diameter() const {
     const double z = 1.0 - (2.0 * k + 1.0) / dirs;
     const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
     const double phi = k * 2.399963229728653;  // golden angle
-    const Eigen::Vector3f d(static_cast<float>(r * std::cos(phi)), static_cast<float>(r * std::sin(phi)),
-                            static_cast<float>(z));
+    const Eigen::Vector3f d(static_cast<float>(r * std::cos(phi)),
+                            static_cast<float>(r * std::sin(phi)), static_cast<float>(z));
     size_t imax = 0;
     float vmax = -1e30f;
     for (size_t i = 0; i < n; ++i) {
@@ -141,7 +146,8 @@ Eigen::Vector3f surface_albedo(const TriangleMesh& mesh, int tri, const Eigen::V
     albedo = albedo.cwiseProduct(c / 255.0f);
   }
   if (mesh.has_texture()) {
-    const Eigen::Vector2f uv = bary[0] * mesh.uvs[t[0]] + bary[1] * mesh.uvs[t[1]] + bary[2] * mesh.uvs[t[2]];
+    const Eigen::Vector2f uv =
+        bary[0] * mesh.uvs[t[0]] + bary[1] * mesh.uvs[t[1]] + bary[2] * mesh.uvs[t[2]];
     albedo = albedo.cwiseProduct(sample_texture_bilinear(*mesh.texture, uv.x(), uv.y()) / 255.0f);
   }
   return albedo;
@@ -157,7 +163,9 @@ std::vector<Eigen::Vector3d> sample_surface_points(const TriangleMesh& mesh, siz
   for (size_t i = 0; i < mesh.triangles.size(); ++i) {
     const auto& t = mesh.triangles[i];
     const Eigen::Vector3d a = mesh.vertices[t[0]].cast<double>();
-    total += 0.5 * (mesh.vertices[t[1]].cast<double>() - a).cross(mesh.vertices[t[2]].cast<double>() - a).norm();
+    total += 0.5 * (mesh.vertices[t[1]].cast<double>() - a)
+                       .cross(mesh.vertices[t[2]].cast<double>() - a)
+                       .norm();
     cdf[i] = total;
   }
   if (!(total > 0)) return points;
@@ -166,8 +174,9 @@ std::vector<Eigen::Vector3d> sample_surface_points(const TriangleMesh& mesh, siz
   points.reserve(count);
   for (size_t s = 0; s < count; ++s) {
     const double r = uni(rng) * total;
-    const size_t i = std::min(cdf.size() - 1,
-                              static_cast<size_t>(std::upper_bound(cdf.begin(), cdf.end(), r) - cdf.begin()));
+    const size_t i =
+        std::min(cdf.size() - 1,
+                 static_cast<size_t>(std::upper_bound(cdf.begin(), cdf.end(), r) - cdf.begin()));
     double b1 = uni(rng), b2 = uni(rng);
     if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
     const auto& t = mesh.triangles[i];
@@ -177,9 +186,12 @@ std::vector<Eigen::Vector3d> sample_surface_points(const TriangleMesh& mesh, siz
     points.push_back(p);
     if (colors) {
       const Eigen::Vector3f alb =
-          surface_albedo(mesh, static_cast<int>(i), Eigen::Vector3f(static_cast<float>(1 - b1 - b2),
-                                                                    static_cast<float>(b1), static_cast<float>(b2)));
-      auto q = [](float x) { return static_cast<std::uint8_t>(std::clamp(x * 255.0f + 0.5f, 0.0f, 255.0f)); };
+          surface_albedo(mesh, static_cast<int>(i),
+                         Eigen::Vector3f(static_cast<float>(1 - b1 - b2), static_cast<float>(b1),
+                                         static_cast<float>(b2)));
+      auto q = [](float x) {
+        return static_cast<std::uint8_t>(std::clamp(x * 255.0f + 0.5f, 0.0f, 255.0f));
+      };
       colors->push_back({q(alb.x()), q(alb.y()), q(alb.z())});
     }
   }
@@ -190,7 +202,8 @@ void bake_texture_into_vertex_colors(TriangleMesh& mesh) {
   if (!mesh.has_texture()) return;
   if (mesh.colors.empty()) mesh.colors.assign(mesh.vertices.size(), Rgb8{255, 255, 255});
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const Eigen::Vector3f t = sample_texture_bilinear(*mesh.texture, mesh.uvs[i].x(), mesh.uvs[i].y());
+    const Eigen::Vector3f t =
+        sample_texture_bilinear(*mesh.texture, mesh.uvs[i].x(), mesh.uvs[i].y());
     Rgb8& c = mesh.colors[i];
     auto mul = [](std::uint8_t a, float b) {
       return static_cast<std::uint8_t>(std::clamp(a * b / 255.0f + 0.5f, 0.0f, 255.0f));

@@ -3,9 +3,11 @@
 // Conventions:
 //  - Triangles are wound counter-clockwise seen from outside (right-hand normal points outwards).
 //    The rasteriser does not rely on it unless back-face culling is switched on.
-//  - UVs follow the OBJ/PLY convention: (0, 0) is the bottom-left of the texture image, v points up.
+//  - UVs follow the OBJ/PLY convention: (0, 0) is the bottom-left of the texture image, v points
+//  up.
 //    Texture lookups are bilinear and wrap around outside [0, 1].
-//  - Albedo of a surface point = base colour, times the interpolated vertex colour when present, times
+//  - Albedo of a surface point = base colour, times the interpolated vertex colour when present,
+//  times
 //    the texture colour when UVs and a texture are present (each factor in [0, 1] per channel).
 #pragma once
 
@@ -24,14 +26,15 @@
 namespace orpe {
 
 struct TriangleMesh {
-  std::string name;                        ///< for messages (e.g. the file it came from)
-  std::vector<Eigen::Vector3f> vertices;   ///< metres, object frame
-  std::vector<Eigen::Vector3f> normals;    ///< unit, per vertex; empty = call compute_vertex_normals()
-  std::vector<Rgb8> colors;                ///< per vertex; optional (empty)
-  std::vector<Eigen::Vector2f> uvs;        ///< per vertex; optional, used with `texture`
+  std::string name;                       ///< for messages (e.g. the file it came from)
+  std::vector<Eigen::Vector3f> vertices;  ///< metres, object frame
+  std::vector<Eigen::Vector3f>
+      normals;                       ///< unit, per vertex; empty = call compute_vertex_normals()
+  std::vector<Rgb8> colors;          ///< per vertex; optional (empty)
+  std::vector<Eigen::Vector2f> uvs;  ///< per vertex; optional, used with `texture`
   std::shared_ptr<const ColorImage> texture;  ///< optional RGB8 texture image
-  std::vector<Eigen::Vector3i> triangles;  ///< vertex indices, CCW seen from outside
-  Rgb8 base_color{255, 255, 255};          ///< albedo factor; a mesh without colours renders in this
+  std::vector<Eigen::Vector3i> triangles;     ///< vertex indices, CCW seen from outside
+  Rgb8 base_color{255, 255, 255};  ///< albedo factor; a mesh without colours renders in this
 
   size_t num_vertices() const { return vertices.size(); }
   size_t num_triangles() const { return triangles.size(); }
@@ -48,16 +51,17 @@ struct TriangleMesh {
   double surface_area() const;
   /// Applies T (points and normals) in place: the mesh is re-expressed in the target frame.
   void transform(const SE3& T_target_mesh);
-  /// Appends `other` (its triangles re-indexed). Textures cannot be merged: throws std::invalid_argument
-  /// when both meshes carry different textures; colour/uv arrays are filled with defaults when one side lacks them.
+  /// Appends `other` (its triangles re-indexed). Textures cannot be merged: throws
+  /// std::invalid_argument when both meshes carry different textures; colour/uv arrays are filled
+  /// with defaults when one side lacks them.
   void append(const TriangleMesh& other);
-  /// Largest distance between two vertices (m): exact for up to 3000 vertices, else over the convex-hull
-  /// candidates of 64 directions plus a sample (within 0.1% for typical models).
+  /// Largest distance between two vertices (m): exact for up to 3000 vertices, else over the
+  /// convex-hull candidates of 64 directions plus a sample (within 0.1% for typical models).
   double diameter() const;
 };
 
-/// Bilinear texture lookup at (u, v) in OBJ convention (v up), wrapping around. Returns RGB in [0, 255].
-/// Inline: the rasteriser calls it once per textured pixel.
+/// Bilinear texture lookup at (u, v) in OBJ convention (v up), wrapping around. Returns RGB in [0,
+/// 255]. Inline: the rasteriser calls it once per textured pixel.
 inline Eigen::Vector3f sample_texture_bilinear(const ColorImage& tex, float u, float v) {
   const int w = tex.width(), h = tex.height();
   // Texel centres at (i + 0.5) / w; v is up, image rows go down.
@@ -72,7 +76,8 @@ inline Eigen::Vector3f sample_texture_bilinear(const ColorImage& tex, float u, f
   if (x1 >= w) x1 -= w;
   if (y0 < 0) y0 += h;
   if (y1 >= h) y1 -= h;
-  x0 = std::clamp(x0, 0, w - 1), x1 = std::clamp(x1, 0, w - 1), y0 = std::clamp(y0, 0, h - 1), y1 = std::clamp(y1, 0, h - 1);
+  x0 = std::clamp(x0, 0, w - 1), x1 = std::clamp(x1, 0, w - 1), y0 = std::clamp(y0, 0, h - 1),
+  y1 = std::clamp(y1, 0, h - 1);
   const Rgb8 a = tex.at(x0, y0), b = tex.at(x1, y0), c = tex.at(x0, y1), d = tex.at(x1, y1);
   const float wa = (1 - ax) * (1 - ay), wb = ax * (1 - ay), wc = (1 - ax) * ay, wd = ax * ay;
   return {wa * a.r + wb * b.r + wc * c.r + wd * d.r, wa * a.g + wb * b.g + wc * c.g + wd * d.g,

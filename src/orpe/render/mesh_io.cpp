@@ -40,8 +40,10 @@ std::string lower(std::string s) {
   return s;
 }
 
-/// Reads an 8-bit texture as RGB8 (OpenCV is BGR). Returns nullptr (with a warning) when unreadable.
-std::shared_ptr<const ColorImage> load_texture_image(const std::string& path, const std::string& mesh_path) {
+/// Reads an 8-bit texture as RGB8 (OpenCV is BGR). Returns nullptr (with a warning) when
+/// unreadable.
+std::shared_ptr<const ColorImage> load_texture_image(const std::string& path,
+                                                     const std::string& mesh_path) {
   if (!fs::exists(path)) {
     spdlog::warn("{}: texture '{}' not found; rendering without texture", mesh_path, path);
     return nullptr;
@@ -146,7 +148,8 @@ std::map<std::string, ObjMaterial> parse_mtl(const std::string& path) {
       double r, g, b;
       if (!parse_double(tok[1], r) || !parse_double(tok[2], g) || !parse_double(tok[3], b))
         throw IoError(path, "line " + std::to_string(lr.line_no) + ": malformed Kd");
-      cur->kd = Eigen::Vector3f(static_cast<float>(r), static_cast<float>(g), static_cast<float>(b));
+      cur->kd =
+          Eigen::Vector3f(static_cast<float>(r), static_cast<float>(g), static_cast<float>(b));
     } else if (cur && tok[0] == "map_Kd" && tok.size() >= 2) {
       // Options (-s, -o, ...) precede the file name; the file name is the last token.
       cur->texture_path = (fs::path(path).parent_path() / std::string(tok.back())).string();
@@ -193,17 +196,21 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
     if (tok.empty() || tok[0][0] == '#') continue;
     const std::string_view kw = tok[0];
     if (kw == "v") {
-      if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7) fail("'v' needs 3 coordinates (or 3 + rgb)");
+      if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7)
+        fail("'v' needs 3 coordinates (or 3 + rgb)");
       double x, y, z;
       if (!parse_double(tok[1], x) || !parse_double(tok[2], y) || !parse_double(tok[3], z))
         fail("malformed vertex coordinate");
-      pos.emplace_back(static_cast<float>(x) * scale, static_cast<float>(y) * scale, static_cast<float>(z) * scale);
+      pos.emplace_back(static_cast<float>(x) * scale, static_cast<float>(y) * scale,
+                       static_cast<float>(z) * scale);
       Rgb8 c{255, 255, 255};
       if (tok.size() == 7) {
         double r, g, b;
         if (!parse_double(tok[4], r) || !parse_double(tok[5], g) || !parse_double(tok[6], b))
           fail("malformed vertex colour");
-        auto q = [](double c01) { return static_cast<std::uint8_t>(std::clamp(c01, 0.0, 1.0) * 255.0 + 0.5); };
+        auto q = [](double c01) {
+          return static_cast<std::uint8_t>(std::clamp(c01, 0.0, 1.0) * 255.0 + 0.5);
+        };
         c = {q(r), q(g), q(b)};
         any_vcol = true;
       }
@@ -211,7 +218,8 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
     } else if (kw == "vt") {
       if (tok.size() < 3) fail("'vt' needs 2 coordinates");
       double u, v;
-      if (!parse_double(tok[1], u) || !parse_double(tok[2], v)) fail("malformed texture coordinate");
+      if (!parse_double(tok[1], u) || !parse_double(tok[2], v))
+        fail("malformed texture coordinate");
       tex.emplace_back(static_cast<float>(u), static_cast<float>(v));
     } else if (kw == "vn") {
       if (tok.size() != 4) fail("'vn' needs 3 coordinates");
@@ -231,7 +239,8 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
           if (i == s.size() || s[i] == '/') {
             if (field > 2) fail("malformed face vertex '" + std::string(s) + "'");
             std::string_view part = s.substr(start, i - start);
-            if (!part.empty() && !parse_int(part, idx[field])) fail("malformed face index '" + std::string(s) + "'");
+            if (!part.empty() && !parse_int(part, idx[field]))
+              fail("malformed face index '" + std::string(s) + "'");
             if (part.empty() && field == 0) fail("face vertex without position index");
             ++field;
             start = i + 1;
@@ -240,16 +249,19 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
         // Resolve 1-based and negative (relative) indices; 0 = absent (for vt, vn).
         auto resolve = [&](long i, size_t n, const char* what) -> long {
           if (i > 0) {
-            if (static_cast<size_t>(i) > n) fail(std::string(what) + " index " + std::to_string(i) + " out of range");
+            if (static_cast<size_t>(i) > n)
+              fail(std::string(what) + " index " + std::to_string(i) + " out of range");
             return i - 1;
           }
           if (i < 0) {
-            if (static_cast<size_t>(-i) > n) fail(std::string(what) + " index " + std::to_string(i) + " out of range");
+            if (static_cast<size_t>(-i) > n)
+              fail(std::string(what) + " index " + std::to_string(i) + " out of range");
             return static_cast<long>(n) + i;
           }
           return -1;
         };
-        Corner c{resolve(idx[0], pos.size(), "vertex"), resolve(idx[1], tex.size(), "texture coordinate"),
+        Corner c{resolve(idx[0], pos.size(), "vertex"),
+                 resolve(idx[1], tex.size(), "texture coordinate"),
                  resolve(idx[2], nrm.size(), "normal")};
         if (idx[0] == 0) fail("vertex index 0 is invalid (OBJ indices start at 1)");
         poly.push_back(c);
@@ -260,7 +272,8 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
         if (c.t >= 0) any_uv = true;
         if (c.n >= 0) any_normal = true;
         const std::uint64_t key = (static_cast<std::uint64_t>(c.v) << 42) ^
-                                  (static_cast<std::uint64_t>(c.t + 1) << 21) ^ static_cast<std::uint64_t>(c.n + 1);
+                                  (static_cast<std::uint64_t>(c.t + 1) << 21) ^
+                                  static_cast<std::uint64_t>(c.n + 1);
         auto [it, inserted] = corner_index.emplace(key, static_cast<int>(corners.size()));
         if (inserted) corners.push_back(c);
         ids[k] = it->second;
@@ -320,10 +333,14 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
     for (const auto& mname : tri_material) {
       auto it = materials.find(mname);
       const Eigen::Vector3f kd = it == materials.end() ? Eigen::Vector3f(1, 1, 1) : it->second.kd;
-      if (first) kd0 = kd, first = false;
-      else if ((kd - kd0).cwiseAbs().maxCoeff() > 1e-6f) kd_varies = true;
+      if (first)
+        kd0 = kd, first = false;
+      else if ((kd - kd0).cwiseAbs().maxCoeff() > 1e-6f)
+        kd_varies = true;
     }
-    auto q = [](float x) { return static_cast<std::uint8_t>(std::clamp(x, 0.0f, 1.0f) * 255.0f + 0.5f); };
+    auto q = [](float x) {
+      return static_cast<std::uint8_t>(std::clamp(x, 0.0f, 1.0f) * 255.0f + 0.5f);
+    };
     if (any_vcol) {
       mesh.colors.resize(corners.size());
       for (size_t i = 0; i < corners.size(); ++i) mesh.colors[i] = vcol[corners[i].v];
@@ -348,7 +365,17 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
 
 namespace {
 
-enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64, kInvalid };
+enum class PlyType {
+  kInt8,
+  kUint8,
+  kInt16,
+  kUint16,
+  kInt32,
+  kUint32,
+  kFloat32,
+  kFloat64,
+  kInvalid
+};
 
 PlyType ply_type(std::string_view s) {
   if (s == "char" || s == "int8") return PlyType::kInt8;
@@ -365,14 +392,19 @@ PlyType ply_type(std::string_view s) {
 int ply_size(PlyType t) {
   switch (t) {
     case PlyType::kInt8:
-    case PlyType::kUint8: return 1;
+    case PlyType::kUint8:
+      return 1;
     case PlyType::kInt16:
-    case PlyType::kUint16: return 2;
+    case PlyType::kUint16:
+      return 2;
     case PlyType::kInt32:
     case PlyType::kUint32:
-    case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
-    default: return 0;
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
+    default:
+      return 0;
   }
 }
 
@@ -406,33 +438,66 @@ class PlyBodyReader {
     const bool host_le = std::endian::native == std::endian::little;
     if (file_le != host_le) std::reverse(b, b + n);
     switch (t) {
-      case PlyType::kInt8: return static_cast<std::int8_t>(b[0]);
-      case PlyType::kUint8: return b[0];
-      case PlyType::kInt16: { std::int16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::kUint16: { std::uint16_t v; std::memcpy(&v, b, 2); return v; }
-      case PlyType::kInt32: { std::int32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::kUint32: { std::uint32_t v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::kFloat32: { float v; std::memcpy(&v, b, 4); return v; }
-      case PlyType::kFloat64: { double v; std::memcpy(&v, b, 8); return v; }
-      default: throw IoError(path_, "invalid PLY property type");
+      case PlyType::kInt8:
+        return static_cast<std::int8_t>(b[0]);
+      case PlyType::kUint8:
+        return b[0];
+      case PlyType::kInt16: {
+        std::int16_t v;
+        std::memcpy(&v, b, 2);
+        return v;
+      }
+      case PlyType::kUint16: {
+        std::uint16_t v;
+        std::memcpy(&v, b, 2);
+        return v;
+      }
+      case PlyType::kInt32: {
+        std::int32_t v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case PlyType::kUint32: {
+        std::uint32_t v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case PlyType::kFloat32: {
+        float v;
+        std::memcpy(&v, b, 4);
+        return v;
+      }
+      case PlyType::kFloat64: {
+        double v;
+        std::memcpy(&v, b, 8);
+        return v;
+      }
+      default:
+        throw IoError(path_, "invalid PLY property type");
     }
   }
   void end_of_record() {
     if (format_ != 0) return;
     // ascii: the rest of the line must be empty.
-    while (pos_ < data_.size() && (data_[pos_] == ' ' || data_[pos_] == '\t' || data_[pos_] == '\r')) ++pos_;
+    while (pos_ < data_.size() &&
+           (data_[pos_] == ' ' || data_[pos_] == '\t' || data_[pos_] == '\r'))
+      ++pos_;
     if (pos_ < data_.size() && data_[pos_] != '\n')
-      throw IoError(path_, "line " + std::to_string(line_) + ": too many values in ascii PLY record");
+      throw IoError(path_,
+                    "line " + std::to_string(line_) + ": too many values in ascii PLY record");
     if (pos_ < data_.size()) ++pos_, ++line_;
   }
   void set_line(int line) { line_ = line; }
 
  private:
   double read_ascii() {
-    while (pos_ < data_.size() && (data_[pos_] == ' ' || data_[pos_] == '\t' || data_[pos_] == '\r')) ++pos_;
+    while (pos_ < data_.size() &&
+           (data_[pos_] == ' ' || data_[pos_] == '\t' || data_[pos_] == '\r'))
+      ++pos_;
     if (pos_ >= data_.size()) throw IoError(path_, "unexpected end of file in ascii PLY body");
     if (data_[pos_] == '\n')
-      throw IoError(path_, "line " + std::to_string(line_) + ": too few values in ascii PLY record");
+      throw IoError(path_,
+                    "line " + std::to_string(line_) + ": too few values in ascii PLY record");
     size_t end = pos_;
     while (end < data_.size() && !std::isspace(static_cast<unsigned char>(data_[end]))) ++end;
     double v;
@@ -478,10 +543,14 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
     if (tok[0] == "ply") continue;
     if (tok[0] == "format") {
       if (tok.size() < 2) fail("malformed format line");
-      if (tok[1] == "ascii") format = 0;
-      else if (tok[1] == "binary_little_endian") format = 1;
-      else if (tok[1] == "binary_big_endian") format = 2;
-      else fail("unknown format '" + std::string(tok[1]) + "'");
+      if (tok[1] == "ascii")
+        format = 0;
+      else if (tok[1] == "binary_little_endian")
+        format = 1;
+      else if (tok[1] == "binary_big_endian")
+        format = 2;
+      else
+        fail("unknown format '" + std::string(tok[1]) + "'");
     } else if (tok[0] == "comment" || tok[0] == "obj_info") {
       if (tok.size() >= 3 && (tok[1] == "TextureFile" || tok[1] == "texturefile")) {
         std::string_view rest = line.substr(line.find(tok[1]) + tok[1].size());
@@ -502,11 +571,13 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
         p.count_type = ply_type(tok[2]);
         p.type = ply_type(tok[3]);
         p.name = std::string(tok[4]);
-        if (p.count_type == PlyType::kInvalid || p.type == PlyType::kInvalid) fail("unknown list property type");
+        if (p.count_type == PlyType::kInvalid || p.type == PlyType::kInvalid)
+          fail("unknown list property type");
       } else if (tok.size() == 3) {
         p.type = ply_type(tok[1]);
         p.name = std::string(tok[2]);
-        if (p.type == PlyType::kInvalid) fail("unknown property type '" + std::string(tok[1]) + "'");
+        if (p.type == PlyType::kInvalid)
+          fail("unknown property type '" + std::string(tok[1]) + "'");
       } else {
         fail("malformed property line");
       }
@@ -533,23 +604,40 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
   for (const auto& el : elements) {
     if (el.name == "vertex") {
       have_vertex_element = true;
-      int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, ir = -1, ig = -1, ib = -1, iu = -1, iv = -1;
+      int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, ir = -1, ig = -1, ib = -1,
+          iu = -1, iv = -1;
       for (int k = 0; k < static_cast<int>(el.props.size()); ++k) {
         const std::string& n = el.props[k].name;
         if (el.props[k].is_list) continue;
-        if (n == "x") ix = k; else if (n == "y") iy = k; else if (n == "z") iz = k;
-        else if (n == "nx") inx = k; else if (n == "ny") iny = k; else if (n == "nz") inz = k;
-        else if (n == "red" || n == "r" || n == "diffuse_red") ir = k;
-        else if (n == "green" || n == "g" || n == "diffuse_green") ig = k;
-        else if (n == "blue" || n == "b" || n == "diffuse_blue") ib = k;
-        else if (n == "texture_u" || n == "u" || n == "s") iu = k;
-        else if (n == "texture_v" || n == "v" || n == "t") iv = k;
+        if (n == "x")
+          ix = k;
+        else if (n == "y")
+          iy = k;
+        else if (n == "z")
+          iz = k;
+        else if (n == "nx")
+          inx = k;
+        else if (n == "ny")
+          iny = k;
+        else if (n == "nz")
+          inz = k;
+        else if (n == "red" || n == "r" || n == "diffuse_red")
+          ir = k;
+        else if (n == "green" || n == "g" || n == "diffuse_green")
+          ig = k;
+        else if (n == "blue" || n == "b" || n == "diffuse_blue")
+          ib = k;
+        else if (n == "texture_u" || n == "u" || n == "s")
+          iu = k;
+        else if (n == "texture_v" || n == "v" || n == "t")
+          iv = k;
       }
       if (ix < 0 || iy < 0 || iz < 0) throw IoError(path, "vertex element lacks x, y or z");
       const bool has_n = inx >= 0 && iny >= 0 && inz >= 0;
       const bool has_c = ir >= 0 && ig >= 0 && ib >= 0;
       const bool has_uv = iu >= 0 && iv >= 0;
-      const bool color_float = has_c && (el.props[ir].type == PlyType::kFloat32 || el.props[ir].type == PlyType::kFloat64);
+      const bool color_float = has_c && (el.props[ir].type == PlyType::kFloat32 ||
+                                         el.props[ir].type == PlyType::kFloat64);
       mesh.vertices.resize(el.count);
       if (has_n) mesh.normals.resize(el.count);
       if (has_c) mesh.colors.resize(el.count);
@@ -567,11 +655,15 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
           }
         }
         body.end_of_record();
-        Eigen::Vector3f v(static_cast<float>(rec[ix]), static_cast<float>(rec[iy]), static_cast<float>(rec[iz]));
-        if (!v.allFinite()) throw IoError(path, "vertex " + std::to_string(i) + " has a non-finite coordinate");
+        Eigen::Vector3f v(static_cast<float>(rec[ix]), static_cast<float>(rec[iy]),
+                          static_cast<float>(rec[iz]));
+        if (!v.allFinite())
+          throw IoError(path, "vertex " + std::to_string(i) + " has a non-finite coordinate");
         mesh.vertices[i] = v * scale;
-        if (has_n) mesh.normals[i] = Eigen::Vector3f(static_cast<float>(rec[inx]), static_cast<float>(rec[iny]),
-                                                     static_cast<float>(rec[inz]));
+        if (has_n)
+          mesh.normals[i] =
+              Eigen::Vector3f(static_cast<float>(rec[inx]), static_cast<float>(rec[iny]),
+                              static_cast<float>(rec[inz]));
         if (has_c) {
           auto q = [&](double x) {
             const double s = color_float ? x * 255.0 : x;
@@ -579,14 +671,17 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
           };
           mesh.colors[i] = {q(rec[ir]), q(rec[ig]), q(rec[ib])};
         }
-        if (has_uv) mesh.uvs[i] = Eigen::Vector2f(static_cast<float>(rec[iu]), static_cast<float>(rec[iv]));
+        if (has_uv)
+          mesh.uvs[i] = Eigen::Vector2f(static_cast<float>(rec[iu]), static_cast<float>(rec[iv]));
       }
     } else if (el.name == "face") {
       int iidx = -1, itc = -1;
       for (int k = 0; k < static_cast<int>(el.props.size()); ++k) {
         const auto& p = el.props[k];
-        if (p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index")) iidx = k;
-        else if (p.is_list && p.name == "texcoord") itc = k;
+        if (p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index"))
+          iidx = k;
+        else if (p.is_list && p.name == "texcoord")
+          itc = k;
       }
       if (iidx < 0) throw IoError(path, "face element lacks a vertex_indices list");
       for (size_t f = 0; f < el.count; ++f) {
@@ -596,24 +691,32 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
           const auto& p = el.props[k];
           if (p.is_list) {
             const double nd = body.read(p.count_type);
-            if (nd < 0 || nd > 1e6) throw IoError(path, "face " + std::to_string(f) + ": bad list length");
+            if (nd < 0 || nd > 1e6)
+              throw IoError(path, "face " + std::to_string(f) + ": bad list length");
             const int n = static_cast<int>(nd);
             for (int j = 0; j < n; ++j) {
               const double x = body.read(p.type);
-              if (static_cast<int>(k) == iidx) idx.push_back(static_cast<long>(x));
-              else if (static_cast<int>(k) == itc) tc.push_back(x);
+              if (static_cast<int>(k) == iidx)
+                idx.push_back(static_cast<long>(x));
+              else if (static_cast<int>(k) == itc)
+                tc.push_back(x);
             }
           } else {
             body.read(p.type);
           }
         }
         body.end_of_record();
-        if (idx.size() < 3) throw IoError(path, "face " + std::to_string(f) + " has fewer than 3 vertices");
+        if (idx.size() < 3)
+          throw IoError(path, "face " + std::to_string(f) + " has fewer than 3 vertices");
         const bool with_tc = itc >= 0 && tc.size() == 2 * idx.size();
         for (size_t k = 1; k + 1 < idx.size(); ++k) {
-          faces.emplace_back(static_cast<int>(idx[0]), static_cast<int>(idx[k]), static_cast<int>(idx[k + 1]));
+          faces.emplace_back(static_cast<int>(idx[0]), static_cast<int>(idx[k]),
+                             static_cast<int>(idx[k + 1]));
           if (with_tc) {
-            auto uv = [&](size_t c) { return Eigen::Vector2f(static_cast<float>(tc[2 * c]), static_cast<float>(tc[2 * c + 1])); };
+            auto uv = [&](size_t c) {
+              return Eigen::Vector2f(static_cast<float>(tc[2 * c]),
+                                     static_cast<float>(tc[2 * c + 1]));
+            };
             face_uv.push_back({uv(0), uv(k), uv(k + 1)});
           }
         }
@@ -661,8 +764,10 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
   }
   if (options.load_texture && !texture_file.empty() && !mesh.uvs.empty())
     mesh.texture = load_texture_image((fs::path(path).parent_path() / texture_file).string(), path);
-  if (!mesh.texture) mesh.uvs.clear();
-  else mesh.colors.clear();  // the texture carries the colour (vertex colours are usually its bake)
+  if (!mesh.texture)
+    mesh.uvs.clear();
+  else
+    mesh.colors.clear();  // the texture carries the colour (vertex colours are usually its bake)
   finish_mesh(mesh, path);
   return mesh;
 }
@@ -685,11 +790,15 @@ void write_ply(const std::string& path, const TriangleMesh& mesh, const PlyWrite
   std::vector<Rgb8> colors;
   if (opt.write_colors) {
     if (m.has_texture()) bake_texture_into_vertex_colors(m);
-    if (!m.colors.empty()) colors = m.colors;
-    else colors.assign(m.vertices.size(), Rgb8{255, 255, 255});
+    if (!m.colors.empty())
+      colors = m.colors;
+    else
+      colors.assign(m.vertices.size(), Rgb8{255, 255, 255});
     // Base colour multiplies in.
     for (auto& c : colors) {
-      auto mul = [](std::uint8_t a, std::uint8_t b) { return static_cast<std::uint8_t>((a * b + 127) / 255); };
+      auto mul = [](std::uint8_t a, std::uint8_t b) {
+        return static_cast<std::uint8_t>((a * b + 127) / 255);
+      };
       c = {mul(c.r, m.base_color.r), mul(c.g, m.base_color.g), mul(c.b, m.base_color.b)};
     }
   }
@@ -703,17 +812,20 @@ void write_ply(const std::string& path, const TriangleMesh& mesh, const PlyWrite
         os << "element vertex " << m.vertices.size() << "\n";
         os << "property float x\nproperty float y\nproperty float z\n";
         if (opt.write_normals) os << "property float nx\nproperty float ny\nproperty float nz\n";
-        if (opt.write_colors) os << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+        if (opt.write_colors)
+          os << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
         if (with_uv) os << "property float texture_u\nproperty float texture_v\n";
         os << "element face " << m.triangles.size() << "\n";
         os << "property list uchar int vertex_indices\nend_header\n";
         if (opt.binary) {
-          static_assert(std::endian::native == std::endian::little, "binary PLY writer assumes little endian");
+          static_assert(std::endian::native == std::endian::little,
+                        "binary PLY writer assumes little endian");
           auto put = [&](const auto& v) { os.write(reinterpret_cast<const char*>(&v), sizeof(v)); };
           for (size_t i = 0; i < m.vertices.size(); ++i) {
             const Eigen::Vector3f p = (m.vertices[i].cast<double>() * s).cast<float>();
             put(p.x()), put(p.y()), put(p.z());
-            if (opt.write_normals) put(m.normals[i].x()), put(m.normals[i].y()), put(m.normals[i].z());
+            if (opt.write_normals)
+              put(m.normals[i].x()), put(m.normals[i].y()), put(m.normals[i].z());
             if (opt.write_colors) put(colors[i].r), put(colors[i].g), put(colors[i].b);
             if (with_uv) put(m.uvs[i].x()), put(m.uvs[i].y());
           }
@@ -728,11 +840,13 @@ void write_ply(const std::string& path, const TriangleMesh& mesh, const PlyWrite
             int n = std::snprintf(buf, sizeof(buf), "%.7g %.7g %.7g", p.x(), p.y(), p.z());
             os.write(buf, n);
             if (opt.write_normals) {
-              n = std::snprintf(buf, sizeof(buf), " %.5f %.5f %.5f", m.normals[i].x(), m.normals[i].y(), m.normals[i].z());
+              n = std::snprintf(buf, sizeof(buf), " %.5f %.5f %.5f", m.normals[i].x(),
+                                m.normals[i].y(), m.normals[i].z());
               os.write(buf, n);
             }
             if (opt.write_colors) {
-              n = std::snprintf(buf, sizeof(buf), " %d %d %d", colors[i].r, colors[i].g, colors[i].b);
+              n = std::snprintf(buf, sizeof(buf), " %d %d %d", colors[i].r, colors[i].g,
+                                colors[i].b);
               os.write(buf, n);
             }
             if (with_uv) {

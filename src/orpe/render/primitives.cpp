@@ -34,18 +34,21 @@ void add_grid(TriangleMesh& m, const Eigen::Vector3f& corner, const Eigen::Vecto
 
 }  // namespace
 
-TriangleMesh make_box(const Eigen::Vector3f& size, float max_cell_m, const std::array<UvRect, 6>* face_uv) {
+TriangleMesh make_box(const Eigen::Vector3f& size, float max_cell_m,
+                      const std::array<UvRect, 6>* face_uv) {
   TriangleMesh m;
   m.name = "box";
   const Eigen::Vector3f h = 0.5f * size;
-  const Eigen::Vector3f X = Eigen::Vector3f::UnitX(), Y = Eigen::Vector3f::UnitY(), Z = Eigen::Vector3f::UnitZ();
+  const Eigen::Vector3f X = Eigen::Vector3f::UnitX(), Y = Eigen::Vector3f::UnitY(),
+                        Z = Eigen::Vector3f::UnitZ();
   struct Face {
     Eigen::Vector3f normal, right, up;
     float len_r, len_u;
   };
   const Face faces[6] = {
-      {X, Y, Z, size.y(), size.z()},    {-X, -Y, Z, size.y(), size.z()}, {Y, -X, Z, size.x(), size.z()},
-      {-Y, X, Z, size.x(), size.z()},   {Z, X, Y, size.x(), size.y()},   {-Z, X, -Y, size.x(), size.y()},
+      {X, Y, Z, size.y(), size.z()},  {-X, -Y, Z, size.y(), size.z()},
+      {Y, -X, Z, size.x(), size.z()}, {-Y, X, Z, size.x(), size.z()},
+      {Z, X, Y, size.x(), size.y()},  {-Z, X, -Y, size.x(), size.y()},
   };
   for (int f = 0; f < 6; ++f) {
     const Face& fc = faces[f];
@@ -57,8 +60,8 @@ TriangleMesh make_box(const Eigen::Vector3f& size, float max_cell_m, const std::
   return m;
 }
 
-TriangleMesh make_cylinder(float radius, float height, int segments, float max_cell_m, const UvRect& side_uv,
-                           const UvRect& top_uv, const UvRect& bottom_uv) {
+TriangleMesh make_cylinder(float radius, float height, int segments, float max_cell_m,
+                           const UvRect& side_uv, const UvRect& top_uv, const UvRect& bottom_uv) {
   TriangleMesh m;
   m.name = "cylinder";
   segments = std::max(segments, 3);
@@ -75,7 +78,8 @@ TriangleMesh make_cylinder(float radius, float height, int segments, float max_c
       const float c = std::cos(th), sn = std::sin(th);
       m.vertices.emplace_back(radius * c, radius * sn, z);
       m.normals.emplace_back(c, sn, 0.0f);
-      m.uvs.emplace_back(side_uv.u0 + a * (side_uv.u1 - side_uv.u0), side_uv.v0 + b * (side_uv.v1 - side_uv.v0));
+      m.uvs.emplace_back(side_uv.u0 + a * (side_uv.u1 - side_uv.u0),
+                         side_uv.v0 + b * (side_uv.v1 - side_uv.v0));
     }
   }
   auto sidx = [&](int s, int k) { return side_base + k * (segments + 1) + s; };
@@ -113,8 +117,10 @@ TriangleMesh make_cylinder(float radius, float height, int segments, float max_c
     }
     auto ridx = [&](int k, int s) { return ring_base + (k - 1) * segments + (s % segments); };
     auto add = [&](int a, int b, int c) {
-      if (top) m.triangles.emplace_back(a, b, c);
-      else m.triangles.emplace_back(a, c, b);
+      if (top)
+        m.triangles.emplace_back(a, b, c);
+      else
+        m.triangles.emplace_back(a, c, b);
     };
     for (int s = 0; s < segments; ++s) add(centre, ridx(1, s), ridx(1, s + 1));
     for (int k = 1; k < cap_rings; ++k)
@@ -136,7 +142,8 @@ TriangleMesh make_sphere(float radius, int segments, int rings) {
     const float phi = pi * static_cast<float>(k) / rings;  // from +z pole
     for (int s = 0; s <= segments; ++s) {
       const float th = 2 * pi * static_cast<float>(s) / segments;
-      const Eigen::Vector3f n(std::sin(phi) * std::cos(th), std::sin(phi) * std::sin(th), std::cos(phi));
+      const Eigen::Vector3f n(std::sin(phi) * std::cos(th), std::sin(phi) * std::sin(th),
+                              std::cos(phi));
       m.vertices.push_back(radius * n);
       m.normals.push_back(n);
       m.uvs.emplace_back(static_cast<float>(s) / segments, 1.0f - static_cast<float>(k) / rings);
@@ -152,11 +159,13 @@ TriangleMesh make_sphere(float radius, int segments, int rings) {
   return m;
 }
 
-TriangleMesh make_quad(float size_x, float size_y, int cells_x, int cells_y, float repeat_x, float repeat_y) {
+TriangleMesh make_quad(float size_x, float size_y, int cells_x, int cells_y, float repeat_x,
+                       float repeat_y) {
   TriangleMesh m;
   m.name = "quad";
   add_grid(m, Eigen::Vector3f(-0.5f * size_x, -0.5f * size_y, 0), Eigen::Vector3f(size_x, 0, 0),
-           Eigen::Vector3f(0, size_y, 0), std::max(1, cells_x), std::max(1, cells_y), UvRect{0, 0, repeat_x, repeat_y});
+           Eigen::Vector3f(0, size_y, 0), std::max(1, cells_x), std::max(1, cells_y),
+           UvRect{0, 0, repeat_x, repeat_y});
   return m;
 }
 

@@ -1,6 +1,7 @@
 // Parametric meshes: tessellated boxes, cylinders, spheres and quads with texture coordinates.
-// Used by the synthetic scene generator (warehouse objects, floors, shelves), by tests and benchmarks.
-// All shapes are centred on the origin (a box's centre, a cylinder's mid-height on its axis z).
+// Used by the synthetic scene generator (warehouse objects, floors, shelves), by tests and
+// benchmarks. All shapes are centred on the origin (a box's centre, a cylinder's mid-height on its
+// axis z).
 #pragma once
 
 #include <array>
@@ -35,7 +36,7 @@ TriangleMesh make_sphere(float radius_m, int segments, int rings);
 
 /// Rectangle in the z = 0 plane facing +z, sizes along x and y, `cells_x` x `cells_y` grid, uv
 /// covering [0, uv_repeat_x] x [0, uv_repeat_y] (repeat > 1 tiles a texture).
-TriangleMesh make_quad(float size_x_m, float size_y_m, int cells_x, int cells_y, float uv_repeat_x = 1,
-                       float uv_repeat_y = 1);
+TriangleMesh make_quad(float size_x_m, float size_y_m, int cells_x, int cells_y,
+                       float uv_repeat_x = 1, float uv_repeat_y = 1);
 
 }  // namespace orpe

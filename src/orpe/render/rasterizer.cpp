@@ -29,7 +29,8 @@ struct Plane {
 };
 
 /// Sutherland-Hodgman: clips a convex polygon against one plane. `out` is cleared first.
-void clip_polygon(const std::vector<Eigen::Vector3d>& in, const Plane& pl, std::vector<Eigen::Vector3d>& out) {
+void clip_polygon(const std::vector<Eigen::Vector3d>& in, const Plane& pl,
+                  std::vector<Eigen::Vector3d>& out) {
   out.clear();
   const size_t n = in.size();
   for (size_t i = 0; i < n; ++i) {
@@ -55,9 +56,11 @@ bool RasterizerParams::IsValid(std::string* why) const {
   if (!(near_m > 0)) return fail("near_m must be > 0");
   if (!(far_m > near_m)) return fail("far_m must be > near_m");
   if (ambient < 0 || diffuse < 0) return fail("ambient and diffuse must be >= 0");
-  const double len = std::sqrt(light_dir_x * light_dir_x + light_dir_y * light_dir_y + light_dir_z * light_dir_z);
+  const double len =
+      std::sqrt(light_dir_x * light_dir_x + light_dir_y * light_dir_y + light_dir_z * light_dir_z);
   if (!(len > 0) || !std::isfinite(len)) return fail("light direction must be a non-zero vector");
-  if (background_gray < 0 || background_gray > 255) return fail("background_gray must be in 0..255");
+  if (background_gray < 0 || background_gray > 255)
+    return fail("background_gray must be in 0..255");
   if (band_rows < 1 || band_rows > 1024) return fail("band_rows must be in 1..1024");
   if (threads < 0) return fail("threads must be >= 0");
   return true;
@@ -70,28 +73,31 @@ Rasterizer::Rasterizer(const RasterizerParams& params) : params_(params) {
 
 Light Rasterizer::default_light() const {
   Light l;
-  l.direction_cam = Eigen::Vector3f(static_cast<float>(params_.light_dir_x), static_cast<float>(params_.light_dir_y),
+  l.direction_cam = Eigen::Vector3f(static_cast<float>(params_.light_dir_x),
+                                    static_cast<float>(params_.light_dir_y),
                                     static_cast<float>(params_.light_dir_z));
   l.ambient = static_cast<float>(params_.ambient);
   l.diffuse = static_cast<float>(params_.diffuse);
   return l;
 }
 
-RenderBuffers Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> items, unsigned outputs,
-                                 const Light* light) {
+RenderBuffers Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> items,
+                                 unsigned outputs, const Light* light) {
   RenderBuffers out;
   render(K, items, out, outputs, light);
   return out;
 }
 
-void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> items, RenderBuffers& out,
-                        unsigned outputs, const Light* light_override) {
+void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> items,
+                        RenderBuffers& out, unsigned outputs, const Light* light_override) {
   std::string why;
   if (!K.IsValid(&why)) throw std::invalid_argument("Rasterizer: invalid intrinsics: " + why);
   for (size_t i = 0; i < items.size(); ++i) {
-    if (!items[i].mesh) throw std::invalid_argument("Rasterizer: item " + std::to_string(i) + " has no mesh");
+    if (!items[i].mesh)
+      throw std::invalid_argument("Rasterizer: item " + std::to_string(i) + " has no mesh");
     if (!items[i].mesh->IsValid(&why))
-      throw std::invalid_argument("Rasterizer: item " + std::to_string(i) + " (" + items[i].mesh->name + "): " + why);
+      throw std::invalid_argument("Rasterizer: item " + std::to_string(i) + " (" +
+                                  items[i].mesh->name + "): " + why);
   }
   const int W = K.width, H = K.height;
   const size_t npix = static_cast<size_t>(W) * H;
@@ -100,7 +106,8 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
 
   const double near = params_.near_m, far = params_.far_m;
   const bool cull = params_.cull_back_faces;
-  const double gx0 = -kGuardBandPx, gx1 = W - 1 + kGuardBandPx, gy0 = -kGuardBandPx, gy1 = H - 1 + kGuardBandPx;
+  const double gx0 = -kGuardBandPx, gx1 = W - 1 + kGuardBandPx, gy0 = -kGuardBandPx,
+               gy1 = H - 1 + kGuardBandPx;
   const Plane near_plane{{0, 0, 1}, -near};
   const Plane guard[4] = {{{K.fx, 0, K.cx - gx0}, 0},
                           {{-K.fx, 0, gx1 - K.cx}, 0},
@@ -138,7 +145,8 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
 
   // --- Triangle setup in fixed-size chunks of the global triangle sequence.
   std::vector<size_t> item_first(items.size() + 1, 0);
-  for (size_t i = 0; i < items.size(); ++i) item_first[i + 1] = item_first[i] + items[i].mesh->triangles.size();
+  for (size_t i = 0; i < items.size(); ++i)
+    item_first[i + 1] = item_first[i] + items[i].mesh->triangles.size();
   const size_t total = item_first.back();
   const size_t nchunks = (total + kSetupChunk - 1) / kSetupChunk;
   if (chunk_tris_.size() < nchunks) chunk_tris_.resize(nchunks);
@@ -151,14 +159,18 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
     std::vector<Eigen::Vector3d> poly, tmp;
     poly.reserve(12), tmp.reserve(12);
     const size_t g0 = c * kSetupChunk, g1 = std::min(total, g0 + kSetupChunk);
-    size_t item = static_cast<size_t>(std::upper_bound(item_first.begin(), item_first.end(), g0) - item_first.begin()) - 1;
+    size_t item = static_cast<size_t>(std::upper_bound(item_first.begin(), item_first.end(), g0) -
+                                      item_first.begin()) -
+                  1;
     for (size_t g = g0; g < g1; ++g) {
       while (g >= item_first[item + 1]) ++item;
       const int tri = static_cast<int>(g - item_first[item]);
       const Eigen::Vector3i& t = items[item].mesh->triangles[tri];
       const auto& cv = cam_vertices_[item];
-      const Eigen::Vector3d P0 = cv[t[0]].cast<double>(), P1 = cv[t[1]].cast<double>(), P2 = cv[t[2]].cast<double>();
-      if ((P0.z() < near && P1.z() < near && P2.z() < near) || (P0.z() > far && P1.z() > far && P2.z() > far)) {
+      const Eigen::Vector3d P0 = cv[t[0]].cast<double>(), P1 = cv[t[1]].cast<double>(),
+                            P2 = cv[t[2]].cast<double>();
+      if ((P0.z() < near && P1.z() < near && P2.z() < near) ||
+          (P0.z() > far && P1.z() > far && P2.z() > far)) {
         ++chunk_culled[c];
         continue;
       }
@@ -167,7 +179,8 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         continue;
       }
       // Emits the screen triangle (a, b, d) of vertices in 1/256-pixel fixed point with their 1/z.
-      auto emit = [&](const std::int64_t* X, const std::int64_t* Y, const double* iz, int a, int b, int d) {
+      auto emit = [&](const std::int64_t* X, const std::int64_t* Y, const double* iz, int a, int b,
+                      int d) {
         std::int64_t area2 = (X[b] - X[a]) * (Y[d] - Y[a]) - (Y[b] - Y[a]) * (X[d] - X[a]);
         if (area2 == 0) return;
         if (area2 < 0) std::swap(b, d);
@@ -235,7 +248,8 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         Y[k] = static_cast<std::int64_t>(std::nearbyint((K.fy * poly[k].y() / z + K.cy) * kOne));
         iz[k] = 1.0 / z;
       }
-      for (size_t k = 1; k + 1 < n; ++k) emit(X, Y, iz, 0, static_cast<int>(k), static_cast<int>(k + 1));
+      for (size_t k = 1; k + 1 < n; ++k)
+        emit(X, Y, iz, 0, static_cast<int>(k), static_cast<int>(k + 1));
     }
   }
   tris_.clear();
@@ -295,11 +309,15 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         std::int64_t lo = st.u_min, hi = st.u_max;
         for (int e = 0; e < 3 && lo <= hi; ++e) {
           // E(u) = E(u_min) + (u - u_min) * step
-          const std::int64_t e0 = ex[e] * (py - eyi[e]) - ey[e] * (static_cast<std::int64_t>(st.u_min) * kOne - exi[e]);
+          const std::int64_t e0 =
+              ex[e] * (py - eyi[e]) - ey[e] * (static_cast<std::int64_t>(st.u_min) * kOne - exi[e]);
           const std::int64_t step = -ey[e] * kOne;
-          if (step > 0) lo = std::max(lo, st.u_min + ceil_div(bias[e] - e0, step));
-          else if (step < 0) hi = std::min(hi, st.u_min + floor_div(e0 - bias[e], -step));
-          else if (e0 < bias[e]) hi = lo - 1;
+          if (step > 0)
+            lo = std::max(lo, st.u_min + ceil_div(bias[e] - e0, step));
+          else if (step < 0)
+            hi = std::min(hi, st.u_min + floor_div(e0 - bias[e], -step));
+          else if (e0 < bias[e])
+            hi = lo - 1;
         }
         if (lo > hi) continue;
         const size_t row = static_cast<size_t>(v) * W;
@@ -318,13 +336,17 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
   }
 
   // --- Resolve pass.
-  const bool want_depth = outputs & kRenderDepth, want_ids = outputs & kRenderIds, want_color = outputs & kRenderColor,
-             want_normals = outputs & kRenderNormals, want_tris = outputs & kRenderTriangles;
+  const bool want_depth = outputs & kRenderDepth, want_ids = outputs & kRenderIds,
+             want_color = outputs & kRenderColor, want_normals = outputs & kRenderNormals,
+             want_tris = outputs & kRenderTriangles;
   const auto bg = static_cast<std::uint8_t>(params_.background_gray);
   auto prepare = [&](auto& img, bool want, const auto& fill) {
-    if (!want) img = std::decay_t<decltype(img)>();
-    else if (img.width() != W || img.height() != H) img = std::decay_t<decltype(img)>(W, H, fill);
-    else img.fill(fill);
+    if (!want)
+      img = std::decay_t<decltype(img)>();
+    else if (img.width() != W || img.height() != H)
+      img = std::decay_t<decltype(img)>(W, H, fill);
+    else
+      img.fill(fill);
   };
   prepare(out.depth, want_depth, 0.0f);
   prepare(out.ids, want_ids, 0);
@@ -342,8 +364,9 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
 
 #pragma omp parallel for schedule(dynamic, 4) num_threads(threads) reduction(+ : covered)
   for (int v = 0; v < H; ++v) {
-    // Per-triangle constants of the ray intersection, cached while consecutive pixels share a triangle.
-    // With ray d = (x, y, 1), vertices P0..P2, e1 = P1 - P0, e2 = P2 - P0, s = -P0 (Moeller-Trumbore):
+    // Per-triangle constants of the ray intersection, cached while consecutive pixels share a
+    // triangle. With ray d = (x, y, 1), vertices P0..P2, e1 = P1 - P0, e2 = P2 - P0, s = -P0
+    // (Moeller-Trumbore):
     //   det = -d . n, b1 = d . m / det, b2 = d . q / det, z = c / det,
     // where n = e1 x e2, m = e2 x s, q = s x e1, c = e2 . q are constant per triangle.
     std::int32_t cached = -1;
@@ -384,10 +407,12 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         face_n = n.cast<float>();
         if (!mesh->normals.empty()) {
           const Eigen::Matrix3f& R = item_R[st.item];
-          n0 = R * mesh->normals[(*tri)[0]], n1 = R * mesh->normals[(*tri)[1]], n2 = R * mesh->normals[(*tri)[2]];
+          n0 = R * mesh->normals[(*tri)[0]], n1 = R * mesh->normals[(*tri)[1]],
+          n2 = R * mesh->normals[(*tri)[2]];
         }
         if (want_color) {
-          const Eigen::Vector3f base = Eigen::Vector3f(mesh->base_color.r, mesh->base_color.g, mesh->base_color.b) / 255.0f;
+          const Eigen::Vector3f base =
+              Eigen::Vector3f(mesh->base_color.r, mesh->base_color.g, mesh->base_color.b) / 255.0f;
           Eigen::Vector3f* cs[3] = {&c0, &c1, &c2};
           for (int k = 0; k < 3; ++k) {
             *cs[k] = base;
@@ -397,7 +422,8 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
             }
           }
           textured = mesh->has_texture();
-          if (textured) t0 = mesh->uvs[(*tri)[0]], t1 = mesh->uvs[(*tri)[1]], t2 = mesh->uvs[(*tri)[2]];
+          if (textured)
+            t0 = mesh->uvs[(*tri)[0]], t1 = mesh->uvs[(*tri)[1]], t2 = mesh->uvs[(*tri)[2]];
         }
       }
       const Eigen::Vector3d d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
@@ -419,10 +445,13 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         const double sum = b1 + b2;
         b1 /= sum, b2 /= sum;
       }
-      const Eigen::Vector3f bary(static_cast<float>(1.0 - b1 - b2), static_cast<float>(b1), static_cast<float>(b2));
+      const Eigen::Vector3f bary(static_cast<float>(1.0 - b1 - b2), static_cast<float>(b1),
+                                 static_cast<float>(b2));
       if (want_depth) out.depth[p] = static_cast<float>(z);
       if (!want_color && !want_normals) continue;
-      Eigen::Vector3f nrm = mesh->normals.empty() ? face_n : Eigen::Vector3f(bary[0] * n0 + bary[1] * n1 + bary[2] * n2);
+      Eigen::Vector3f nrm = mesh->normals.empty()
+                                ? face_n
+                                : Eigen::Vector3f(bary[0] * n0 + bary[1] * n1 + bary[2] * n2);
       const float len = nrm.norm();
       nrm = len > 0 ? Eigen::Vector3f(nrm / len) : Eigen::Vector3f(0, 0, -1);
       if (nrm.dot(d.cast<float>()) > 0) nrm = -nrm;  // face the camera
@@ -431,11 +460,13 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
         Eigen::Vector3f albedo = bary[0] * c0 + bary[1] * c1 + bary[2] * c2;
         if (textured) {
           const Eigen::Vector2f uv = bary[0] * t0 + bary[1] * t1 + bary[2] * t2;
-          albedo = albedo.cwiseProduct(sample_texture_bilinear(*mesh->texture, uv.x(), uv.y()) * (1.0f / 255.0f));
+          albedo = albedo.cwiseProduct(sample_texture_bilinear(*mesh->texture, uv.x(), uv.y()) *
+                                       (1.0f / 255.0f));
         }
         const float shade = light.ambient + light.diffuse * std::max(0.0f, nrm.dot(ldir));
         const Eigen::Vector3f col = (albedo * (shade * 255.0f)).cwiseMin(255.0f).cwiseMax(0.0f);
-        out.color[p] = {static_cast<std::uint8_t>(col.x() + 0.5f), static_cast<std::uint8_t>(col.y() + 0.5f),
+        out.color[p] = {static_cast<std::uint8_t>(col.x() + 0.5f),
+                        static_cast<std::uint8_t>(col.y() + 0.5f),
                         static_cast<std::uint8_t>(col.z() + 0.5f)};
       }
     }

@@ -1,18 +1,23 @@
-// CPU z-buffer rasteriser: renders meshes at given poses into depth (z along the optical axis, metres),
-// shaded colour, per-pixel object id, optional camera-frame normals and per-object amodal silhouettes.
+// CPU z-buffer rasteriser: renders meshes at given poses into depth (z along the optical axis,
+// metres), shaded colour, per-pixel object id, optional camera-frame normals and per-object amodal
+// silhouettes.
 //
 // Method (two passes, so shading cost does not grow with overdraw):
-//  1. Setup: vertices to the camera frame; triangles clipped against the near plane (and a guard band),
+//  1. Setup: vertices to the camera frame; triangles clipped against the near plane (and a guard
+//  band),
 //     projected with the pinhole model and snapped to 1/256 pixel; binned into row bands.
-//  2. Visibility pass, bands in parallel (OpenMP): the pixel centres (u, v) inside each triangle (top-left
+//  2. Visibility pass, bands in parallel (OpenMP): the pixel centres (u, v) inside each triangle
+//  (top-left
 //     fill rule: shared edges are covered exactly once) keep the nearest triangle (largest 1/z).
 //  3. Resolve pass: per pixel, the ray through the pixel centre is intersected with the visible
-//     triangle in double precision, which gives the exact z and perspective-correct barycentrics for
-//     interpolating normals, vertex colours and UVs (bilinear texture lookups).
+//     triangle in double precision, which gives the exact z and perspective-correct barycentrics
+//     for interpolating normals, vertex colours and UVs (bilinear texture lookups).
 // Shading: albedo * (ambient + diffuse * max(0, n . l)), n flipped to face the camera (two-sided).
 // Results do not depend on the number of threads (each band draws its triangles in input order).
 //
 // A Rasterizer keeps scratch buffers between calls: use one instance per thread.
+// Region of interest: render a crop by passing intrinsics with the crop's size and the principal point
+// shifted by the crop's top-left corner (cx - u0, cy - v0): the cost scales with the crop's pixels.
 #pragma once
 
 #include <cstdint>
@@ -28,17 +33,17 @@
 namespace orpe {
 
 struct RasterizerParams {
-  double near_m = 0.01;           ///< near clipping plane (m)
-  double far_m = 100.0;           ///< surfaces beyond this z are not drawn (m)
-  bool cull_back_faces = false;   ///< skip triangles facing away (needs consistent CCW winding)
-  double ambient = 0.35;          ///< ambient light factor
-  double diffuse = 0.75;          ///< diffuse (Lambert) light factor
-  double light_dir_x = -0.3;      ///< direction towards the light, camera frame (normalised on use)
+  double near_m = 0.01;          ///< near clipping plane (m)
+  double far_m = 100.0;          ///< surfaces beyond this z are not drawn (m)
+  bool cull_back_faces = false;  ///< skip triangles facing away (needs consistent CCW winding)
+  double ambient = 0.35;         ///< ambient light factor
+  double diffuse = 0.75;         ///< diffuse (Lambert) light factor
+  double light_dir_x = -0.3;     ///< direction towards the light, camera frame (normalised on use)
   double light_dir_y = -0.6;
   double light_dir_z = -1.0;
-  int background_gray = 0;        ///< colour of pixels without a surface (0..255)
-  int band_rows = 8;              ///< rows per work unit of the parallel visibility pass
-  int threads = 0;                ///< OpenMP threads; 0 = the OpenMP default (OMP_NUM_THREADS)
+  int background_gray = 0;  ///< colour of pixels without a surface (0..255)
+  int band_rows = 8;        ///< rows per work unit of the parallel visibility pass
+  int threads = 0;          ///< OpenMP threads; 0 = the OpenMP default (OMP_NUM_THREADS)
 
   template <class V>
   void visit(V&& v) {
@@ -47,9 +52,11 @@ struct RasterizerParams {
     v("cull_back_faces", cull_back_faces, "Skip back-facing triangles (needs outward CCW winding)");
     v("ambient", ambient, "Ambient light factor (0..1)");
     v("diffuse", diffuse, "Diffuse (Lambert) light factor (0..1)");
-    v("light_dir_x", light_dir_x, "Direction towards the light, camera frame, x (normalised on use)");
+    v("light_dir_x", light_dir_x,
+      "Direction towards the light, camera frame, x (normalised on use)");
     v("light_dir_y", light_dir_y, "Direction towards the light, camera frame, y (y is down)");
-    v("light_dir_z", light_dir_z, "Direction towards the light, camera frame, z (negative = behind the camera)");
+    v("light_dir_z", light_dir_z,
+      "Direction towards the light, camera frame, z (negative = behind the camera)");
     v("background_gray", background_gray, "Colour of pixels without a surface (0..255)");
     v("band_rows", band_rows, "Rows per parallel work unit (4-64)");
     v("threads", threads, "OpenMP threads for one render; 0 = OMP_NUM_THREADS / all cores");
@@ -71,7 +78,8 @@ struct RenderItem {
   std::int32_t id = 0;
 };
 
-/// Which outputs to produce (bit flags); depth and ids are cheap, colour and normals cost a little more.
+/// Which outputs to produce (bit flags); depth and ids are cheap, colour and normals cost a little
+/// more.
 enum RenderOutput : unsigned {
   kRenderDepth = 1u << 0,
   kRenderIds = 1u << 1,
@@ -91,13 +99,15 @@ struct RenderStats {
 };
 
 struct RenderBuffers {
-  DepthImage depth;                     ///< z along the optical axis (m); 0 = background
-  ColorImage color;                     ///< shaded RGB
-  LabelImage ids;                       ///< RenderItem::id of the visible surface; 0 = background
-  Image<Eigen::Vector3f> normals;       ///< camera-frame unit normals facing the camera; 0 = background
-  std::vector<MaskImage> silhouettes;   ///< per item: 1 where the item covers the pixel, occluded or not
-  Image<std::int32_t> triangles;        ///< visible triangle index within its item's mesh; -1 = background
-  Image<std::int32_t> items;            ///< index into the items span of the visible surface; -1 = background
+  DepthImage depth;                ///< z along the optical axis (m); 0 = background
+  ColorImage color;                ///< shaded RGB
+  LabelImage ids;                  ///< RenderItem::id of the visible surface; 0 = background
+  Image<Eigen::Vector3f> normals;  ///< camera-frame unit normals facing the camera; 0 = background
+  std::vector<MaskImage>
+      silhouettes;  ///< per item: 1 where the item covers the pixel, occluded or not
+  Image<std::int32_t>
+      triangles;              ///< visible triangle index within its item's mesh; -1 = background
+  Image<std::int32_t> items;  ///< index into the items span of the visible surface; -1 = background
   RenderStats stats;
 };
 
@@ -110,9 +120,11 @@ class Rasterizer {
   /// in `outputs` are left empty). `light` overrides the Params' light when given. Throws
   /// std::invalid_argument for invalid intrinsics or an item without a valid mesh.
   void render(const PinholeIntrinsics& K, std::span<const RenderItem> items, RenderBuffers& out,
-              unsigned outputs = kRenderDepth | kRenderIds | kRenderColor, const Light* light = nullptr);
+              unsigned outputs = kRenderDepth | kRenderIds | kRenderColor,
+              const Light* light = nullptr);
   RenderBuffers render(const PinholeIntrinsics& K, std::span<const RenderItem> items,
-                       unsigned outputs = kRenderDepth | kRenderIds | kRenderColor, const Light* light = nullptr);
+                       unsigned outputs = kRenderDepth | kRenderIds | kRenderColor,
+                       const Light* light = nullptr);
 
   /// The Params' light as a Light.
   Light default_light() const;

@@ -22,26 +22,36 @@ ojson row_major(const Mat3& R) {
   return a;
 }
 
-ojson mm(const Vec3& t_m) { return ojson::array({t_m.x() * 1000.0, t_m.y() * 1000.0, t_m.z() * 1000.0}); }
+ojson mm(const Vec3& t_m) {
+  return ojson::array({t_m.x() * 1000.0, t_m.y() * 1000.0, t_m.z() * 1000.0});
+}
 
 void write_json(const std::string& path, const ojson& j) {
   write_file_atomic(path, [&](std::ostream& os) { os << j.dump(1) << "\n"; });
 }
 
-/// Model sizes come from float vertices: round to 1e-6 mm so that 1200 mm prints as 1200, not 1200.0000476.
+/// Model sizes come from float vertices: round to 1e-6 mm so that 1200 mm prints as 1200, not
+/// 1200.0000476.
 double tidy(double x) {
   const double r = std::round(x * 1e6) / 1e6;
   return r == 0.0 ? 0.0 : r;
 }
 
-ojson bbox(const int b[4]) { return ojson::array({b[0], b[1], b[2], b[3]}); }
+ojson bbox(const int b[4]) {
+  return ojson::array({b[0], b[1], b[2], b[3]});
+}
 
 }  // namespace
 
-std::string bop_image_name(int im_id) { return fmt::format("{:06d}", im_id); }
-std::string bop_mask_name(int im_id, int gt_index) { return fmt::format("{:06d}_{:06d}", im_id, gt_index); }
+std::string bop_image_name(int im_id) {
+  return fmt::format("{:06d}", im_id);
+}
+std::string bop_mask_name(int im_id, int gt_index) {
+  return fmt::format("{:06d}_{:06d}", im_id, gt_index);
+}
 
-void write_bop_models(const std::string& dir, const std::vector<ObjectModel>& types, int points, std::uint64_t seed) {
+void write_bop_models(const std::string& dir, const std::vector<ObjectModel>& types, int points,
+                      std::uint64_t seed) {
   ojson info = ojson::object();
   for (size_t i = 0; i < types.size(); ++i) {
     const ObjectModel& m = types[i];
@@ -54,7 +64,8 @@ void write_bop_models(const std::string& dir, const std::vector<ObjectModel>& ty
       write_color_png(dir + "/" + w.texture_file, *m.mesh->texture);
     }
     write_ply(dir + "/" + stem + ".ply", *m.mesh, w);
-    const auto pts = sample_surface_points(*m.mesh, static_cast<size_t>(points), seed + static_cast<std::uint64_t>(obj_id));
+    const auto pts = sample_surface_points(*m.mesh, static_cast<size_t>(points),
+                                           seed + static_cast<std::uint64_t>(obj_id));
     write_file_atomic(dir + "/" + stem + "_points.xyz", [&](std::ostream& os) {
       for (const auto& p : pts) os << fmt::format("{:.6f} {:.6f} {:.6f}\n", p.x(), p.y(), p.z());
     });
@@ -73,7 +84,8 @@ void write_bop_models(const std::string& dir, const std::vector<ObjectModel>& ty
         ojson a = ojson::array();
         const Mat4 M = S.matrix();
         for (int r = 0; r < 4; ++r)
-          for (int c = 0; c < 4; ++c) a.push_back(tidy(c == 3 && r < 3 ? M(r, c) * 1000.0 : M(r, c)));
+          for (int c = 0; c < 4; ++c)
+            a.push_back(tidy(c == 3 && r < 3 ? M(r, c) * 1000.0 : M(r, c)));
         d.push_back(a);
       }
       e["symmetries_discrete"] = d;
@@ -81,8 +93,10 @@ void write_bop_models(const std::string& dir, const std::vector<ObjectModel>& ty
     if (!m.symmetries.continuous.empty()) {
       ojson c = ojson::array();
       for (const auto& s : m.symmetries.continuous)
-        c.push_back({{"axis", ojson::array({tidy(s.axis.x()), tidy(s.axis.y()), tidy(s.axis.z())})},
-                    {"offset", ojson::array({tidy(s.offset_m.x() * 1000), tidy(s.offset_m.y() * 1000), tidy(s.offset_m.z() * 1000)})}});
+        c.push_back(
+            {{"axis", ojson::array({tidy(s.axis.x()), tidy(s.axis.y()), tidy(s.axis.z())})},
+             {"offset", ojson::array({tidy(s.offset_m.x() * 1000), tidy(s.offset_m.y() * 1000),
+                                      tidy(s.offset_m.z() * 1000)})}});
       e["symmetries_continuous"] = c;
     }
     info[std::to_string(obj_id)] = e;
@@ -98,11 +112,14 @@ void write_bop_scene_json(const std::string& dir, const PinholeIntrinsics& K, do
     const BopFrameRecord& f = frames[i];
     const std::string key = std::to_string(i);
     const SE3 T_cam_world = f.T_world_cam.inverse();
-    cam[key] = {{"cam_K", Kj}, {"depth_scale", depth_scale}, {"cam_R_w2c", row_major(T_cam_world.rotation())},
+    cam[key] = {{"cam_K", Kj},
+                {"depth_scale", depth_scale},
+                {"cam_R_w2c", row_major(T_cam_world.rotation())},
                 {"cam_t_w2c", mm(T_cam_world.translation())}};
     ojson list = ojson::array(), ilist = ojson::array();
     for (size_t k = 0; k < f.T_cam_obj.size(); ++k) {
-      list.push_back({{"cam_R_m2c", row_major(f.T_cam_obj[k].rotation())}, {"cam_t_m2c", mm(f.T_cam_obj[k].translation())},
+      list.push_back({{"cam_R_m2c", row_major(f.T_cam_obj[k].rotation())},
+                      {"cam_t_m2c", mm(f.T_cam_obj[k].translation())},
                       {"obj_id", f.obj_ids[k]}});
       const ObjectFrameInfo& o = f.info[k];
       ilist.push_back({{"bbox_obj", bbox(o.bbox_obj)},
@@ -122,12 +139,13 @@ void write_bop_scene_json(const std::string& dir, const PinholeIntrinsics& K, do
 
 void write_tum_trajectory(const std::string& path, const std::vector<BopFrameRecord>& frames) {
   write_file_atomic(path, [&](std::ostream& os) {
-    os << "# ground truth trajectory (orpe synth): timestamp tx ty tz qx qy qz qw, camera-to-world, metres\n";
+    os << "# ground truth trajectory (orpe synth): timestamp tx ty tz qx qy qz qw, "
+          "camera-to-world, metres\n";
     for (const auto& f : frames) {
       const Eigen::Quaterniond q = f.T_world_cam.quaternion();
       const Vec3& t = f.T_world_cam.translation();
-      os << fmt::format("{:.6f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f}\n", f.timestamp_s, t.x(), t.y(), t.z(),
-                        q.x(), q.y(), q.z(), q.w());
+      os << fmt::format("{:.6f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f}\n", f.timestamp_s,
+                        t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
     }
   });
 }

@@ -28,7 +28,7 @@ namespace synth {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr double kDepthScaleMm = 0.1;                 // BOP depth_scale: raw units of 0.1 mm
+constexpr double kDepthScaleMm = 0.1;  // BOP depth_scale: raw units of 0.1 mm
 constexpr double kDepthUnitsPerM = 1000.0 / kDepthScaleMm;
 constexpr double kMaxStorableDepthM = 65535.0 / kDepthUnitsPerM;
 
@@ -53,7 +53,8 @@ bool is_mesh_file(const fs::path& p) {
   return e == ".obj" || e == ".ply";
 }
 
-/// Expands files and folders: a folder holds mesh files, or sub-folders with textured_simple.obj (YCB).
+/// Expands files and folders: a folder holds mesh files, or sub-folders with textured_simple.obj
+/// (YCB).
 std::vector<std::string> expand_model_paths(const std::string& list) {
   std::vector<std::string> files;
   for (const auto& item : split_list(list)) {
@@ -72,7 +73,9 @@ std::vector<std::string> expand_model_paths(const std::string& list) {
         }
       }
       std::sort(found.begin(), found.end());
-      if (found.empty()) throw IoError(item, "folder contains no .obj/.ply models (nor <class>/textured_simple.obj)");
+      if (found.empty())
+        throw IoError(item,
+                      "folder contains no .obj/.ply models (nor <class>/textured_simple.obj)");
       files.insert(files.end(), found.begin(), found.end());
     } else {
       files.push_back(item);
@@ -83,8 +86,8 @@ std::vector<std::string> expand_model_paths(const std::string& list) {
 
 /// Per-frame random stream: depends on the seed and the frame only.
 std::mt19937_64 frame_rng(int seed, int frame, int stream) {
-  std::seed_seq seq{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(frame), static_cast<std::uint32_t>(stream),
-                    0x5eedu};
+  std::seed_seq seq{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(frame),
+                    static_cast<std::uint32_t>(stream), 0x5eedu};
   return std::mt19937_64(seq);
 }
 
@@ -92,12 +95,18 @@ Rgb8 instance_colour(int k) {
   const double h = std::fmod(k * 137.508, 360.0) / 60.0;
   const double x = 1 - std::abs(std::fmod(h, 2) - 1);
   double r = 0, g = 0, b = 0;
-  if (h < 1) r = 1, g = x;
-  else if (h < 2) r = x, g = 1;
-  else if (h < 3) g = 1, b = x;
-  else if (h < 4) g = x, b = 1;
-  else if (h < 5) r = x, b = 1;
-  else r = 1, b = x;
+  if (h < 1)
+    r = 1, g = x;
+  else if (h < 2)
+    r = x, g = 1;
+  else if (h < 3)
+    g = 1, b = x;
+  else if (h < 4)
+    g = x, b = 1;
+  else if (h < 5)
+    r = x, b = 1;
+  else
+    r = 1, b = x;
   auto q = [](double t) { return static_cast<std::uint8_t>(40 + 215 * t); };
   return {q(r), q(g), q(b)};
 }
@@ -110,8 +119,8 @@ std::string SynthReport::report() const {
       "  camera: arc {:.0f} deg around the scene, largest camera distance {:.2f} m\n"
       "  mean visible fraction {:.2f}, valid depth {:.0f} % of pixels\n"
       "  written to {} in {:.1f} s\n",
-      frames, objects, types, scene, arc_deg, trajectory_extent_m, mean_visib_fract, 100 * mean_valid_depth, out_dir,
-      seconds);
+      frames, objects, types, scene, arc_deg, trajectory_extent_m, mean_visib_fract,
+      100 * mean_valid_depth, out_dir, seconds);
   for (const auto& w : warnings) s += "  warning: " + w + "\n";
   return s;
 }
@@ -143,12 +152,15 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
   std::vector<int> instance_types;
   if (params_.models.empty()) {
     std::vector<std::string> classes, pallets;
-    for (const auto& n : builtin_class_names()) (n.find("pallet") != std::string::npos ? pallets : classes).push_back(n);
+    for (const auto& n : builtin_class_names())
+      (n.find("pallet") != std::string::npos ? pallets : classes).push_back(n);
     std::shuffle(classes.begin(), classes.end(), rng);
     std::shuffle(pallets.begin(), pallets.end(), rng);
-    // Pallets only on the floor: one (two when every class is asked for); large, they would dwarf the rest.
+    // Pallets only on the floor: one (two when every class is asked for); large, they would dwarf
+    // the rest.
     size_t n_pallets = 0;
-    if (params_.scene == "floor" && K >= 3) n_pallets = K >= static_cast<int>(classes.size() + pallets.size()) ? 2 : 1;
+    if (params_.scene == "floor" && K >= 3)
+      n_pallets = K >= static_cast<int>(classes.size() + pallets.size()) ? 2 : 1;
     for (size_t p = 0; p < n_pallets; ++p) {
       instance_types.push_back(static_cast<int>(types.size()));
       types.push_back(make_builtin_object(pallets[p]));
@@ -169,21 +181,26 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
       // Distinct types: every class once, then variants (other print colours and sizes).
       for (int k = 0; k < rest; ++k) {
         instance_types.push_back(static_cast<int>(types.size()));
-        types.push_back(make_builtin_object(classes[k % classes.size()], k / static_cast<int>(classes.size())));
+        types.push_back(
+            make_builtin_object(classes[k % classes.size()], k / static_cast<int>(classes.size())));
       }
     }
   } else {
     const auto files = expand_model_paths(params_.models);
     for (const auto& f : files) types.push_back(load_object_model(f, params_.model_unit_m));
     if (params_.repeat_types) {
-      for (int k = 0; k < K; ++k) instance_types.push_back(static_cast<int>(U(rng) * types.size()) % static_cast<int>(types.size()));
+      for (int k = 0; k < K; ++k)
+        instance_types.push_back(static_cast<int>(U(rng) * types.size()) %
+                                 static_cast<int>(types.size()));
     } else {
       std::vector<int> idx(types.size());
       std::iota(idx.begin(), idx.end(), 0);
       std::shuffle(idx.begin(), idx.end(), rng);
       if (K > static_cast<int>(idx.size()))
-        spdlog::warn("synth: {} objects requested but {} models given: using {} (set repeat_types for several instances of a model)",
-                     K, idx.size(), idx.size());
+        spdlog::warn(
+            "synth: {} objects requested but {} models given: using {} (set repeat_types for "
+            "several instances of a model)",
+            K, idx.size(), idx.size());
       idx.resize(std::min<size_t>(idx.size(), static_cast<size_t>(K)));
       std::sort(idx.begin(), idx.end());
       instance_types = idx;
@@ -217,13 +234,14 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
   tp.fps = params_.fps;
   tp.span_deg = params_.scene == "shelf" ? std::min(params_.span_deg, 110.0) : params_.span_deg;
   tp.baseline_m = params_.baseline_m;
-  tp.elevation_deg = params_.elevation_deg > 0 ? params_.elevation_deg : scene_.default_elevation_deg;
+  tp.elevation_deg =
+      params_.elevation_deg > 0 ? params_.elevation_deg : scene_.default_elevation_deg;
   tp.shake_m = params_.shake_m;
   tp.shake_deg = params_.shake_deg;
   const double half_fov = std::atan(std::min((K_.width / 2.0) / K_.fx, (K_.height / 2.0) / K_.fy));
-  tp.distance_m = params_.distance_m > 0
-                      ? params_.distance_m
-                      : std::clamp(0.7 * scene_.radius_m / std::tan(half_fov), params_.depth_min_m + 0.35, 3.0);
+  tp.distance_m = params_.distance_m > 0 ? params_.distance_m
+                                         : std::clamp(0.7 * scene_.radius_m / std::tan(half_fov),
+                                                      params_.depth_min_m + 0.35, 3.0);
   tp.azimuth_centre_rad = params_.scene == "shelf" ? scene_.view_azimuth_rad : 2 * M_PI * U(rng);
   tp.min_height_m = 0.25;
   T_world_cam_ = make_handheld_trajectory(tp, scene_.centre_world, rng);
@@ -234,7 +252,8 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
 }
 
 SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) const {
-  if (i < 0 || i >= num_frames()) throw std::out_of_range("render_frame: frame " + std::to_string(i) + " out of range");
+  if (i < 0 || i >= num_frames())
+    throw std::out_of_range("render_frame: frame " + std::to_string(i) + " out of range");
   SynthFrame f;
   f.index = i;
   f.timestamp_s = i / params_.fps;
@@ -242,7 +261,8 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
   const SE3 T_cam_world = f.T_world_cam.inverse();
 
   std::vector<RenderItem> items;
-  for (const auto& part : scene_.environment) items.push_back({part.mesh.get(), T_cam_world * part.T_world_part, 0});
+  for (const auto& part : scene_.environment)
+    items.push_back({part.mesh.get(), T_cam_world * part.T_world_part, 0});
   const size_t first_object = items.size();
   const int n = static_cast<int>(scene_.objects.size());
   for (int k = 0; k < n; ++k) {
@@ -254,8 +274,9 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
   const Vec3 light_world = Vec3(0.35, -0.45, 1.0).normalized();
   const double t = f.timestamp_s;
   const double phase = (params_.seed % 997) * 0.37;
-  const double gain = 1.0 + params_.illumination_variation *
-                                (0.7 * std::sin(2 * M_PI * 0.07 * t + phase) + 0.3 * std::sin(2 * M_PI * 0.23 * t + 2 * phase));
+  const double gain =
+      1.0 + params_.illumination_variation * (0.7 * std::sin(2 * M_PI * 0.07 * t + phase) +
+                                              0.3 * std::sin(2 * M_PI * 0.23 * t + 2 * phase));
   Light light;
   light.direction_cam = (T_cam_world.rotation() * light_world).cast<float>();
   light.ambient = static_cast<float>(0.45 * gain);
@@ -267,7 +288,9 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
   rp.threads = render_threads;
   Rasterizer rast(rp);
   RenderBuffers buf;
-  rast.render(K_, items, buf, kRenderDepth | kRenderIds | kRenderColor | kRenderNormals | kRenderSilhouettes, &light);
+  rast.render(K_, items, buf,
+              kRenderDepth | kRenderIds | kRenderColor | kRenderNormals | kRenderSilhouettes,
+              &light);
 
   const int W = K_.width, H = K_.height;
   f.depth_clean = std::move(buf.depth);
@@ -287,7 +310,8 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
   f.masks_visib.assign(n, MaskImage(W, H, 0));
   f.info.resize(n);
   for (int k = 0; k < n; ++k) f.masks[k] = std::move(buf.silhouettes[first_object + k]);
-  std::vector<int> vx0(n, W), vy0(n, H), vx1(n, -1), vy1(n, -1), ax0(n, W), ay0(n, H), ax1(n, -1), ay1(n, -1);
+  std::vector<int> vx0(n, W), vy0(n, H), vx1(n, -1), vy1(n, -1), ax0(n, W), ay0(n, H), ax1(n, -1),
+      ay1(n, -1);
   for (int v = 0; v < H; ++v)
     for (int u = 0; u < W; ++u) {
       const int id = f.instances.at(u, v);
@@ -297,12 +321,14 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
         ObjectFrameInfo& inf = f.info[k];
         ++inf.px_count_visib;
         if (f.depth.at(u, v) > 0) ++inf.px_count_valid;
-        vx0[k] = std::min(vx0[k], u), vx1[k] = std::max(vx1[k], u), vy0[k] = std::min(vy0[k], v), vy1[k] = std::max(vy1[k], v);
+        vx0[k] = std::min(vx0[k], u), vx1[k] = std::max(vx1[k], u), vy0[k] = std::min(vy0[k], v),
+        vy1[k] = std::max(vy1[k], v);
       }
       for (int k = 0; k < n; ++k)
         if (f.masks[k].at(u, v)) {
           ++f.info[k].px_count_all;
-          ax0[k] = std::min(ax0[k], u), ax1[k] = std::max(ax1[k], u), ay0[k] = std::min(ay0[k], v), ay1[k] = std::max(ay1[k], v);
+          ax0[k] = std::min(ax0[k], u), ax1[k] = std::max(ax1[k], u), ay0[k] = std::min(ay0[k], v),
+          ay1[k] = std::max(ay1[k], v);
         }
     }
   for (int k = 0; k < n; ++k) {
@@ -310,7 +336,8 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
     // The visible surface is always part of the silhouette; guard against a 1-pixel disagreement at
     // clipped edges anyway so that visib_fract stays in [0, 1].
     inf.px_count_all = std::max(inf.px_count_all, inf.px_count_visib);
-    inf.visib_fract = inf.px_count_all > 0 ? static_cast<double>(inf.px_count_visib) / inf.px_count_all : 0.0;
+    inf.visib_fract =
+        inf.px_count_all > 0 ? static_cast<double>(inf.px_count_visib) / inf.px_count_all : 0.0;
     if (vx1[k] >= 0) {
       const int b[4] = {vx0[k], vy0[k], vx1[k] - vx0[k] + 1, vy1[k] - vy0[k] + 1};
       std::copy(b, b + 4, inf.bbox_visib);
@@ -329,7 +356,8 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   fs::create_directories(dir, ec);
   if (ec) throw IoError(dir, "cannot create output folder: " + ec.message());
   const int n = static_cast<int>(scene_.objects.size());
-  write_bop_models(dir + "/models", scene_.types, params_.model_points, static_cast<std::uint64_t>(params_.seed));
+  write_bop_models(dir + "/models", scene_.types, params_.model_points,
+                   static_cast<std::uint64_t>(params_.seed));
 
   std::vector<BopFrameRecord> records(num_frames());
   std::vector<double> visib_sum(num_frames(), 0.0), valid_frac(num_frames(), 0.0);
@@ -337,8 +365,9 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   const int threads = params_.threads > 0 ? params_.threads : omp_get_max_threads();
   std::string first_error;
   bool failed = false;
-  const double max_preview_depth = std::min(params_.noise ? params_.depth_max_m : kMaxStorableDepthM,
-                                            3.0 * (T_world_cam_[0].translation() - scene_.centre_world).norm());
+  const double max_preview_depth =
+      std::min(params_.noise ? params_.depth_max_m : kMaxStorableDepthM,
+               3.0 * (T_world_cam_[0].translation() - scene_.centre_world).norm());
 
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (int i = 0; i < num_frames(); ++i) {
@@ -384,8 +413,9 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   write_bop_scene_json(dir, K_, kDepthScaleMm, records);
   write_tum_trajectory(dir + "/groundtruth.txt", records);
   // BOP's dataset-level camera file, and what this scene is made of.
-  nlohmann::ordered_json cam = {{"cx", K_.cx}, {"cy", K_.cy}, {"depth_scale", kDepthScaleMm}, {"fx", K_.fx},
-                                {"fy", K_.fy}, {"height", K_.height}, {"width", K_.width}};
+  nlohmann::ordered_json cam = {{"cx", K_.cx},      {"cy", K_.cy}, {"depth_scale", kDepthScaleMm},
+                                {"fx", K_.fx},      {"fy", K_.fy}, {"height", K_.height},
+                                {"width", K_.width}};
   write_file_atomic(dir + "/camera.json", [&](std::ostream& os) { os << cam.dump(1) << "\n"; });
   nlohmann::ordered_json info;
   info["generator"] = "orpe synth";
@@ -401,12 +431,16 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
     std::vector<double> rm;
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) rm.push_back(M(r, c));
-    info["objects"].push_back({{"gt_index", k}, {"instance_label", k + 1}, {"obj_id", o.type + 1},
-                               {"name", scene_.types[o.type].name}, {"source", scene_.types[o.type].source},
+    info["objects"].push_back({{"gt_index", k},
+                               {"instance_label", k + 1},
+                               {"obj_id", o.type + 1},
+                               {"name", scene_.types[o.type].name},
+                               {"source", scene_.types[o.type].source},
                                {"T_world_obj_m", rm}});
   }
   info["warnings"] = scene_.warnings;
-  write_file_atomic(dir + "/synth_info.json", [&](std::ostream& os) { os << info.dump(1) << "\n"; });
+  write_file_atomic(dir + "/synth_info.json",
+                    [&](std::ostream& os) { os << info.dump(1) << "\n"; });
 
   SynthReport rep;
   rep.out_dir = dir;
@@ -426,7 +460,8 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   const double vs = std::accumulate(visib_sum.begin(), visib_sum.end(), 0.0);
   const int vc = std::accumulate(visib_count.begin(), visib_count.end(), 0);
   rep.mean_visib_fract = vc > 0 ? vs / vc : 0.0;
-  rep.mean_valid_depth = std::accumulate(valid_frac.begin(), valid_frac.end(), 0.0) / std::max(1, num_frames());
+  rep.mean_valid_depth =
+      std::accumulate(valid_frac.begin(), valid_frac.end(), 0.0) / std::max(1, num_frames());
   rep.warnings = scene_.warnings;
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return rep;
@@ -461,7 +496,8 @@ ColorImage make_preview(const SynthFrame& f, double max_depth_m) {
       const Rgb8 c = f.rgb.at(u, v);
       rgb.at<cv::Vec3b>(v, u) = {c.r, c.g, c.b};
       const float z = f.depth.at(u, v);
-      depth8.at<uchar>(v, u) = z > 0 ? cv::saturate_cast<uchar>(255.0 * (1.0 - std::min(1.0, z / max_depth_m))) : 0;
+      depth8.at<uchar>(v, u) =
+          z > 0 ? cv::saturate_cast<uchar>(255.0 * (1.0 - std::min(1.0, z / max_depth_m))) : 0;
     }
   cv::Mat depth_col;
   cv::applyColorMap(depth8, depth_col, cv::COLORMAP_TURBO);  // BGR
@@ -473,9 +509,11 @@ ColorImage make_preview(const SynthFrame& f, double max_depth_m) {
       cv::Vec3b px = rgb.at<cv::Vec3b>(v, u);
       if (id > 0) {
         const Rgb8 c = instance_colour(id - 1);
-        px = {static_cast<uchar>((px[0] + c.r) / 2), static_cast<uchar>((px[1] + c.g) / 2), static_cast<uchar>((px[2] + c.b) / 2)};
+        px = {static_cast<uchar>((px[0] + c.r) / 2), static_cast<uchar>((px[1] + c.g) / 2),
+              static_cast<uchar>((px[2] + c.b) / 2)};
       } else {
-        px = {static_cast<uchar>(px[0] / 2), static_cast<uchar>(px[1] / 2), static_cast<uchar>(px[2] / 2)};
+        px = {static_cast<uchar>(px[0] / 2), static_cast<uchar>(px[1] / 2),
+              static_cast<uchar>(px[2] / 2)};
       }
       overlay.at<cv::Vec3b>(v, u) = px;
     }

@@ -1,11 +1,11 @@
-// Synthetic RGB-D sequences with exact ground truth: a scene of known objects (built-in warehouse set
-// or user meshes), a hand-held camera path around it, per-frame rendering and a sensor model, written
-// in BOP layout (see docs/SYNTH.md).
+// Synthetic RGB-D sequences with exact ground truth: a scene of known objects (built-in warehouse
+// set or user meshes), a hand-held camera path around it, per-frame rendering and a sensor model,
+// written in BOP layout (see docs/SYNTH.md).
 //
 // Usage:
-//   SyntheticSceneGenerator gen(params);       // builds models, scene and trajectory (deterministic)
-//   SynthFrame f = gen.render_frame(i);        // in memory
-//   SynthReport r = gen.write_bop(dir);        // everything to disk
+//   SyntheticSceneGenerator gen(params);       // builds models, scene and trajectory
+//   (deterministic) SynthFrame f = gen.render_frame(i);        // in memory SynthReport r =
+//   gen.write_bop(dir);        // everything to disk
 #pragma once
 
 #include <memory>
@@ -36,11 +36,11 @@ struct SynthFrame {
   double timestamp_s = 0;
   SE3 T_world_cam;
   ColorImage rgb;
-  DepthImage depth;        ///< sensor depth (= depth_clean when noise is off)
-  DepthImage depth_clean;  ///< exact rendered z (m)
+  DepthImage depth;                ///< sensor depth (= depth_clean when noise is off)
+  DepthImage depth_clean;          ///< exact rendered z (m)
   Image<Eigen::Vector3f> normals;  ///< camera-frame unit normals of the visible surface (0 = none)
-  LabelImage instances;    ///< 0 = background, k + 1 = instance k (visible surface)
-  std::vector<MaskImage> masks;        ///< per instance: amodal silhouette (0/1)
+  LabelImage instances;            ///< 0 = background, k + 1 = instance k (visible surface)
+  std::vector<MaskImage> masks;    ///< per instance: amodal silhouette (0/1)
   std::vector<MaskImage> masks_visib;  ///< per instance: visible part (0/1)
   std::vector<SE3> T_cam_obj;          ///< per instance
   std::vector<ObjectFrameInfo> info;   ///< per instance
@@ -63,15 +63,17 @@ struct SynthReport {
 
 class SyntheticSceneGenerator {
  public:
-  /// Validates the parameters (ConfigError), loads or builds the models (IoError for bad model files),
-  /// composes the scene and the camera path.
+  /// Validates the parameters (ConfigError), loads or builds the models (IoError for bad model
+  /// files), composes the scene and the camera path.
   explicit SyntheticSceneGenerator(const SynthParams& params);
   ~SyntheticSceneGenerator();
 
   const SynthParams& params() const { return params_; }
   const SynthScene& scene() const { return scene_; }
   const PinholeIntrinsics& intrinsics() const { return K_; }
-  const std::vector<SE3>& trajectory() const { return T_world_cam_; }  ///< camera-to-world per frame
+  const std::vector<SE3>& trajectory() const {
+    return T_world_cam_;
+  }  ///< camera-to-world per frame
   const DepthSensorParams& sensor() const { return sensor_; }
   int num_frames() const { return static_cast<int>(T_world_cam_.size()); }
 

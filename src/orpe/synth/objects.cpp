@@ -15,7 +15,9 @@
 namespace orpe::synth {
 namespace {
 
-Mat3 rot(const Vec3& axis, double angle) { return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix(); }
+Mat3 rot(const Vec3& axis, double angle) {
+  return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+}
 
 ObjectSymmetries box_symmetries(const Eigen::Vector3f& size) {
   ObjectSymmetries s;
@@ -63,8 +65,10 @@ Atlas pack_atlas(const std::vector<ColorImage>& faces, int per_row) {
         for (int x = -pad; x < f.width() + pad; ++x)
           a.image->at(x0 + pad + x, y0 + pad + y) =
               f.at(std::clamp(x, 0, f.width() - 1), std::clamp(y, 0, f.height() - 1));
-      const float u0 = static_cast<float>(x0 + pad) / W, u1 = static_cast<float>(x0 + pad + f.width()) / W;
-      const float v1 = 1.0f - static_cast<float>(y0 + pad) / H, v0 = 1.0f - static_cast<float>(y0 + pad + f.height()) / H;
+      const float u0 = static_cast<float>(x0 + pad) / W,
+                  u1 = static_cast<float>(x0 + pad + f.width()) / W;
+      const float v1 = 1.0f - static_cast<float>(y0 + pad) / H,
+                  v0 = 1.0f - static_cast<float>(y0 + pad + f.height()) / H;
       a.rects.push_back({u0, v0, u1, v1});
       x0 += f.width() + 2 * pad;
     }
@@ -73,10 +77,13 @@ Atlas pack_atlas(const std::vector<ColorImage>& faces, int per_row) {
   return a;
 }
 
-double px_per_m_for(double max_dim) { return std::clamp(300.0 / max_dim, 600.0, 2000.0); }
+double px_per_m_for(double max_dim) {
+  return std::clamp(300.0 / max_dim, 600.0, 2000.0);
+}
 
 /// A printed box: faces +x, -x (sides), +y (front), -y (back), +z, -z (flaps).
-std::shared_ptr<TriangleMesh> make_printed_box(const Eigen::Vector3f& size, const PrintStyle& style, float cell_m) {
+std::shared_ptr<TriangleMesh> make_printed_box(const Eigen::Vector3f& size, const PrintStyle& style,
+                                               float cell_m) {
   const double ppm = px_per_m_for(size.maxCoeff());
   auto px = [&](float m) { return std::max(8, static_cast<int>(std::lround(m * ppm))); };
   // Face sizes (right x up) as in make_box: +-x: y x z, +-y: x x z, +-z: x x y.
@@ -95,9 +102,11 @@ std::shared_ptr<TriangleMesh> make_printed_box(const Eigen::Vector3f& size, cons
   return mesh;
 }
 
-std::shared_ptr<TriangleMesh> make_printed_can(float radius, float height, const PrintStyle& style) {
+std::shared_ptr<TriangleMesh> make_printed_can(float radius, float height,
+                                               const PrintStyle& style) {
   const double ppm = px_per_m_for(std::max(2 * radius, height)) * 1.5;
-  const int lw = std::max(32, static_cast<int>(2 * M_PI * radius * ppm)), lh = std::max(16, static_cast<int>(height * ppm));
+  const int lw = std::max(32, static_cast<int>(2 * M_PI * radius * ppm)),
+            lh = std::max(16, static_cast<int>(height * ppm));
   const int lid = std::max(16, static_cast<int>(2 * radius * ppm));
   std::vector<ColorImage> parts{draw_can_label(lw, lh, style), draw_can_lid(lid, style.seed + 1),
                                 draw_can_lid(lid, style.seed + 2)};
@@ -117,11 +126,13 @@ std::shared_ptr<TriangleMesh> make_pallet_mesh(float length, float width, std::u
   std::mt19937_64 rng(seed + 99);
   std::uniform_real_distribution<float> U(0.0f, 1.0f);
   auto mesh = std::make_shared<TriangleMesh>();
-  // A box whose long axis is x; uv rects are random windows of the wood image with physical proportions.
+  // A box whose long axis is x; uv rects are random windows of the wood image with physical
+  // proportions.
   auto add_part = [&](const Eigen::Vector3f& size, const Vec3& centre, bool along_y) {
     const Eigen::Vector3f s = size;  // long axis x; parts along y are turned afterwards
     std::array<UvRect, 6> uv;
-    const float face_dims[6][2] = {{s.y(), s.z()}, {s.y(), s.z()}, {s.x(), s.z()}, {s.x(), s.z()}, {s.x(), s.y()}, {s.x(), s.y()}};
+    const float face_dims[6][2] = {{s.y(), s.z()}, {s.y(), s.z()}, {s.x(), s.z()},
+                                   {s.x(), s.z()}, {s.x(), s.y()}, {s.x(), s.y()}};
     for (int f = 0; f < 6; ++f) {
       const float du = static_cast<float>(face_dims[f][0] * ppm / wood->width());
       const float dv = static_cast<float>(face_dims[f][1] * ppm / wood->height());
@@ -138,14 +149,17 @@ std::shared_ptr<TriangleMesh> make_pallet_mesh(float length, float width, std::u
   // Bottom boards along x.
   const float ys3[3] = {-width / 2 + 0.0725f, 0.0f, width / 2 - 0.0725f};
   const float wb3[3] = {0.145f, 0.10f, 0.145f};
-  for (int i = 0; i < 3; ++i) add_part({length, wb3[i], board}, Vec3(0, ys3[i], z0 + board / 2), false);
+  for (int i = 0; i < 3; ++i)
+    add_part({length, wb3[i], board}, Vec3(0, ys3[i], z0 + board / 2), false);
   // Blocks.
   const float xs3[3] = {-length / 2 + 0.0725f, 0.0f, length / 2 - 0.0725f};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      add_part({0.145f, j == 1 ? 0.10f : 0.145f, block_h}, Vec3(xs3[i], ys3[j], z0 + board + block_h / 2), false);
+      add_part({0.145f, j == 1 ? 0.10f : 0.145f, block_h},
+               Vec3(xs3[i], ys3[j], z0 + board + block_h / 2), false);
   // Stringer boards along y (built along x, rotated).
-  for (int i = 0; i < 3; ++i) add_part({width, 0.145f, board}, Vec3(xs3[i], 0, z0 + board + block_h + board / 2), true);
+  for (int i = 0; i < 3; ++i)
+    add_part({width, 0.145f, board}, Vec3(xs3[i], 0, z0 + board + block_h + board / 2), true);
   // Top deck boards along x.
   std::vector<float> tw = width >= 0.75f ? std::vector<float>{0.145f, 0.10f, 0.145f, 0.10f, 0.145f}
                                          : std::vector<float>{0.145f, 0.10f, 0.10f, 0.145f};
@@ -163,16 +177,21 @@ std::shared_ptr<TriangleMesh> make_pallet_mesh(float length, float width, std::u
 
 struct BuiltinSpec {
   const char* name;
-  int kind;  // 0 retail box, 1 shipping carton, 2 can, 3 carton (tomato puree), 4 pallet
+  int kind;       // 0 retail box, 1 shipping carton, 2 can, 3 carton (tomato puree), 4 pallet
   float dims[3];  // box x y z; can: radius, height; pallet: length, width
 };
 
 const BuiltinSpec kBuiltins[] = {
-    {"001_frasvaf_box", 0, {0.19f, 0.07f, 0.26f}},    {"002_small_jacky_box", 1, {0.30f, 0.20f, 0.16f}},
-    {"003_jacky_box", 1, {0.40f, 0.30f, 0.24f}},      {"004_skansk_can", 2, {0.037f, 0.110f, 0}},
-    {"005_sotstark_can", 2, {0.042f, 0.122f, 0}},     {"006_onos_can", 2, {0.033f, 0.075f, 0}},
-    {"007_risi_frutti_box", 0, {0.24f, 0.16f, 0.09f}}, {"008_pauluns_box", 0, {0.16f, 0.06f, 0.23f}},
-    {"009_tomatpure", 3, {0.065f, 0.042f, 0.115f}},   {"010_pallet", 4, {1.2f, 0.8f, 0}},
+    {"001_frasvaf_box", 0, {0.19f, 0.07f, 0.26f}},
+    {"002_small_jacky_box", 1, {0.30f, 0.20f, 0.16f}},
+    {"003_jacky_box", 1, {0.40f, 0.30f, 0.24f}},
+    {"004_skansk_can", 2, {0.037f, 0.110f, 0}},
+    {"005_sotstark_can", 2, {0.042f, 0.122f, 0}},
+    {"006_onos_can", 2, {0.033f, 0.075f, 0}},
+    {"007_risi_frutti_box", 0, {0.24f, 0.16f, 0.09f}},
+    {"008_pauluns_box", 0, {0.16f, 0.06f, 0.23f}},
+    {"009_tomatpure", 3, {0.065f, 0.042f, 0.115f}},
+    {"010_pallet", 4, {1.2f, 0.8f, 0}},
     {"011_half_pallet", 4, {0.8f, 0.6f, 0}},
 };
 
@@ -193,7 +212,8 @@ ObjectModel make_builtin_object(const std::string& name, int variant) {
     if (name == b.name) spec = &b;
   if (!spec) throw std::invalid_argument("unknown built-in object '" + name + "'");
   // Seed from the class index and variant: the same class looks the same in every scene.
-  const std::uint64_t class_seed = 1000003ull * static_cast<std::uint64_t>(spec - kBuiltins + 1) + 7919ull * variant;
+  const std::uint64_t class_seed =
+      1000003ull * static_cast<std::uint64_t>(spec - kBuiltins + 1) + 7919ull * variant;
   std::mt19937_64 rng(class_seed);
   std::uniform_real_distribution<float> U(0.9f, 1.1f);
   Eigen::Vector3f d(spec->dims[0], spec->dims[1], spec->dims[2]);
@@ -230,8 +250,8 @@ ObjectModel make_builtin_object(const std::string& name, int variant) {
     }
     case 3: {
       PrintStyle s = random_print_style(rng, false);
-      s.primary = {200, 30, 25};     // tomato red
-      s.secondary = {60, 150, 50};   // leaf green
+      s.primary = {200, 30, 25};    // tomato red
+      s.secondary = {60, 150, 50};  // leaf green
       s.background = {245, 240, 230};
       s.logo_shape = 0;
       mesh = make_printed_box(d, s, 0.01f);
@@ -253,7 +273,8 @@ ObjectModel make_builtin_object(const std::string& name, int variant) {
   m.resting_poses = compute_resting_poses(*mesh, Mat3::Identity(), up_w);
   for (auto& r : m.resting_poses) r.flat_top = flat_top;
   if (spec->kind == 2)  // a can's lid is a flat top only when upright or upside down
-    for (auto& r : m.resting_poses) r.flat_top = std::abs((r.R_support_obj * Vec3::UnitZ()).z()) > 0.99;
+    for (auto& r : m.resting_poses)
+      r.flat_top = std::abs((r.R_support_obj * Vec3::UnitZ()).z()) > 0.99;
   m.mesh = mesh;
   return m;
 }
@@ -273,11 +294,13 @@ ObjectModel load_object_model(const std::string& path, double metres_per_unit) {
   const auto b = mesh.bounds();
   const double extent = (b.max() - b.min()).maxCoeff();
   if (!(extent > 0.005) || extent > 5.0)
-    throw IoError(path, "model size " + std::to_string(extent) +
-                            " m is implausible for an object (check the unit scale, --model-unit-m)");
+    throw IoError(path,
+                  "model size " + std::to_string(extent) +
+                      " m is implausible for an object (check the unit scale, --model-unit-m)");
   ObjectModel m;
   m.name = std::filesystem::path(path).stem().string();
-  if (m.name == "textured_simple" || m.name == "textured" || m.name == "model")  // YCB layout: <class>/textured_simple.obj
+  if (m.name == "textured_simple" || m.name == "textured" ||
+      m.name == "model")  // YCB layout: <class>/textured_simple.obj
     m.name = std::filesystem::path(path).parent_path().filename().string();
   m.source = path;
   mesh.name = m.name;
@@ -295,13 +318,16 @@ ObjectModel load_object_model(const std::string& path, double metres_per_unit) {
   // meshes have slightly bulging faces: points within 1 % of the size count as contact.
   std::vector<Vec3> ups;
   for (const Vec3& down : candidate_down_directions(mesh, axes)) ups.push_back(-down);
-  m.resting_poses = compute_resting_poses_for(mesh, ups, std::vector<double>(ups.size(), 1.0), std::max(0.002, 0.01 * extent));
+  m.resting_poses = compute_resting_poses_for(mesh, ups, std::vector<double>(ups.size(), 1.0),
+                                              std::max(0.002, 0.01 * extent));
   m.mesh = std::make_shared<TriangleMesh>(std::move(mesh));
   return m;
 }
 
 std::vector<Eigen::Vector2d> convex_hull_2d(std::vector<Eigen::Vector2d> p) {
-  std::sort(p.begin(), p.end(), [](const auto& a, const auto& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  std::sort(p.begin(), p.end(), [](const auto& a, const auto& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
   p.erase(std::unique(p.begin(), p.end()), p.end());
   if (p.size() < 3) return p;
   auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
@@ -366,8 +392,10 @@ double inside_margin(const std::vector<Eigen::Vector2d>& poly, const Eigen::Vect
 }
 }  // namespace
 
-std::vector<RestingPose> compute_resting_poses_for(const TriangleMesh& mesh, const std::vector<Vec3>& ups,
-                                                   const std::vector<double>& up_weights, double contact_tol_m) {
+std::vector<RestingPose> compute_resting_poses_for(const TriangleMesh& mesh,
+                                                   const std::vector<Vec3>& ups,
+                                                   const std::vector<double>& up_weights,
+                                                   double contact_tol_m) {
   const Vec3 com = mesh_centroid(mesh);
   std::vector<RestingPose> stable, all;
   for (size_t k = 0; k < ups.size(); ++k) {
@@ -405,19 +433,23 @@ std::vector<RestingPose> compute_resting_poses_for(const TriangleMesh& mesh, con
     if (is_stable) stable.push_back(rp);
   }
   if (!stable.empty()) return stable;
-  if (all.empty()) throw std::invalid_argument("compute_resting_poses: every orientation has weight 0");
+  if (all.empty())
+    throw std::invalid_argument("compute_resting_poses: every orientation has weight 0");
   // Nothing statically stable (e.g. a banana): keep the orientation with the largest support.
-  auto best = std::max_element(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.weight < b.weight; });
+  auto best = std::max_element(all.begin(), all.end(),
+                               [](const auto& a, const auto& b) { return a.weight < b.weight; });
   RestingPose r = *best;
   r.weight = 1;
   return {r};
 }
 
 std::vector<RestingPose> compute_resting_poses(const TriangleMesh& mesh, const Mat3& axes,
-                                               const std::array<double, 6>& up_weights, double contact_tol_m) {
+                                               const std::array<double, 6>& up_weights,
+                                               double contact_tol_m) {
   std::vector<Vec3> ups;
   for (int k = 0; k < 6; ++k) ups.push_back((k % 2 == 0 ? 1.0 : -1.0) * axes.col(k / 2));
-  return compute_resting_poses_for(mesh, ups, std::vector<double>(up_weights.begin(), up_weights.end()), contact_tol_m);
+  return compute_resting_poses_for(
+      mesh, ups, std::vector<double>(up_weights.begin(), up_weights.end()), contact_tol_m);
 }
 
 std::vector<Vec3> candidate_down_directions(const TriangleMesh& mesh, const Mat3& pca_axes) {
@@ -428,7 +460,8 @@ std::vector<Vec3> candidate_down_directions(const TriangleMesh& mesh, const Mat3
   const int bins = 400;
   std::vector<Vec3> dirs(bins);
   for (int k = 0; k < bins; ++k) {
-    const double z = 1.0 - (2.0 * k + 1.0) / bins, r = std::sqrt(std::max(0.0, 1 - z * z)), phi = k * 2.399963229728653;
+    const double z = 1.0 - (2.0 * k + 1.0) / bins, r = std::sqrt(std::max(0.0, 1 - z * z)),
+                 phi = k * 2.399963229728653;
     dirs[k] = Vec3(r * std::cos(phi), r * std::sin(phi), z);
   }
   std::vector<Vec3> normals;
@@ -454,7 +487,8 @@ std::vector<Vec3> candidate_down_directions(const TriangleMesh& mesh, const Mat3
   }
   std::vector<int> order(bins);
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return hist[a] > hist[b] || (hist[a] == hist[b] && a < b); });
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return hist[a] > hist[b] || (hist[a] == hist[b] && a < b); });
   std::vector<Vec3> out;
   auto add = [&](const Vec3& d) {
     for (const auto& o : out)

@@ -30,25 +30,26 @@ struct ObjectSymmetries {
 
 /// One way of resting on a horizontal surface: the rotation and the footprint it gives.
 struct RestingPose {
-  Mat3 R_support_obj;                     ///< orientation relative to the support (z up)
-  double z_offset_m = 0;                  ///< lift so that the lowest point touches z = 0
-  double height_m = 0;                    ///< top of the object above the support
+  Mat3 R_support_obj;                      ///< orientation relative to the support (z up)
+  double z_offset_m = 0;                   ///< lift so that the lowest point touches z = 0
+  double height_m = 0;                     ///< top of the object above the support
   std::vector<Eigen::Vector2d> footprint;  ///< convex hull of the object seen from above (m), CCW,
                                            ///< relative to the object origin (before yaw)
-  double weight = 1;                      ///< relative probability of choosing this pose
-  bool flat_top = false;                  ///< the top is a flat face others may stand on
+  double weight = 1;                       ///< relative probability of choosing this pose
+  bool flat_top = false;                   ///< the top is a flat face others may stand on
 };
 
 struct ObjectModel {
-  std::string name;    ///< e.g. "003_jacky_box", or the file's stem
-  std::string source;  ///< "builtin" or the mesh file path
+  std::string name;                          ///< e.g. "003_jacky_box", or the file's stem
+  std::string source;                        ///< "builtin" or the mesh file path
   std::shared_ptr<const TriangleMesh> mesh;  ///< metres, model frame
   ObjectSymmetries symmetries;
-  std::vector<RestingPose> resting_poses;    ///< at least one
-  bool is_pallet = false;                    ///< large: floor only, placed first
+  std::vector<RestingPose> resting_poses;  ///< at least one
+  bool is_pallet = false;                  ///< large: floor only, placed first
 };
 
-/// Names of the built-in warehouse classes, in the paper's order (001_frasvaf_box ... 011_half_pallet).
+/// Names of the built-in warehouse classes, in the paper's order (001_frasvaf_box ...
+/// 011_half_pallet).
 const std::vector<std::string>& builtin_class_names();
 
 /// Builds a built-in class. `variant` 0 is the canonical look; other variants change print colours
@@ -61,21 +62,25 @@ ObjectModel make_builtin_object(const std::string& name, int variant = 0);
 /// principal-axes bounding box, checked for static stability. Throws IoError for bad files.
 ObjectModel load_object_model(const std::string& path, double metres_per_unit = 0);
 
-/// Resting poses of a mesh for the 6 orientations putting +-axes[k] up (axes: columns, orthonormal).
-/// Stable when the centre of mass (volume centroid) projects inside the support polygon (the convex
-/// hull of the vertices within `contact_tol_m` of the lowest point). Weight = support area (stable only;
-/// if none is stable, the largest support is kept). `up_weights` (per +x,-x,+y,-y,+z,-z of `axes`)
-/// multiplies the weights (0 removes a pose).
+/// Resting poses of a mesh for the 6 orientations putting +-axes[k] up (axes: columns,
+/// orthonormal). Stable when the centre of mass (volume centroid) projects inside the support
+/// polygon (the convex hull of the vertices within `contact_tol_m` of the lowest point). Weight =
+/// support area (stable only; if none is stable, the largest support is kept). `up_weights` (per
+/// +x,-x,+y,-y,+z,-z of `axes`) multiplies the weights (0 removes a pose).
 std::vector<RestingPose> compute_resting_poses(const TriangleMesh& mesh, const Mat3& axes,
-                                               const std::array<double, 6>& up_weights = {1, 1, 1, 1, 1, 1},
+                                               const std::array<double, 6>& up_weights = {1, 1, 1,
+                                                                                          1, 1, 1},
                                                double contact_tol_m = 0.002);
 
 /// The same for arbitrary up directions (object frame), each with its weight factor.
-std::vector<RestingPose> compute_resting_poses_for(const TriangleMesh& mesh, const std::vector<Vec3>& ups,
-                                                   const std::vector<double>& up_weights, double contact_tol_m = 0.002);
+std::vector<RestingPose> compute_resting_poses_for(const TriangleMesh& mesh,
+                                                   const std::vector<Vec3>& ups,
+                                                   const std::vector<double>& up_weights,
+                                                   double contact_tol_m = 0.002);
 
 /// Candidate "down" directions of a mesh (object frame): modes of the area-weighted histogram of
-/// outward face normals (flat faces), then the given principal axes; duplicates within 10 deg dropped.
+/// outward face normals (flat faces), then the given principal axes; duplicates within 10 deg
+/// dropped.
 std::vector<Vec3> candidate_down_directions(const TriangleMesh& mesh, const Mat3& pca_axes);
 
 /// Convex hull (Andrew's monotone chain), CCW, no repeated end point.

@@ -15,7 +15,8 @@ using Poly = std::vector<Eigen::Vector2d>;
 
 double polygon_area(const Poly& p) {
   double a = 0;
-  for (size_t i = 0; i < p.size(); ++i) a += p[i].x() * p[(i + 1) % p.size()].y() - p[(i + 1) % p.size()].x() * p[i].y();
+  for (size_t i = 0; i < p.size(); ++i)
+    a += p[i].x() * p[(i + 1) % p.size()].y() - p[(i + 1) % p.size()].x() * p[i].y();
   return 0.5 * std::abs(a);
 }
 
@@ -30,9 +31,13 @@ double inside_margin(const Poly& poly, const Eigen::Vector2d& p) {
   return m;
 }
 
-Poly rect(double x0, double y0, double x1, double y1) { return {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}; }
+Poly rect(double x0, double y0, double x1, double y1) {
+  return {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
+}
 
-Mat3 rot_z(double a) { return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix(); }
+Mat3 rot_z(double a) {
+  return Eigen::AngleAxisd(a, Vec3::UnitZ()).toRotationMatrix();
+}
 
 std::shared_ptr<TriangleMesh> textured(TriangleMesh m, std::shared_ptr<const ColorImage> tex) {
   m.texture = std::move(tex);
@@ -61,7 +66,8 @@ void add_floor_and_walls(SynthScene& s, std::uint64_t seed) {
   s.environment.push_back({textured(make_quad(16.0f, 16.0f, 8, 8, 8, 8), concrete), SE3()});
   auto wall_tex = std::make_shared<ColorImage>(draw_painted_wall(256, seed + 1, {214, 216, 210}));
   auto wall = textured(make_quad(16.0f, 5.0f, 8, 3, 4, 1), wall_tex);
-  Mat3 R;  // quad x -> world x, quad y -> world z, quad normal -> world -y: a wall at +y facing the centre
+  Mat3 R;  // quad x -> world x, quad y -> world z, quad normal -> world -y: a wall at +y facing the
+           // centre
   R.col(0) = Vec3::UnitX(), R.col(1) = Vec3::UnitZ(), R.col(2) = -Vec3::UnitY();
   for (int k = 0; k < 4; ++k) {
     const Mat3 Rz = rot_z(k * M_PI / 2);
@@ -72,7 +78,8 @@ void add_floor_and_walls(SynthScene& s, std::uint64_t seed) {
 void add_table(SynthScene& s, std::uint64_t seed) {
   const float L = 1.6f, D = 0.9f, top_t = 0.04f, H = 0.75f, leg = 0.05f;
   auto wood = std::make_shared<ColorImage>(draw_wood(512, 512, seed + 2, {180, 140, 95}));
-  s.environment.push_back({textured(slab({L, D, top_t}, 400, 512, 512), wood), SE3(Mat3::Identity(), Vec3(0, 0, H - top_t / 2))});
+  s.environment.push_back({textured(slab({L, D, top_t}, 220, 512, 512), wood),
+                           SE3(Mat3::Identity(), Vec3(0, 0, H - top_t / 2))});
   auto leg_mesh = coloured(make_box({leg, leg, H - top_t}, 0.25f), {70, 70, 75});
   for (int i = 0; i < 4; ++i) {
     const double x = (i % 2 ? 1 : -1) * (L / 2 - 0.08), y = (i / 2 ? 1 : -1) * (D / 2 - 0.08);
@@ -86,18 +93,20 @@ void add_shelf(SynthScene& s, std::uint64_t seed) {
   const float W = 2.0f, D = 0.6f, board_t = 0.03f, beam_h = 0.08f, post = 0.07f, top_h = 1.95f;
   const float levels[4] = {0.12f, 0.58f, 1.04f, 1.50f};  // top surfaces of the boards
   auto chip = std::make_shared<ColorImage>(draw_wood(512, 512, seed + 3, {200, 175, 130}));
-  auto board = textured(slab({W, D, board_t}, 500, 512, 512), chip);
+  auto board = textured(slab({W, D, board_t}, 250, 512, 512), chip);
   auto beam = coloured(make_box({W + post, 0.05f, beam_h}, 0.25f), {235, 110, 20});
   auto upright = coloured(make_box({post, post, top_h}, 0.25f), {30, 70, 150});
   for (int i = 0; i < 4; ++i) {
-    const double x = (i % 2 ? 1 : -1) * (W / 2 + post / 2), y = (i / 2 ? 1 : -1) * (D / 2 - post / 2);
+    const double x = (i % 2 ? 1 : -1) * (W / 2 + post / 2),
+                 y = (i / 2 ? 1 : -1) * (D / 2 - post / 2);
     s.environment.push_back({upright, SE3(Mat3::Identity(), Vec3(x, y, top_h / 2))});
   }
   for (int l = 0; l < 4; ++l) {
     const double z = levels[l];
     s.environment.push_back({board, SE3(Mat3::Identity(), Vec3(0, 0, z - board_t / 2))});
     for (int side = -1; side <= 1; side += 2)
-      s.environment.push_back({beam, SE3(Mat3::Identity(), Vec3(0, side * (D / 2 - 0.025), z - board_t - beam_h / 2))});
+      s.environment.push_back(
+          {beam, SE3(Mat3::Identity(), Vec3(0, side * (D / 2 - 0.025), z - board_t - beam_h / 2))});
     const double next_bottom = l + 1 < 4 ? levels[l + 1] - board_t - beam_h : top_h + 0.3;
     s.supports.push_back({rect(-W / 2, -D / 2, W / 2, D / 2), z, next_bottom - z, -1});
   }
@@ -149,7 +158,8 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
   s.kind = p.kind;
   s.types = std::move(types);
   for (int t : instance_types)
-    if (t < 0 || t >= static_cast<int>(s.types.size())) throw std::invalid_argument("build_scene: bad type index");
+    if (t < 0 || t >= static_cast<int>(s.types.size()))
+      throw std::invalid_argument("build_scene: bad type index");
   const std::uint64_t env_seed = rng();
   add_floor_and_walls(s, env_seed);
   bool any_pallet = false;
@@ -161,7 +171,8 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       for (const auto& q : r.footprint) max_len = std::max(max_len, q.norm());
   }
   if (p.kind == "floor") {
-    const double half = std::max({0.5, 0.5 * std::sqrt(total_area / std::max(0.05, p.floor_fill)), max_len + 0.05});
+    const double half =
+        std::max({0.5, 0.5 * std::sqrt(total_area / std::max(0.05, p.floor_fill)), max_len + 0.05});
     s.supports.push_back({rect(-half, -half, half, half), 0.0, 1e9, -1});
     s.default_elevation_deg = 38;
   } else if (p.kind == "table") {
@@ -202,23 +213,29 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       std::vector<size_t> env_idx, top_idx;
       for (size_t k = 0; k < s.supports.size(); ++k) {
         const double a = polygon_area(s.supports[k].polygon);
-        if (k < env_supports) env_idx.push_back(k), w_env.push_back(a);
-        else if (!model.is_pallet) top_idx.push_back(k), w_top.push_back(a);
+        if (k < env_supports)
+          env_idx.push_back(k), w_env.push_back(a);
+        else if (!model.is_pallet)
+          top_idx.push_back(k), w_top.push_back(a);
       }
       size_t sup;
-      if (!top_idx.empty() && U(rng) < p.stack_probability) sup = top_idx[pick_weighted(w_top, rng)];
-      else sup = env_idx[pick_weighted(w_env, rng)];
+      if (!top_idx.empty() && U(rng) < p.stack_probability)
+        sup = top_idx[pick_weighted(w_top, rng)];
+      else
+        sup = env_idx[pick_weighted(w_env, rng)];
       const SupportSurface support = s.supports[sup];  // a copy: supports grows below
       std::vector<double> w_pose;
       for (const auto& r : model.resting_poses) w_pose.push_back(r.weight);
       const size_t pose_i = pick_weighted(w_pose, rng);
       const RestingPose& rp = model.resting_poses[pose_i];
-      const double yaw = U(rng) < 0.5 ? std::floor(U(rng) * 4) * M_PI / 2 + 0.08 * N(rng) : 2 * M_PI * U(rng);
+      const double yaw =
+          U(rng) < 0.5 ? std::floor(U(rng) * 4) * M_PI / 2 + 0.08 * N(rng) : 2 * M_PI * U(rng);
       const Eigen::Matrix2d R2 = Eigen::Rotation2Dd(yaw).toRotationMatrix();
       Poly fp;
       for (const auto& q : rp.footprint) fp.push_back(R2 * q);
       if (support.owner >= 0) {
-        // On another object: smaller than its top; on a pallet deck wide enough to span the board gaps.
+        // On another object: smaller than its top; on a pallet deck wide enough to span the board
+        // gaps.
         if (polygon_area(fp) > 0.7 * polygon_area(support.polygon)) continue;
         const auto& below = s.types[placed_by_slot[support.owner].type];
         if (below.is_pallet) {
@@ -230,7 +247,8 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       if (rp.height_m > support.clearance_m - 0.01) continue;
       Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
       for (const auto& q : support.polygon) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
-      const Eigen::Vector2d xy(lo.x() + U(rng) * (hi.x() - lo.x()), lo.y() + U(rng) * (hi.y() - lo.y()));
+      const Eigen::Vector2d xy(lo.x() + U(rng) * (hi.x() - lo.x()),
+                               lo.y() + U(rng) * (hi.y() - lo.y()));
       Poly fpw;
       bool inside = true;
       for (const auto& q : fp) {
@@ -242,7 +260,8 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       bool collide = false;
       for (int other_slot : slot_of_placed) {
         const ObjectInstance& o = placed_by_slot[other_slot];
-        if (bottom < o.top_m - 1e-9 && o.bottom_m < top - 1e-9 && polygons_overlap(fpw, o.footprint_world, p.min_gap_m)) {
+        if (bottom < o.top_m - 1e-9 && o.bottom_m < top - 1e-9 &&
+            polygons_overlap(fpw, o.footprint_world, p.min_gap_m)) {
           collide = true;
           break;
         }
@@ -255,7 +274,8 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       inst.footprint_world = fpw;
       inst.bottom_m = bottom;
       inst.top_m = top;
-      inst.T_world_obj = SE3(rot_z(yaw) * rp.R_support_obj, Vec3(xy.x(), xy.y(), bottom + rp.z_offset_m));
+      inst.T_world_obj =
+          SE3(rot_z(yaw) * rp.R_support_obj, Vec3(xy.x(), xy.y(), bottom + rp.z_offset_m));
       placed_by_slot[slot] = inst;
       placed[slot] = true;
       slot_of_placed.push_back(static_cast<int>(slot));
@@ -263,10 +283,13 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       // Its top becomes a support for smaller objects.
       if (rp.flat_top && polygon_area(fpw) > 0.02 && support.clearance_m - rp.height_m > 0.08) {
         Poly top_poly = convex_hull_2d(fpw);
-        s.supports.push_back({top_poly, top, support.clearance_m - rp.height_m, static_cast<int>(slot)});
+        s.supports.push_back(
+            {top_poly, top, support.clearance_m - rp.height_m, static_cast<int>(slot)});
       }
     }
-    if (!ok) s.warnings.push_back(model.name + ": no free place found after " + std::to_string(p.max_attempts) + " attempts; dropped");
+    if (!ok)
+      s.warnings.push_back(model.name + ": no free place found after " +
+                           std::to_string(p.max_attempts) + " attempts; dropped");
   }
   // Instances in the caller's order (skipping dropped ones); support owners refer to slots, remap.
   std::vector<int> slot_to_instance(instance_types.size(), -1);
@@ -290,7 +313,8 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
   s.radius_m = 0;
   for (const auto& o : s.objects)
     for (const auto& q : o.footprint_world)
-      for (double z : {o.bottom_m, o.top_m}) s.radius_m = std::max(s.radius_m, (Vec3(q.x(), q.y(), z) - s.centre_world).norm());
+      for (double z : {o.bottom_m, o.top_m})
+        s.radius_m = std::max(s.radius_m, (Vec3(q.x(), q.y(), z) - s.centre_world).norm());
   s.radius_m = std::max(s.radius_m, 0.15);
   return s;
 }

@@ -26,10 +26,10 @@ struct SupportSurface {
 };
 
 struct ObjectInstance {
-  int type = 0;              ///< index into SynthScene::types (obj_id = type + 1)
+  int type = 0;  ///< index into SynthScene::types (obj_id = type + 1)
   SE3 T_world_obj;
-  int resting_pose = 0;      ///< index into the type's resting poses
-  int support = -1;          ///< index into SynthScene::supports
+  int resting_pose = 0;                          ///< index into the type's resting poses
+  int support = -1;                              ///< index into SynthScene::supports
   std::vector<Eigen::Vector2d> footprint_world;  ///< convex, world xy
   double bottom_m = 0, top_m = 0;                ///< height range of the prism
 };
@@ -46,7 +46,8 @@ struct SceneLayoutParams {
   double min_gap_m = 0.005;        ///< clearance between neighbouring prisms
   double edge_margin_m = 0.01;     ///< objects stay this far inside their support's edges
   double stack_probability = 0.3;  ///< chance to try standing on another object's top first
-  double floor_fill = 0.45;        ///< floor scene: objects' footprint area / area of the region they share
+  double floor_fill =
+      0.45;  ///< floor scene: objects' footprint area / area of the region they share
 };
 
 struct SynthScene {
@@ -69,6 +70,7 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
                        const SceneLayoutParams& params, std::mt19937_64& rng);
 
 /// True when two convex polygons are closer than `gap` (separating-axis test).
-bool polygons_overlap(const std::vector<Eigen::Vector2d>& a, const std::vector<Eigen::Vector2d>& b, double gap);
+bool polygons_overlap(const std::vector<Eigen::Vector2d>& a, const std::vector<Eigen::Vector2d>& b,
+                      double gap);
 
 }  // namespace orpe::synth

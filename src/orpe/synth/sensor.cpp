@@ -17,7 +17,9 @@ struct PixelRandom {
     x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
     return x ^ (x >> 31);
   }
-  std::uint64_t bits(std::uint64_t pixel, std::uint64_t draw) const { return mix(key ^ mix(pixel * 16 + draw)); }
+  std::uint64_t bits(std::uint64_t pixel, std::uint64_t draw) const {
+    return mix(key ^ mix(pixel * 16 + draw));
+  }
   double uniform(std::uint64_t pixel, std::uint64_t draw) const {
     return (bits(pixel, draw) >> 11) * (1.0 / 9007199254740992.0);
   }
@@ -29,7 +31,8 @@ struct PixelRandom {
   /// Approximately normal (sum of four 16-bit uniforms, Irwin-Hall), for colour noise.
   float normal_approx(std::uint64_t pixel, std::uint64_t draw) const {
     const std::uint64_t b = bits(pixel, draw);
-    const float s = static_cast<float>((b & 0xffff) + ((b >> 16) & 0xffff) + ((b >> 32) & 0xffff) + (b >> 48));
+    const float s =
+        static_cast<float>((b & 0xffff) + ((b >> 16) & 0xffff) + ((b >> 32) & 0xffff) + (b >> 48));
     return (s / 65535.0f - 2.0f) * 1.7320508f;  // mean 0, variance 1
   }
 };
@@ -40,19 +43,24 @@ bool DepthSensorParams::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (!(min_depth_m >= 0) || !(max_depth_m > min_depth_m)) return fail("need 0 <= min_depth_m < max_depth_m");
+  if (!(min_depth_m >= 0) || !(max_depth_m > min_depth_m))
+    return fail("need 0 <= min_depth_m < max_depth_m");
   if (!(baseline_m > 0)) return fail("baseline_m must be > 0");
   if (!(disparity_subpixel > 0)) return fail("disparity_subpixel must be > 0");
-  if (noise_scale < 0 || lateral_sigma_px < 0) return fail("noise_scale and lateral_sigma_px must be >= 0");
-  if (!(grazing_start_deg <= grazing_max_deg) || grazing_max_deg > 90) return fail("need grazing_start_deg <= grazing_max_deg <= 90");
-  if (edge_dropout < 0 || edge_dropout > 1 || dropout < 0 || dropout > 1) return fail("dropout probabilities must be in [0, 1]");
+  if (noise_scale < 0 || lateral_sigma_px < 0)
+    return fail("noise_scale and lateral_sigma_px must be >= 0");
+  if (!(grazing_start_deg <= grazing_max_deg) || grazing_max_deg > 90)
+    return fail("need grazing_start_deg <= grazing_max_deg <= 90");
+  if (edge_dropout < 0 || edge_dropout > 1 || dropout < 0 || dropout > 1)
+    return fail("dropout probabilities must be in [0, 1]");
   return true;
 }
 
 double axial_noise_sigma_m(double z, double theta) {
   const double th = std::clamp(theta, 0.0, kMaxThetaRad);
   const double h = M_PI / 2 - th;
-  return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4) + 0.0001 / std::sqrt(std::max(z, 1e-3)) * th * th / (h * h);
+  return 0.0012 + 0.0019 * (z - 0.4) * (z - 0.4) +
+         0.0001 / std::sqrt(std::max(z, 1e-3)) * th * th / (h * h);
 }
 
 double quantisation_step_m(double z, double f, const DepthSensorParams& p) {
@@ -64,8 +72,8 @@ double depth_error_bound_m(double z, double theta, double f, const DepthSensorPa
 }
 
 DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vector3f>& normals,
-                                 const PinholeIntrinsics& K, const DepthSensorParams& p, std::mt19937_64& rng,
-                                 DepthSensorStats* stats) {
+                                 const PinholeIntrinsics& K, const DepthSensorParams& p,
+                                 std::mt19937_64& rng, DepthSensorStats* stats) {
   DepthSensorStats st;
   const int W = clean.width(), H = clean.height();
   DepthImage out = clean;
@@ -104,7 +112,8 @@ DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vec
       const float z = clean.at(u, v);
       if (z <= 0) continue;
       if (invalid.at(u, v)) continue;
-      const Eigen::Vector3d ray = Eigen::Vector3d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0).normalized();
+      const Eigen::Vector3d ray =
+          Eigen::Vector3d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0).normalized();
       const Eigen::Vector3f n = normals.empty() ? Eigen::Vector3f(0, 0, -1) : normals.at(u, v);
       const double c = std::abs(ray.dot(n.cast<double>()));
       theta_img.at(u, v) = static_cast<float>(std::acos(std::min(1.0, c)));
@@ -130,7 +139,8 @@ DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vec
       if (clean.at(u, v) <= 0 || invalid.at(u, v) || !is_edge(u, v)) continue;
       const std::uint64_t pix = static_cast<std::uint64_t>(v) * W + u;
       const double r = R.uniform(pix, 1);
-      const double du = p.lateral_sigma_px * R.normal(pix, 2), dv = p.lateral_sigma_px * R.normal(pix, 4);
+      const double du = p.lateral_sigma_px * R.normal(pix, 2),
+                   dv = p.lateral_sigma_px * R.normal(pix, 4);
       if (r < p.edge_dropout) {
         invalid.at(u, v) = 3;
         ++st.edges;

@@ -12,18 +12,23 @@ bool SynthParams::IsValid(std::string* why) const {
   if (scene != "floor" && scene != "table" && scene != "shelf")
     return fail("scene must be floor, table or shelf (got '" + scene + "')");
   if (model_unit_m < 0) return fail("model_unit_m must be >= 0 (0 = guess)");
-  if (width < 16 || height < 16 || width > 8192 || height > 8192) return fail("width and height must be in 16..8192");
-  if (fx < 0 || fy < 0 || cx < 0 || cy < 0) return fail("fx, fy, cx, cy must be >= 0 (0 = default)");
+  if (width < 16 || height < 16 || width > 8192 || height > 8192)
+    return fail("width and height must be in 16..8192");
+  if (fx < 0 || fy < 0 || cx < 0 || cy < 0)
+    return fail("fx, fy, cx, cy must be >= 0 (0 = default)");
   if (!(fps > 0)) return fail("fps must be > 0");
   if (span_deg < 0 || span_deg > 360) return fail("span_deg must be in [0, 360]");
   if (baseline_m < 0 || distance_m < 0) return fail("baseline_m and distance_m must be >= 0");
-  if (elevation_deg < 0 || elevation_deg > 85) return fail("elevation_deg must be in [0, 85] (0 = per scene)");
+  if (elevation_deg < 0 || elevation_deg > 85)
+    return fail("elevation_deg must be in [0, 85] (0 = per scene)");
   if (shake_m < 0 || shake_deg < 0) return fail("shake_m and shake_deg must be >= 0");
   if (!(depth_min_m >= 0) || !(depth_max_m > depth_min_m) || depth_max_m > 6.5)
     return fail("need 0 <= depth_min_m < depth_max_m <= 6.5");
   if (depth_noise_scale < 0 || color_noise_sigma < 0) return fail("noise scales must be >= 0");
-  if (illumination_variation < 0 || illumination_variation > 0.5) return fail("illumination_variation must be in [0, 0.5]");
-  if (stack_probability < 0 || stack_probability > 1) return fail("stack_probability must be in [0, 1]");
+  if (illumination_variation < 0 || illumination_variation > 0.5)
+    return fail("illumination_variation must be in [0, 0.5]");
+  if (stack_probability < 0 || stack_probability > 1)
+    return fail("stack_probability must be in [0, 1]");
   if (model_points < 1 || model_points > 1000000) return fail("model_points must be in 1..1000000");
   if (preview_stride < 0 || threads < 0) return fail("preview_stride and threads must be >= 0");
   return true;

@@ -10,8 +10,8 @@ struct SynthParams {
   int frames = 300;
   int objects = 10;
   std::string scene = "floor";
-  std::string models;          // comma-separated OBJ/PLY files or folders; empty = built-in warehouse set
-  double model_unit_m = 0;     // metres per model-file unit; 0 = guess
+  std::string models;  // comma-separated OBJ/PLY files or folders; empty = built-in warehouse set
+  double model_unit_m = 0;  // metres per model-file unit; 0 = guess
   bool repeat_types = false;
   int width = 640;
   int height = 480;
@@ -42,11 +42,14 @@ struct SynthParams {
     v("objects", objects, "Number of object instances placed in the scene");
     v("scene", scene, "Environment: floor | table | shelf");
     v("models", models,
-      "Comma-separated OBJ/PLY files or folders (YCB layout <class>/textured_simple.obj); empty = built-in "
+      "Comma-separated OBJ/PLY files or folders (YCB layout <class>/textured_simple.obj); empty = "
+      "built-in "
       "warehouse set");
-    v("model_unit_m", model_unit_m, "Metres per model-file unit (0.001 for mm); 0 = guess from the model size");
+    v("model_unit_m", model_unit_m,
+      "Metres per model-file unit (0.001 for mm); 0 = guess from the model size");
     v("repeat_types", repeat_types,
-      "Allow several instances of one object type (same obj_id); default: each instance its own type");
+      "Allow several instances of one object type (same obj_id); default: each instance its own "
+      "type");
     v("width", width, "Image width (pixels)");
     v("height", height, "Image height (pixels)");
     v("fx", fx, "Focal length x (pixels); 0 = 580 * width / 640 (Xtion-like)");
@@ -54,22 +57,34 @@ struct SynthParams {
     v("cx", cx, "Principal point x (pixels); 0 = (width - 1) / 2");
     v("cy", cy, "Principal point y (pixels); 0 = (height - 1) / 2");
     v("fps", fps, "Frame rate (Hz) of the timestamps and the hand-held motion");
-    v("span_deg", span_deg, "Azimuth swept by the camera around the scene (deg); shelf scenes cap it at 110");
-    v("baseline_m", baseline_m, "If > 0: distance between the first and last camera (m); overrides span_deg");
-    v("distance_m", distance_m, "Mean camera distance to the scene centre (m); 0 = fit the scene in view");
-    v("elevation_deg", elevation_deg, "Mean camera elevation seen from the scene (deg); 0 = per scene (floor 38, table 40, shelf 15)");
+    v("span_deg", span_deg,
+      "Azimuth swept by the camera around the scene (deg); shelf scenes cap it at 110");
+    v("baseline_m", baseline_m,
+      "If > 0: distance between the first and last camera (m); overrides span_deg");
+    v("distance_m", distance_m,
+      "Mean camera distance to the scene centre (m); 0 = fit the scene in view");
+    v("elevation_deg", elevation_deg,
+      "Mean camera elevation seen from the scene (deg); 0 = per scene (floor 38, table 40, shelf "
+      "15)");
     v("shake_m", shake_m, "Hand-shake amplitude, translation (m)");
     v("shake_deg", shake_deg, "Hand-shake amplitude, rotation (deg)");
-    v("noise", noise, "Structured-light depth noise and colour noise; off = exact rendered depth and colour");
+    v("noise", noise,
+      "Structured-light depth noise and colour noise; off = exact rendered depth and colour");
     v("depth_min_m", depth_min_m, "Sensor range: nearer depth is missing (m)");
-    v("depth_max_m", depth_max_m, "Sensor range: farther depth is missing (m); <= 6.5 (16-bit PNG at 0.1 mm)");
-    v("depth_noise_scale", depth_noise_scale, "Multiplies the axial noise sigma(z) of Nguyen et al.");
+    v("depth_max_m", depth_max_m,
+      "Sensor range: farther depth is missing (m); <= 6.5 (16-bit PNG at 0.1 mm)");
+    v("depth_noise_scale", depth_noise_scale,
+      "Multiplies the axial noise sigma(z) of Nguyen et al.");
     v("color_noise_sigma", color_noise_sigma, "Colour noise, Gaussian sigma in 8-bit levels");
-    v("illumination_variation", illumination_variation, "Relative amplitude of the slow brightness drift");
-    v("stack_probability", stack_probability, "Chance that an object is placed on top of another object");
-    v("model_points", model_points, "Points sampled on each model surface for models/obj_*_points.xyz");
+    v("illumination_variation", illumination_variation,
+      "Relative amplitude of the slow brightness drift");
+    v("stack_probability", stack_probability,
+      "Chance that an object is placed on top of another object");
+    v("model_points", model_points,
+      "Points sampled on each model surface for models/obj_*_points.xyz");
     v("write_masks", write_masks, "Write mask/ and mask_visib/ PNGs per object and frame");
-    v("preview_stride", preview_stride, "Write preview/NNNNNN.png every this many frames; 0 = none");
+    v("preview_stride", preview_stride,
+      "Write preview/NNNNNN.png every this many frames; 0 = none");
     v("threads", threads, "Threads generating frames; 0 = OpenMP default");
   }
   bool IsValid(std::string* why) const;

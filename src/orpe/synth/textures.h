@@ -26,7 +26,8 @@ PrintStyle random_print_style(std::mt19937_64& rng, bool cardboard);
 /// Draws one package face of `width_px` x `height_px` (upright: row 0 is the top edge of the face).
 /// `role`: 0 front (big logo, bands, text), 1 back (text columns, barcode), 2 side (narrow label),
 /// 3 top/bottom (flaps with tape). `variant` changes the layout details between faces.
-ColorImage draw_package_face(int width_px, int height_px, const PrintStyle& style, int role, int variant);
+ColorImage draw_package_face(int width_px, int height_px, const PrintStyle& style, int role,
+                             int variant);
 
 /// Can label, wrapped around the side: bands, logo, text, a nutrition-like table.
 ColorImage draw_can_label(int width_px, int height_px, const PrintStyle& style);

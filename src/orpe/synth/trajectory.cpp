@@ -23,7 +23,8 @@ struct SmoothNoise {
   }
   double operator()(double t) const {
     double s = 0;
-    for (size_t i = 0; i < freq.size(); ++i) s += amp[i] * std::sin(2 * M_PI * freq[i] * t + phase[i]);
+    for (size_t i = 0; i < freq.size(); ++i)
+      s += amp[i] * std::sin(2 * M_PI * freq[i] * t + phase[i]);
     return s;
   }
 };
@@ -41,8 +42,10 @@ SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& up_world) {
   return SE3(R, eye);
 }
 
-std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3& target, std::mt19937_64& rng) {
-  if (p.frames < 1 || !(p.fps > 0) || !(p.distance_m > 0)) throw std::invalid_argument("make_handheld_trajectory: bad parameters");
+std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3& target,
+                                          std::mt19937_64& rng) {
+  if (p.frames < 1 || !(p.fps > 0) || !(p.distance_m > 0))
+    throw std::invalid_argument("make_handheld_trajectory: bad parameters");
   double span = p.span_deg * M_PI / 180.0;
   const double elev0 = p.elevation_deg * M_PI / 180.0;
   if (p.baseline_m > 0) {
@@ -52,7 +55,8 @@ std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3&
   }
   const double duration = (p.frames - 1) / p.fps;
   // Slow variations (fractions of a Hz over the whole take) and hand shake (1.5-6 Hz).
-  SmoothNoise speed(rng, 0.05, 0.25, 3), height(rng, 0.05, 0.3, 3), radius(rng, 0.05, 0.3, 3), roll(rng, 0.1, 0.4, 2);
+  SmoothNoise speed(rng, 0.05, 0.25, 3), height(rng, 0.05, 0.3, 3), radius(rng, 0.05, 0.3, 3),
+      roll(rng, 0.1, 0.4, 2);
   SmoothNoise wander_x(rng, 0.05, 0.3, 2), wander_y(rng, 0.05, 0.3, 2), wander_z(rng, 0.05, 0.3, 2);
   SmoothNoise shake[6] = {{rng, 1.5, 6, 3}, {rng, 1.5, 6, 3}, {rng, 1.5, 6, 3},
                           {rng, 1.5, 6, 3}, {rng, 1.5, 6, 3}, {rng, 1.5, 6, 3}};
@@ -75,7 +79,8 @@ std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3&
     const double az = p.azimuth_centre_rad + (s - 0.5) * span;
     const double el = std::clamp(elev0 + 0.12 * height(t), 0.02, 1.45);
     const double r = p.distance_m * (1.0 + 0.1 * radius(t));
-    Vec3 eye = target + r * Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    Vec3 eye =
+        target + r * Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
     eye.z() = std::max(eye.z(), p.min_height_m);
     const Vec3 look = target + look_wander * Vec3(wander_x(t), wander_y(t), 0.5 * wander_z(t));
     SE3 T = look_at(eye, look);
@@ -93,7 +98,8 @@ std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3&
 double trajectory_extent_m(const std::vector<SE3>& T) {
   double best = 0;
   for (size_t i = 0; i < T.size(); ++i)
-    for (size_t j = i + 1; j < T.size(); ++j) best = std::max(best, (T[i].translation() - T[j].translation()).norm());
+    for (size_t j = i + 1; j < T.size(); ++j)
+      best = std::max(best, (T[i].translation() - T[j].translation()).norm());
   return best;
 }
 

@@ -1,0 +1,58 @@
+// Per-object fusion of single-view poses as the pipeline runs it: the pose stage's PoseEkf, started
+// from a consensus of the first measurements instead of blindly from the first one.
+//
+// Why: a geometry-only single-view estimator now and then returns a pose flipped end over end or
+// turned about a near-symmetry axis. The EKF gates measurements against its state, so a wrong first
+// measurement would lock the filter; PoseEkf's restart (reinit_after_rejections consecutive, mutually
+// consistent rejections) does not fire when the later measurements scatter about a near-symmetry.
+// With init_views = k > 1 the first k valid measurements are buffered; the filter starts from the one
+// that the most others agree with (PoseEkf's gate), then takes the others in order (its gate drops
+// the outliers). Until then there is no fused estimate. k = 1 is the paper's behaviour.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include "orpe/pose/pose_ekf.h"
+
+namespace orpe {
+
+class ObjectPoseFusion {
+ public:
+  ObjectPoseFusion(const PoseEkfParams& params, const ObjectSymmetry& symmetry, int init_views = 1);
+
+  struct Outcome {
+    bool accepted = false;     ///< fused into the state (or buffered for the initialisation)
+    bool initialised = false;  ///< this measurement completed the (consensus) initialisation
+  };
+  /// Adds one valid single-view measurement (`score`: its confidence, averaged into score()).
+  Outcome add(const PoseMeasurement& measurement, double score);
+
+  /// End of the sequence: starts the filter from the buffered measurements when fewer than
+  /// init_views arrived (an object seen a few times still gets a fused pose).
+  void flush();
+
+  bool has_estimate() const { return ekf_.initialised(); }
+  const SE3& T_world_obj() const { return ekf_.T_world_obj(); }
+  SE3 T_cam_obj(const SE3& T_world_cam) const { return ekf_.T_cam_obj(T_world_cam); }
+  /// The filter's result; num_rejected also counts the initialisation's outliers.
+  FusedObjectPose result() const;
+  /// Mean score of the measurements in the current state (0 before the first).
+  double score() const { return accepted_ ? score_sum_ / accepted_ : 0.0; }
+  int accepted() const { return accepted_; }
+  int rejected() const { return rejected_; }
+
+ private:
+  void initialise_from_buffer();
+
+  PoseEkfParams params_;
+  ObjectSymmetry symmetry_;
+  int init_views_;
+  PoseEkf ekf_;
+  std::vector<std::pair<PoseMeasurement, double>> buffer_;
+  double score_sum_ = 0;
+  int accepted_ = 0;
+  int rejected_ = 0;
+};
+
+}  // namespace orpe

@@ -1,0 +1,112 @@
+#include "orpe/pipeline/object_models.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <random>
+
+#include "orpe/core/error.h"
+#include "orpe/io/model_io.h"
+#include "orpe/render/mesh_io.h"
+
+namespace orpe {
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+/// Area-weighted uniform samples on the triangles with the face normals (deterministic).
+void sample_mesh_surface(const TriangleMesh& mesh, int count, ObjectModel& model) {
+  std::vector<double> cumulative_area;
+  std::vector<Eigen::Vector3f> face_normal;
+  cumulative_area.reserve(mesh.triangles.size());
+  double total = 0;
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3f a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
+    const Eigen::Vector3f n = (b - a).cross(c - a);
+    total += 0.5 * n.norm();
+    cumulative_area.push_back(total);
+    face_normal.push_back(n.norm() > 0 ? Eigen::Vector3f(n.normalized()) : Eigen::Vector3f::UnitZ());
+  }
+  if (!(total > 0)) return;
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  model.points.reserve(count);
+  model.normals.reserve(count);
+  for (int i = 0; i < count; ++i) {
+    const double r = uni(rng) * total;
+    const size_t k = std::min<size_t>(
+        std::lower_bound(cumulative_area.begin(), cumulative_area.end(), r) - cumulative_area.begin(),
+        mesh.triangles.size() - 1);
+    double s = uni(rng), t = uni(rng);
+    if (s + t > 1) {
+      s = 1 - s;
+      t = 1 - t;
+    }
+    const auto& tri = mesh.triangles[k];
+    const Eigen::Vector3f a = mesh.vertices[tri[0]], b = mesh.vertices[tri[1]],
+                          c = mesh.vertices[tri[2]];
+    model.points.push_back(a + static_cast<float>(s) * (b - a) + static_cast<float>(t) * (c - a));
+    model.normals.push_back(face_normal[k]);
+  }
+}
+
+}  // namespace
+
+ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int surface_points) {
+  const auto points = info.model_points_paths.find(class_id);
+  if (points == info.model_points_paths.end())
+    throw IoError(info.root, fmt::format("the dataset has no model for class {}", class_id));
+  const auto mesh = info.model_mesh_paths.find(class_id);
+  const auto name_it = info.class_names.find(class_id);
+  const std::string name =
+      name_it != info.class_names.end() ? name_it->second : fmt::format("class {}", class_id);
+  ObjectModel model;
+  if (lower_extension(points->second) == ".ply") {
+    MeshLoadOptions mo;
+    mo.metres_per_unit = 1.0 / info.model_units_per_m;
+    mo.load_texture = false;
+    const TriangleMesh m = load_mesh(points->second, mo);
+    model.class_id = class_id;
+    model.name = name;
+    if (!m.triangles.empty()) sample_mesh_surface(m, surface_points, model);
+    if (model.points.empty()) {  // a point cloud PLY: its vertices, PCA normals
+      model.points = m.vertices;
+      model.normals.clear();
+    }
+    try {
+      prepare_object_model(model);
+    } catch (const std::invalid_argument& e) {
+      throw IoError(points->second, e.what());
+    }
+    model.symmetry = detect_symmetry(model);
+  } else {
+    ModelLoadOptions mo;
+    mo.units_per_m = info.model_units_per_m;
+    if (mesh != info.model_mesh_paths.end() && lower_extension(mesh->second) == ".obj")
+      mo.mesh_path = mesh->second;
+    model = load_object_model(points->second, mo, class_id, name);
+  }
+  model.symmetric_for_metric = std::count(info.symmetric_classes.begin(),
+                                          info.symmetric_classes.end(), class_id) > 0;
+  return model;
+}
+
+const ObjectModel& ObjectModelLibrary::get(int class_id) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto& slot = models_[class_id];
+  if (!slot)
+    slot = std::make_unique<ObjectModel>(load_dataset_object_model(info_, class_id, surface_points_));
+  return *slot;
+}
+
+std::string ObjectModelLibrary::class_name(int class_id) const {
+  const auto it = info_.class_names.find(class_id);
+  return it != info_.class_names.end() ? it->second : fmt::format("class {}", class_id);
+}
+
+}  // namespace orpe

@@ -1,0 +1,47 @@
+// The object models of a dataset as the pose stage needs them, loaded on first use per class.
+//
+// Adapter between DatasetInfo (model_points_paths / model_mesh_paths / symmetric_classes /
+// model_units_per_m) and pose/object_model.h, which reads point files (YCB points.xyz) and OBJ meshes:
+//  - points file .xyz (YCB-Video): load_object_model with normals from the OBJ mesh when there is one;
+//  - points file .ply (BOP, orpe synth): the mesh is read with render/mesh_io (PLY, with faces) and
+//    `surface_points` points are sampled uniformly on its triangles (area-weighted, fixed seed) with
+//    the face normals; a PLY without faces gives its vertices (normals estimated by PCA).
+// The geometric symmetry is detected from the points (pose stage); `symmetric_for_metric` comes from
+// the dataset's list.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "orpe/io/dataset.h"
+#include "orpe/pose/object_model.h"
+
+namespace orpe {
+
+/// Loads one class's model as above. Throws IoError naming the file (or the dataset) when the class
+/// has no model or the file is bad.
+ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id,
+                                      int surface_points = 2620);
+
+class ObjectModelLibrary {
+ public:
+  explicit ObjectModelLibrary(DatasetInfo info, int surface_points = 2620)
+      : info_(std::move(info)), surface_points_(surface_points) {}
+  /// True when the dataset lists a model file for the class.
+  bool has(int class_id) const { return info_.model_points_paths.count(class_id) > 0; }
+  /// The prepared model (loaded on the first call). Throws IoError (see above). Thread-safe.
+  const ObjectModel& get(int class_id) const;
+  const DatasetInfo& info() const { return info_; }
+  /// Class name for messages and outputs ("class <id>" when the dataset has none).
+  std::string class_name(int class_id) const;
+
+ private:
+  DatasetInfo info_;
+  int surface_points_;
+  mutable std::mutex mutex_;  // the cache fills lazily behind a const interface
+  mutable std::map<int, std::unique_ptr<ObjectModel>> models_;
+};
+
+}  // namespace orpe

@@ -1,0 +1,556 @@
+#include "orpe/pipeline/object_rpe.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <tuple>
+
+#include "orpe/core/error.h"
+#include "orpe/pipeline/object_fusion.h"
+#include "orpe/semantic/detection.h"
+
+namespace orpe {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+// Params
+
+PoseVariant PoseVariant::from(const PipelineParams& p) {
+  PoseVariant v;
+  v.name = p.ablation_name();
+  v.projected_mask = p.use_projected_mask;
+  v.projected_depth = p.use_projected_depth;
+  v.projected_color = p.use_projected_color;
+  v.ekf = p.use_ekf;
+  return v;
+}
+
+PoseVariant PoseVariant::named(const std::string& name) {
+  PipelineParams p;
+  p.apply_ablation(name);
+  return from(p);
+}
+
+ObjectRpeParams ObjectRpeParams::from_config(const OrpeConfig& config) {
+  ObjectRpeParams p;
+  p.slam = config.slam_params();
+  p.segmentation = config.segmentation;
+  p.semantic = config.semantic;
+  p.pose_registration = config.pose_registration;
+  p.pose_ekf = config.pose_ekf;
+  p.pipeline = config.pipeline;
+  p.variants = {PoseVariant::from(config.pipeline)};
+  return p;
+}
+
+bool ObjectRpeParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& section, const std::string& reason) {
+    if (why) *why = section + ": " + reason;
+    return false;
+  };
+  std::string r;
+  if (!slam.IsValid(&r)) return fail("slam", r);
+  if (!segmentation.IsValid(&r)) return fail("segmentation", r);
+  if (!semantic.IsValid(&r)) return fail("semantic", r);
+  if (!pose_registration.IsValid(&r)) return fail("pose_registration", r);
+  if (!pose_ekf.IsValid(&r)) return fail("pose_ekf", r);
+  if (!pipeline.IsValid(&r)) return fail("pipeline", r);
+  if (!variants.empty() && !semantic_mapping)
+    return fail("pipeline", "poses need the semantic map (semantic_mapping is off)");
+  for (size_t i = 0; i < variants.size(); ++i)
+    for (size_t j = i + 1; j < variants.size(); ++j)
+      if (variants[i].name == variants[j].name)
+        return fail("pipeline", "two pose variants are named '" + variants[i].name + "'");
+  return true;
+}
+
+std::string PipelineFrameResult::report() const {
+  std::string line = fmt::format("frame {:6d} {:<8}", frame_index, slam::to_string(slam.status));
+  if (keyframe) line += fmt::format(" det {:2d} inst {:2d}", detections, instances);
+  if (evaluated && !variants.empty()) {
+    int valid = 0, reported = 0;
+    for (const auto& o : variants.front()) {
+      valid += o.single_view.valid;
+      reported += o.reported;
+    }
+    line += fmt::format(" poses {:2d}/{:2d}", reported, static_cast<int>(variants.front().size()));
+    if (valid != reported) line += fmt::format(" ({} single-view valid)", valid);
+  }
+  line += fmt::format(" | slam {:.0f} sem {:.0f}", slam_ms, semantic_ms);
+  if (evaluated) line += fmt::format(" render {:.0f} pose {:.0f}", render_ms, single_view_ms);
+  line += fmt::format(" total {:.0f} ms", total_ms);
+  return line;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Pipeline state
+
+struct ObjectRpePipeline::Track {
+  int class_id = 0;
+  std::unique_ptr<ObjectPoseFusion> ekf;  // EKF variants
+  // Best single-view estimate (variants without the EKF).
+  bool have_best = false;
+  double best_score = -1e9;
+  SE3 best_T_world_obj;
+  int valid_views = 0;
+};
+
+struct ObjectRpePipeline::VariantState {
+  PoseVariant config;
+  std::map<int, Track> tracks;  // by instance id
+  std::vector<PoseResultRow> rows;
+  /// Per reported object of each evaluated frame: (frame index, T_world_cam, instance, class, score,
+  /// time), for final_pose_rows().
+  struct Seen {
+    int frame_index;
+    SE3 T_world_cam;
+    int instance_id;
+    int class_id;
+    double score;
+    double time_s;
+  };
+  std::vector<Seen> seen;
+  std::vector<SingleViewRecord> records;
+};
+
+/// An object to estimate in this frame.
+struct ObjectRpePipeline::Candidate {
+  int instance_id = 0;
+  int class_id = 0;
+  double class_probability = 0;
+  const MaskImage* mask = nullptr;
+  int mask_px = 0;
+  int object_key = 0;  // detection index (raw masks) or instance id (projected masks)
+};
+
+ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const DatasetInfo& dataset)
+    : params_(params), dataset_(dataset), models_(dataset) {
+  std::string why;
+  if (!params_.IsValid(&why)) throw ConfigError("pipeline: " + why);
+  slam_ = std::make_unique<slam::SlamSystem>(params_.slam);
+  if (params_.semantic_mapping) {
+    std::vector<int> class_ids;
+    for (const auto& [id, name] : dataset_.class_names) class_ids.push_back(id);
+    semantic_ = std::make_unique<SemanticMapper>(params_.segmentation, params_.semantic, class_ids);
+  }
+  if (!params_.variants.empty())
+    estimator_ = std::make_unique<ModelRegistrationEstimator>(params_.pose_registration);
+  for (const auto& v : params_.variants) {
+    VariantState s;
+    s.config = v;
+    variants_.push_back(std::move(s));
+  }
+}
+
+ObjectRpePipeline::~ObjectRpePipeline() = default;
+
+void ObjectRpePipeline::set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator,
+                                                  bool uses_color) {
+  if (!estimator) throw ConfigError("pipeline: null single-view estimator");
+  estimator_ = std::move(estimator);
+  estimator_uses_color_ = uses_color;
+}
+
+size_t ObjectRpePipeline::num_variants() const { return variants_.size(); }
+const PoseVariant& ObjectRpePipeline::variant(size_t v) const { return variants_.at(v).config; }
+const std::vector<ObjectRpePipeline::SingleViewRecord>& ObjectRpePipeline::single_view_records(
+    size_t v) const {
+  return variants_.at(v).records;
+}
+const std::vector<PoseResultRow>& ObjectRpePipeline::pose_rows(size_t v) const {
+  return variants_.at(v).rows;
+}
+
+const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
+  const auto t_frame = Clock::now();
+  result_ = PipelineFrameResult{};
+  result_.frame_index = frame.index;
+  result_.timestamp_s = frame.timestamp_s;
+  ++stats_.frames;
+
+  if (first_frame_) {
+    if (params_.pipeline.init_from_ground_truth && frame.T_world_cam_gt)
+      slam_->set_initial_pose(*frame.T_world_cam_gt);
+    first_frame_ = false;
+  }
+  auto t0 = Clock::now();
+  result_.slam = slam_->process(frame);
+  result_.slam_ms = ms_since(t0);
+  const SE3 T_world_cam = slam_->T_world_cam();
+  trajectory_.push_back({frame.timestamp_s, T_world_cam});
+  const bool lost = result_.slam.status == slam::TrackingStatus::kLost;
+  stats_.lost_frames += lost;
+  stats_.degraded_frames += result_.slam.status == slam::TrackingStatus::kDegraded;
+
+  if (semantic_ && !lost) {
+    t0 = Clock::now();
+    const slam::IndexImage& pixel_surfel = slam_->last_pixel_surfel();
+    const SemanticStep& step = semantic_->process(frame, T_world_cam, slam_->map(),
+                                                  pixel_surfel.empty() ? nullptr : &pixel_surfel);
+    result_.semantic_ms = ms_since(t0);
+    result_.keyframe = step.keyframe;
+    result_.detections = static_cast<int>(step.detections.size());
+    result_.instances = static_cast<int>(semantic_->fusion().instances().size());
+    if (step.keyframe) {
+      ++stats_.keyframes;
+      stats_.detections += result_.detections;
+      result_.evaluated = !variants_.empty() &&
+                          (stats_.keyframes - 1) % params_.pipeline.pose_every_n_keyframes == 0;
+    }
+  }
+  if (result_.evaluated) {
+    ++stats_.evaluated_frames;
+    evaluated_frames_.push_back(frame.index);
+    estimate_poses(frame, T_world_cam, result_);
+  }
+  result_.total_ms = ms_since(t_frame);
+  stats_.slam_ms += result_.slam_ms;
+  stats_.semantic_ms += result_.semantic_ms;
+  stats_.render_ms += result_.render_ms;
+  stats_.single_view_ms += result_.single_view_ms;
+  stats_.ekf_ms += result_.ekf_ms;
+  stats_.total_ms += result_.total_ms;
+  // The BOP "time" column: the whole frame's processing time, identical for its rows.
+  for (auto& v : variants_) {
+    for (auto it = v.rows.rbegin(); it != v.rows.rend() && it->im_id == frame.index; ++it)
+      it->time_s = result_.total_ms / 1000.0;
+    for (auto it = v.seen.rbegin(); it != v.seen.rend() && it->frame_index == frame.index; ++it)
+      it->time_s = result_.total_ms / 1000.0;
+  }
+  return result_;
+}
+
+void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam,
+                                       PipelineFrameResult& result) {
+  const auto& instances = semantic_->fusion().instances();
+  PinholeIntrinsics K = frame.intrinsics;
+  K.width = frame.depth.width();
+  K.height = frame.depth.height();
+  const int W = K.width, H = K.height;
+  const PipelineParams& pp = params_.pipeline;
+
+  // The map at the tracked pose: instance labels, depth and colour of every surfel, one render.
+  auto t0 = Clock::now();
+  bool need_projected = false;
+  for (const auto& v : variants_)
+    need_projected |= v.config.projected_mask || v.config.projected_depth || v.config.projected_color;
+  slam::RenderedView view;
+  std::map<int, MaskImage> projected_masks;  // instance id -> mask
+  std::map<int, int> projected_area;
+  if (need_projected) {
+    slam::RenderOptions options;
+    options.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
+    options.want_vertex = options.want_normal = false;
+    options.want_color = options.want_instance = true;
+    slam::MapRenderer& renderer = slam_->renderer();
+    renderer.render(slam_->map(), T_world_cam, K, options, &view);
+    for (const auto id : view.instance_id)
+      if (id > 0) ++projected_area[id];
+    for (const auto& [id, area] : projected_area) {
+      if (area < pp.min_pose_mask_px || !instances.count(id)) continue;
+      MaskImage m(W, H, 0);
+      for (size_t k = 0; k < m.size(); ++k) m[k] = view.instance_id[k] == id ? 1 : 0;
+      projected_masks.emplace(id, std::move(m));
+    }
+  }
+  result.render_ms = ms_since(t0);
+
+  // Candidates from the map's instances (projected masks).
+  std::vector<Candidate> from_map;
+  for (const auto& [id, mask] : projected_masks) {
+    const InstanceInfo& info = instances.at(id);
+    Candidate c;
+    c.instance_id = id;
+    c.class_id = info.argmax_class();
+    c.class_probability = info.argmax_probability();
+    c.mask = &mask;
+    c.mask_px = projected_area.at(id);
+    c.object_key = id;
+    if (c.class_id <= 0 || info.detections < pp.min_instance_detections ||
+        c.class_probability < pp.min_class_probability)
+      continue;
+    from_map.push_back(c);
+  }
+  // Candidates from this keyframe's detections (raw masks); the instance each joined is the majority
+  // label of the fused detection labels under its mask.
+  std::vector<MaskImage> detection_masks;
+  std::vector<Candidate> from_detections;
+  bool need_raw = false;
+  for (const auto& v : variants_) need_raw |= !v.config.projected_mask;
+  if (need_raw) {
+    const auto& detections = semantic_->last_step().detections;
+    const LabelImage& fused_labels = semantic_->fusion().last_detection_labels();
+    const float threshold = static_cast<float>(params_.segmentation.mask_threshold);
+    detection_masks.reserve(detections.size());
+    for (const auto& d : detections) detection_masks.push_back(binary_mask(d.probability, threshold));
+    for (size_t i = 0; i < detections.size(); ++i) {
+      const MaskImage& mask = detection_masks[i];
+      std::map<int, int> votes;
+      int area = 0;
+      for (size_t k = 0; k < mask.size(); ++k) {
+        if (!mask[k]) continue;
+        ++area;
+        if (!fused_labels.empty() && fused_labels[k] > 0) ++votes[fused_labels[k]];
+      }
+      Candidate c;
+      c.class_id = detections[i].class_id;
+      c.class_probability = detections[i].score;
+      for (const auto& [cls, p] : class_distribution(detections[i]))
+        if (cls == c.class_id) c.class_probability = p;
+      c.mask = &mask;
+      c.mask_px = area;
+      c.object_key = static_cast<int>(i);
+      int best_votes = 0;
+      for (const auto& [id, n] : votes)
+        if (n > best_votes && instances.count(id)) {
+          best_votes = n;
+          c.instance_id = id;
+        }
+      if (area < pp.min_pose_mask_px || c.class_probability < pp.min_class_probability) continue;
+      from_detections.push_back(c);
+    }
+  }
+
+  // Union images: projected depth / colour (all surfels) and the camera's.
+  const DepthImage& projected_depth = need_projected ? view.depth : frame.depth;
+  const ColorImage& projected_color = need_projected ? view.color : frame.color;
+
+  // Single-view estimates, computed once per distinct input. The colour source is part of the key
+  // only for estimators that use colour (the model-based registration does not).
+  const bool estimator_uses_color = estimator_uses_color_;
+  std::map<std::tuple<int, int, int, int, int>, SingleViewPose> cache;
+  result.variants.resize(variants_.size());
+  for (size_t vi = 0; vi < variants_.size(); ++vi) {
+    VariantState& vs = variants_[vi];
+    const PoseVariant& cfg = vs.config;
+    const std::vector<Candidate>& candidates = cfg.projected_mask ? from_map : from_detections;
+    auto& out = result.variants[vi];
+    for (const Candidate& c : candidates) {
+      ObjectFrameEstimate est;
+      est.instance_id = c.instance_id;
+      est.class_id = c.class_id;
+      est.class_probability = c.class_probability;
+      est.mask_px = c.mask_px;
+      if (!models_.has(c.class_id)) {
+        est.single_view.reason = "no model for the class";
+        out.push_back(est);
+        continue;
+      }
+      const ObjectModel* model = nullptr;
+      if (!model_errors_.count(c.class_id)) {
+        try {
+          model = &models_.get(c.class_id);
+        } catch (const IoError& e) {
+          model_errors_[c.class_id] = e.what();
+          spdlog::warn("class {}: model not usable, its objects get no pose: {}", c.class_id,
+                       e.what());
+        }
+      }
+      if (!model) {
+        est.single_view.reason = "model not usable: " + model_errors_.at(c.class_id);
+        out.push_back(est);
+        continue;
+      }
+      // The instance's track (EKF variants need a map instance to key the filter).
+      Track* track = nullptr;
+      if (c.instance_id > 0) {
+        Track& t = vs.tracks[c.instance_id];
+        if (t.class_id != c.class_id) {  // new, or the instance's argmax class changed: restart
+          t = Track{};
+          t.class_id = c.class_id;
+          if (cfg.ekf) {
+            const std::string& mode = pp.ekf_symmetry;
+            const bool use = mode == "geometric" || (mode == "dataset" && model->symmetric_for_metric);
+            t.ekf = std::make_unique<ObjectPoseFusion>(
+                params_.pose_ekf, use ? model->symmetry : ObjectSymmetry{}, pp.ekf_init_views);
+          }
+        }
+        track = &t;
+      }
+      const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
+                             track->ekf->has_estimate();
+      const auto key = std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key,
+                                       cfg.projected_depth ? 1 : 0,
+                                       estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
+                                       use_prior ? static_cast<int>(vi) : -1);
+      auto cached = cache.find(key);
+      if (cached != cache.end()) {
+        est.single_view = cached->second;
+        ++stats_.single_view_cache_hits;
+      } else {
+        SingleViewInput in;
+        in.mask = c.mask;
+        in.depth = cfg.projected_depth ? &projected_depth : &frame.depth;
+        in.color = cfg.projected_color ? &projected_color : &frame.color;
+        in.intrinsics = K;
+        in.class_id = c.class_id;
+        in.model = model;
+        if (use_prior) in.T_cam_obj_prior = track->ekf->T_cam_obj(T_world_cam);
+        t0 = Clock::now();
+        est.single_view = estimator_->estimate(in);
+        result.single_view_ms += ms_since(t0);
+        ++stats_.single_view_estimates;
+        stats_.single_view_valid += est.single_view.valid;
+        cache.emplace(key, est.single_view);
+      }
+      const SingleViewPose& sv = est.single_view;
+      vs.records.push_back({frame.index, c.instance_id, c.class_id, c.class_probability, sv, T_world_cam});
+      const double sv_score = std::clamp(sv.score, 0.01, 1.0);
+      if (cfg.ekf) {
+        if (track && track->ekf) {
+          t0 = Clock::now();
+          ObjectPoseFusion& fusion = *track->ekf;
+          if (sv.valid) {
+            PoseMeasurement m;
+            m.frame_index = frame.index;
+            m.T_world_cam = T_world_cam;
+            m.T_cam_obj = sv.T_cam_obj;
+            m.mu_m = sv.mu_m;
+            const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
+            est.ekf_accepted = o.accepted;
+            ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);
+          }
+          if (fusion.has_estimate()) {
+            est.reported = true;
+            est.T_cam_obj = fusion.T_cam_obj(T_world_cam);
+            est.score = c.class_probability * (fusion.accepted() > 0 ? fusion.score() : sv_score);
+          } else if (sv.valid) {  // still collecting the initial views: the single-view estimate
+            est.reported = true;
+            est.T_cam_obj = sv.T_cam_obj;
+            est.score = c.class_probability * sv_score;
+          }
+          result.ekf_ms += ms_since(t0);
+        }
+      } else if (sv.valid) {
+        est.reported = true;
+        est.T_cam_obj = sv.T_cam_obj;
+        est.score = c.class_probability * sv_score;
+        if (track) {
+          ++track->valid_views;
+          if (est.score > track->best_score) {
+            track->have_best = true;
+            track->best_score = est.score;
+            track->best_T_world_obj = T_world_cam * sv.T_cam_obj;
+          }
+        }
+      }
+      if (est.reported) {
+        PoseResultRow row;
+        row.scene_id = dataset_.scene_id;
+        row.im_id = frame.index;
+        row.obj_id = est.class_id;
+        row.score = est.score;
+        row.T_cam_obj = est.T_cam_obj;
+        vs.rows.push_back(row);
+        if (cfg.ekf && est.instance_id > 0)
+          vs.seen.push_back({frame.index, T_world_cam, est.instance_id, est.class_id, est.score, -1});
+      }
+      out.push_back(std::move(est));
+    }
+  }
+}
+
+void ObjectRpePipeline::finalize() {
+  if (!semantic_) return;
+  semantic_->finalize(slam_->map());
+  const auto& instances = semantic_->fusion().instances();
+  for (auto& v : variants_) {
+    for (auto it = v.tracks.begin(); it != v.tracks.end();) {
+      const auto inst = instances.find(it->first);
+      // Drop filters of removed instances and of instances whose final class differs from the
+      // filter's (the filter's model was another class's).
+      if (inst == instances.end() || inst->second.argmax_class() != it->second.class_id) {
+        it = v.tracks.erase(it);
+      } else {
+        if (it->second.ekf) it->second.ekf->flush();
+        ++it;
+      }
+    }
+  }
+}
+
+std::vector<PoseResultRow> ObjectRpePipeline::final_pose_rows(size_t vi) const {
+  const VariantState& vs = variants_.at(vi);
+  std::vector<PoseResultRow> rows;
+  if (!vs.config.ekf) return rows;
+  for (const auto& s : vs.seen) {
+    const auto t = vs.tracks.find(s.instance_id);
+    if (t == vs.tracks.end() || !t->second.ekf || !t->second.ekf->has_estimate() ||
+        t->second.class_id != s.class_id)
+      continue;
+    PoseResultRow row;
+    row.scene_id = dataset_.scene_id;
+    row.im_id = s.frame_index;
+    row.obj_id = s.class_id;
+    row.score = s.score;
+    row.T_cam_obj = s.T_world_cam.inverse() * t->second.ekf->T_world_obj();
+    row.time_s = s.time_s;
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::vector<ObjectWorldPose> ObjectRpePipeline::object_poses(size_t vi) const {
+  const VariantState& vs = variants_.at(vi);
+  std::vector<ObjectWorldPose> out;
+  if (!semantic_) return out;
+  const auto& instances = semantic_->fusion().instances();
+  const auto geometry = instance_geometry(slam_->map());
+  for (const auto& [id, track] : vs.tracks) {
+    const auto inst = instances.find(id);
+    if (inst == instances.end()) continue;
+    ObjectWorldPose o;
+    o.instance_id = id;
+    o.class_id = track.class_id;
+    o.class_name = models_.class_name(track.class_id);
+    o.class_probability = inst->second.argmax_probability();
+    o.detections = inst->second.detections;
+    if (const auto g = geometry.find(id); g != geometry.end()) o.surfels = g->second.surfels;
+    if (models_.has(track.class_id) && !model_errors_.count(track.class_id))
+      o.model_symmetry = models_.get(track.class_id).symmetry.describe();
+    if (track.ekf) {
+      const FusedObjectPose f = track.ekf->result();
+      o.source = "ekf";
+      o.valid = track.ekf->has_estimate();
+      o.T_world_obj = f.T_world_obj;
+      o.has_covariance = o.valid;
+      o.covariance = f.covariance;
+      o.num_views = f.num_fused;
+      o.num_rejected = std::max(f.num_rejected, track.ekf->rejected());
+      o.num_reinitialisations = f.num_reinitialisations;
+    } else {
+      o.source = "best_single_view";
+      o.valid = track.have_best;
+      o.T_world_obj = track.best_T_world_obj;
+      o.num_views = track.valid_views;
+    }
+    out.push_back(o);
+  }
+  return out;
+}
+
+PointCloudData surfel_map_cloud(const slam::SurfelMap& map, float min_confidence) {
+  PointCloudData cloud;
+  for (size_t i = 0; i < map.size(); ++i) {
+    if (map.confidence[i] < min_confidence) continue;
+    cloud.positions_m.push_back(map.position_world[i]);
+    cloud.normals.push_back(map.normal_world[i]);
+    cloud.colors.push_back(map.color[i]);
+    cloud.radii_m.push_back(map.radius_m[i]);
+    cloud.confidences.push_back(map.confidence[i]);
+    cloud.instance_ids.push_back(map.instance_id[i]);
+  }
+  return cloud;
+}
+
+}  // namespace orpe

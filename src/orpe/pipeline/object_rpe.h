@@ -1,0 +1,214 @@
+// The Object-RPE pipeline (the paper's Fig. 1), per frame:
+//   1. tracking + surfel fusion (slam::SlamSystem);
+//   2. on segmentation keyframes: 2D instance segmentation + instance-aware semantic fusion
+//      (SemanticMapper);
+//   3. on evaluated frames (every PipelineParams::pose_every_n_keyframes-th keyframe): for each object
+//      seen in the frame, single-view 6D pose on the chosen inputs (detection or map-projected mask,
+//      camera or map-projected depth / colour);
+//   4. with the EKF: one PoseEkf per map instance (keyed by instance id; model and symmetry of the
+//      instance's argmax class) fuses the single-view poses moved to the world by the tracked camera.
+// Outputs: per evaluated frame and object a camera-frame pose (BOP result rows), per instance a final
+// world pose (objects.json), plus the SLAM trajectory and the semantic map.
+//
+// Choices (docs/PIPELINE.md has the rationale):
+//  - "Seen in the frame": projected-mask modes take every map instance whose projected mask has at
+//    least min_pose_mask_px pixels at the tracked pose (so an object the detector missed in this frame
+//    still gets a pose); raw-mask modes take this keyframe's detections.
+//  - Class: the instance's argmax class (projected masks) or the detection's class (raw masks).
+//  - Reported camera-frame pose with the EKF: T_world_cam^-1 * T_world_obj of the instance's filter
+//    after this frame's update (also when this frame's measurement was invalid or gated out, as long as
+//    the filter is initialised); without the EKF: the frame's single-view estimate when valid.
+//  - Projected depth / colour are the map rendered at the tracked pose (every surfel, not only the
+//    instance's), so pixels around the object carry the map's surfaces as the camera's images would.
+//  - Frames whose tracking is LOST are neither segmented nor evaluated (their pose is a held guess).
+//  - Several input configurations (PoseVariant) can run in one pass sharing SLAM and semantic mapping;
+//    a single-view estimate is computed once per distinct input (the geometry-only estimator ignores
+//    colour, so DF-PM-PD-PC reuses DF-PM-PD's estimates).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "orpe/core/frame.h"
+#include "orpe/io/bop_results.h"
+#include "orpe/io/dataset.h"
+#include "orpe/io/point_cloud_io.h"
+#include "orpe/pipeline/config.h"
+#include "orpe/pipeline/object_models.h"
+#include "orpe/pipeline/pipeline_params.h"
+#include "orpe/pose/model_registration.h"
+#include "orpe/pose/pose_ekf.h"
+#include "orpe/semantic/semantic_mapper.h"
+#include "orpe/slam/slam_system.h"
+
+namespace orpe {
+
+/// One configuration of the single-view inputs and the EKF switch (a row of the ablation table).
+struct PoseVariant {
+  std::string name;
+  bool projected_mask = true;
+  bool projected_depth = true;
+  bool projected_color = true;
+  bool ekf = true;
+  /// The configuration of `params` (name: its ablation name, or "custom").
+  static PoseVariant from(const PipelineParams& params);
+  /// A named ablation configuration (PipelineParams::ablation_names()). Throws ConfigError.
+  static PoseVariant named(const std::string& name);
+};
+
+struct ObjectRpeParams {
+  slam::SlamParams slam;
+  SegmentationParams segmentation;
+  SemanticParams semantic;
+  ModelRegistrationParams pose_registration;
+  PoseEkfParams pose_ekf;
+  PipelineParams pipeline;
+  /// Pose configurations run in this pass; empty = no pose stage (SLAM + semantic mapping only).
+  std::vector<PoseVariant> variants;
+  /// false = SLAM only (no segmentation, no semantic map, no poses).
+  bool semantic_mapping = true;
+
+  /// The stage params of `config`, one variant from config.pipeline's switches.
+  static ObjectRpeParams from_config(const OrpeConfig& config);
+  bool IsValid(std::string* why) const;
+};
+
+/// One object in one evaluated frame, for one variant.
+struct ObjectFrameEstimate {
+  int instance_id = 0;  ///< map instance (raw masks: the instance the detection joined; 0 = none)
+  int class_id = 0;
+  double class_probability = 0;
+  int mask_px = 0;
+  SingleViewPose single_view;  ///< this frame's single-view estimate (valid = false when none)
+  bool ekf_accepted = false;   ///< the measurement passed the EKF gate (EKF variants)
+  bool reported = false;       ///< a pose is reported for this frame
+  SE3 T_cam_obj;               ///< the reported pose (see the header comment)
+  double score = 0;            ///< the reported row's score
+};
+
+struct PipelineFrameResult {
+  int frame_index = 0;
+  double timestamp_s = 0;
+  slam::SlamFrameResult slam;
+  bool keyframe = false;   ///< segmented and fused semantically
+  bool evaluated = false;  ///< poses were estimated
+  int detections = 0;
+  int instances = 0;  ///< map instances after this frame
+  std::vector<std::vector<ObjectFrameEstimate>> variants;  ///< per variant (when evaluated)
+  // Wall time, milliseconds.
+  double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
+  /// One line for the terminal.
+  std::string report() const;
+};
+
+/// The final pose of one map instance (one variant).
+struct ObjectWorldPose {
+  int instance_id = 0;
+  int class_id = 0;
+  std::string class_name;
+  double class_probability = 0;
+  int detections = 0;  ///< keyframes that detected the instance
+  int surfels = 0;
+  std::string model_symmetry;  ///< the class model's detected symmetry (what the EKF treats as equal)
+  bool valid = false;  ///< a pose exists
+  /// "ekf" (the filter's state) or "best_single_view" (the highest-scoring single-view estimate moved
+  /// to the world, for variants without the EKF).
+  std::string source;
+  SE3 T_world_obj;
+  bool has_covariance = false;
+  Mat6 covariance = Mat6::Zero();  ///< EKF: body-frame tangent [rho; phi] (m^2, rad^2)
+  int num_views = 0;  ///< single-view estimates fused (EKF) or valid (no EKF)
+  int num_rejected = 0;
+  int num_reinitialisations = 0;
+};
+
+/// Totals over a run.
+struct PipelineStats {
+  int frames = 0, keyframes = 0, evaluated_frames = 0, lost_frames = 0, degraded_frames = 0;
+  int detections = 0;
+  int single_view_estimates = 0, single_view_valid = 0, single_view_cache_hits = 0;
+  int ekf_accepted = 0, ekf_rejected = 0;
+  double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
+};
+
+class ObjectRpePipeline {
+ public:
+  /// `dataset` gives the models (model_points_paths / model_mesh_paths / symmetric_classes), class
+  /// names and the scene id of the result rows. Throws ConfigError for invalid params.
+  ObjectRpePipeline(const ObjectRpeParams& params, const DatasetInfo& dataset);
+  ~ObjectRpePipeline();
+
+  /// Replaces the single-view estimator (default: ModelRegistrationEstimator with
+  /// params.pose_registration), e.g. a learned back-end or a test double. `uses_color`: whether its
+  /// result depends on the colour image (else estimates are shared between inputs that differ only
+  /// in colour). Call before the first process().
+  void set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator, bool uses_color);
+  const SingleViewPoseEstimator* single_view_estimator() const { return estimator_.get(); }
+
+  /// Runs every stage on one frame (frames in order).
+  const PipelineFrameResult& process(const RgbdFrame& frame);
+  /// End of the run: removes spurious instances (SemanticMapper::finalize) and drops their filters.
+  void finalize();
+
+  const ObjectRpeParams& params() const { return params_; }
+  const std::vector<StampedPose>& trajectory() const { return trajectory_; }
+  /// Frame indices (RgbdFrame::index) of the evaluated frames, in order.
+  const std::vector<int>& evaluated_frames() const { return evaluated_frames_; }
+  const slam::SlamSystem& slam() const { return *slam_; }
+  /// Null when semantic mapping is off.
+  const SemanticMapper* semantic() const { return semantic_.get(); }
+  ObjectModelLibrary& models() { return models_; }
+  const PipelineStats& stats() const { return stats_; }
+  size_t num_variants() const;
+  const PoseVariant& variant(size_t v) const;
+
+  /// Per evaluated frame and reported object, the camera-frame pose (BOP rows; scene_id = the
+  /// dataset's, im_id = frame index, obj_id = class id, time = the frame's processing time).
+  const std::vector<PoseResultRow>& pose_rows(size_t variant) const;
+  /// The same rows with the *final* fused world pose moved into each frame's camera (EKF variants:
+  /// what the whole sequence says about the frame; others: empty).
+  std::vector<PoseResultRow> final_pose_rows(size_t variant) const;
+  /// Every single-view estimate of a variant (valid or not) with the tracked camera pose, for
+  /// analysis and offline replays of the fusion (single_view.csv).
+  struct SingleViewRecord {
+    int frame_index = 0;
+    int instance_id = 0;
+    int class_id = 0;
+    double class_probability = 0;
+    SingleViewPose estimate;
+    SE3 T_world_cam;
+  };
+  const std::vector<SingleViewRecord>& single_view_records(size_t variant) const;
+  /// Per map instance that got a pose (after finalize(): surviving instances only), sorted by id.
+  std::vector<ObjectWorldPose> object_poses(size_t variant) const;
+
+ private:
+  struct Track;
+  struct VariantState;
+  struct Candidate;
+  void estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam, PipelineFrameResult& result);
+
+  ObjectRpeParams params_;
+  DatasetInfo dataset_;
+  ObjectModelLibrary models_;
+  std::unique_ptr<slam::SlamSystem> slam_;
+  std::unique_ptr<SemanticMapper> semantic_;
+  std::unique_ptr<SingleViewPoseEstimator> estimator_;
+  bool estimator_uses_color_ = false;
+  std::vector<VariantState> variants_;
+  std::vector<StampedPose> trajectory_;
+  std::vector<int> evaluated_frames_;
+  std::map<int, std::string> model_errors_;  // class -> why its model could not be loaded
+  PipelineFrameResult result_;
+  PipelineStats stats_;
+  bool first_frame_ = true;
+};
+
+/// The SLAM map as a point cloud (positions, normals, colours, radii, confidences, instance ids) with
+/// confidence >= min_confidence, for map.ply.
+PointCloudData surfel_map_cloud(const slam::SurfelMap& map, float min_confidence = 0.0f);
+
+}  // namespace orpe

@@ -1,0 +1,95 @@
+// Switches of the Object-RPE pipeline (config section "pipeline"): which inputs the single-view pose
+// estimator gets, whether the per-object EKF runs, on which frames poses are estimated, and run options.
+//
+// The ablation of the paper (Table II) as named configurations of the four input switches:
+//
+//   name          | mask      | depth     | colour    | EKF
+//   DF            | detection | camera    | camera    | off
+//   DF-PM         | projected | camera    | camera    | off
+//   DF-PM-PD      | projected | projected | camera    | off
+//   DF-PM-PD-PC   | projected | projected | projected | off
+//   Object-RPE    | projected | projected | projected | on
+//
+// "DF" is the single-view estimator in use (the paper's DenseFusion). Until a learned back-end exists it
+// is the model-based registration of the pose stage (pose/model_registration.h), which uses geometry
+// only: DF-PM-PD and DF-PM-PD-PC then give identical single-view poses.
+// "Projected" inputs are rendered from the semantic surfel map at the tracked camera pose
+// (SemanticMapper::render_instance_views).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace orpe {
+
+struct PipelineParams {
+  bool use_projected_mask = true;   ///< PM: masks rendered from the map instead of the detections
+  bool use_projected_depth = true;  ///< PD: depth rendered from the map instead of the camera's
+  bool use_projected_color = true;  ///< PC: colour rendered from the map instead of the camera's
+  bool use_ekf = true;              ///< fuse single-view poses per instance with the SE(3) EKF
+  /// Single-view pose runs on every n-th keyframe of the segmentation (its keyframe policy decides
+  /// which frames are keyframes); these are the "evaluated frames" of poses.csv.
+  int pose_every_n_keyframes = 1;
+  int min_pose_mask_px = 200;  ///< instances / detections with a smaller mask get no pose estimate
+  /// Projected-mask modes: only instances detected in at least this many keyframes get a pose.
+  int min_instance_detections = 1;
+  /// Only instances (projected modes) or detections (raw masks) whose class probability reaches this.
+  double min_class_probability = 0.0;
+  /// Symmetry group each object's EKF uses to compare a measurement with its state:
+  /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = the same, but only for
+  /// the dataset's symmetric classes (those scored with ADD-S), "none" = no symmetry (the paper).
+  std::string ekf_symmetry = "none";
+  /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
+  /// object_fusion.h); 1 = from the first measurement (the paper).
+  int ekf_init_views = 5;
+  /// Give the single-view estimator the EKF's current pose (moved into the camera) as one more
+  /// hypothesis. Off by default: the paper's measurements are independent single-view estimates.
+  bool ekf_prior_hypothesis = false;
+  /// Start the SLAM at the first frame's ground-truth camera pose when the dataset has one, so that
+  /// the trajectory and world poses are in the dataset's world frame; else the first camera is the world.
+  bool init_from_ground_truth = true;
+  /// map.ply / semantic_map.ply: write surfels with at least this confidence (0 = all).
+  double output_min_confidence = 0.0;
+  /// Terminal progress line every n frames (0 = none).
+  int progress_every_n_frames = 1;
+
+  template <class V>
+  void visit(V&& v) {
+    v("use_projected_mask", use_projected_mask,
+      "PM: single-view pose on the instance mask rendered from the map (else the detection's mask)");
+    v("use_projected_depth", use_projected_depth,
+      "PD: single-view pose on the depth rendered from the map (else the camera's depth)");
+    v("use_projected_color", use_projected_color,
+      "PC: single-view pose on the colour rendered from the map (else the camera's colour)");
+    v("use_ekf", use_ekf, "Fuse single-view poses per object instance with the SE(3) EKF");
+    v("pose_every_n_keyframes", pose_every_n_keyframes,
+      "Estimate poses on every n-th segmentation keyframe (the evaluated frames)");
+    v("min_pose_mask_px", min_pose_mask_px, "Masks with fewer pixels get no pose estimate");
+    v("min_instance_detections", min_instance_detections,
+      "Projected masks: only instances detected in at least this many keyframes get a pose");
+    v("min_class_probability", min_class_probability,
+      "Only instances / detections whose class probability reaches this get a pose, in [0, 1]");
+    v("ekf_symmetry", ekf_symmetry,
+      "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the dataset's "
+      "symmetric classes) | none");
+    v("ekf_init_views", ekf_init_views,
+      "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
+    v("ekf_prior_hypothesis", ekf_prior_hypothesis,
+      "Give the single-view estimator the EKF pose as an extra hypothesis (paper: off)");
+    v("init_from_ground_truth", init_from_ground_truth,
+      "Start the SLAM at the first frame's ground-truth camera pose when there is one");
+    v("output_min_confidence", output_min_confidence,
+      "map.ply / semantic_map.ply keep surfels with at least this confidence (0 = all)");
+    v("progress_every_n_frames", progress_every_n_frames, "Progress line every n frames (0 = none)");
+  }
+  bool IsValid(std::string* why) const;
+
+  /// The named ablation configurations, in table order.
+  static const std::vector<std::string>& ablation_names();
+  /// Sets the four switches to a named configuration. Throws ConfigError for an unknown name.
+  void apply_ablation(const std::string& name);
+  /// The name of the configuration the switches form, or "custom".
+  std::string ablation_name() const;
+};
+
+}  // namespace orpe

@@ -1,0 +1,303 @@
+#include "orpe/pipeline/run.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "orpe/core/atomic_file.h"
+#include "orpe/core/error.h"
+#include "orpe/io/bop_results.h"
+#include "orpe/io/json_summary.h"
+#include "orpe/io/point_cloud_io.h"
+#include "orpe/io/trajectory_io.h"
+#include "orpe/semantic/semantic_output.h"
+
+namespace orpe {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+nlohmann::json pose_json(const SE3& T) {
+  nlohmann::json j;
+  const Mat4 M = T.matrix();
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) rows.push_back({M(r, 0), M(r, 1), M(r, 2), M(r, 3)});
+  j["matrix"] = rows;
+  const Eigen::Quaterniond q = T.quaternion();
+  j["t_m"] = {T.translation().x(), T.translation().y(), T.translation().z()};
+  j["q_xyzw"] = {q.x(), q.y(), q.z(), q.w()};
+  return j;
+}
+
+}  // namespace
+
+void write_single_view_csv(const std::string& path,
+                           const std::vector<ObjectRpePipeline::SingleViewRecord>& records) {
+  write_file_atomic(path, [&](std::ostream& os) {
+    os << "frame,instance,class,class_probability,valid,score,mu_m,inlier_fraction,num_points,"
+          "R_cam_obj,t_cam_obj_m,R_world_cam,t_world_cam_m\n";
+    auto pose = [](const SE3& T) {
+      const Mat3& R = T.rotation();
+      return fmt::format("{:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f},{:.9f} {:.9f} {:.9f}",
+                         R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1),
+                         R(2, 2), T.translation().x(), T.translation().y(), T.translation().z());
+    };
+    for (const auto& r : records)
+      os << fmt::format("{},{},{},{:.6f},{},{:.6f},{:.6g},{:.4f},{},{},{}\n", r.frame_index,
+                        r.instance_id, r.class_id, r.class_probability, r.estimate.valid ? 1 : 0,
+                        r.estimate.score, r.estimate.mu_m, r.estimate.inlier_fraction,
+                        r.estimate.num_points, pose(r.estimate.T_cam_obj), pose(r.T_world_cam));
+  });
+}
+
+std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const PoseVariant& variant) {
+  nlohmann::json j;
+  j["configuration"] = variant.name;
+  j["inputs"] = {{"projected_mask", variant.projected_mask},
+                 {"projected_depth", variant.projected_depth},
+                 {"projected_color", variant.projected_color},
+                 {"ekf", variant.ekf}};
+  j["frames"] = "world = the SLAM map's frame (the first camera, or the dataset's world when the "
+                "first frame has a ground-truth pose and pipeline.init_from_ground_truth is on)";
+  j["covariance"] = "6x6, body-frame tangent [rho; phi] of T_world_obj (m^2, rad^2), row-major";
+  j["objects"] = nlohmann::json::array();
+  for (const auto& o : objects) {
+    nlohmann::json r;
+    r["instance_id"] = o.instance_id;
+    r["class_id"] = o.class_id;
+    r["class_name"] = o.class_name;
+    r["class_probability"] = o.class_probability;
+    r["detections"] = o.detections;
+    r["surfels"] = o.surfels;
+    r["valid"] = o.valid;
+    r["source"] = o.source;
+    r["model_symmetry"] = o.model_symmetry;
+    r["num_views"] = o.num_views;
+    r["num_rejected"] = o.num_rejected;
+    r["num_reinitialisations"] = o.num_reinitialisations;
+    r["T_world_obj"] = o.valid ? pose_json(o.T_world_obj) : nlohmann::json(nullptr);
+    if (o.has_covariance) {
+      nlohmann::json cov = nlohmann::json::array();
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b < 6; ++b) cov.push_back(o.covariance(a, b));
+      r["covariance"] = cov;
+    } else {
+      r["covariance"] = nullptr;
+    }
+    j["objects"].push_back(r);
+  }
+  return j.dump(2);
+}
+
+std::string RunSummary::report() const {
+  std::string s = fmt::format("orpe run ({}): {} frames ({} skipped), {} keyframes, {} evaluated; "
+                              "{} surfels, {} instances\n",
+                              mode, frames, skipped_frames, stats.keyframes, stats.evaluated_frames,
+                              surfels, instances);
+  if (stats.lost_frames || stats.degraded_frames)
+    s += fmt::format("tracking: {} degraded, {} lost frames\n", stats.degraded_frames,
+                     stats.lost_frames);
+  for (size_t v = 0; v < variants.size(); ++v)
+    s += fmt::format("poses [{}]: {} rows\n", variants[v], pose_rows[v]);
+  if (stats.single_view_estimates)
+    s += fmt::format("single-view: {} estimates ({} valid, {} reused); EKF: {} accepted, {} gated\n",
+                     stats.single_view_estimates, stats.single_view_valid,
+                     stats.single_view_cache_hits, stats.ekf_accepted, stats.ekf_rejected);
+  const double n = std::max(frames, 1);
+  s += fmt::format(
+      "time per frame: read {:.0f} ms, slam {:.0f} ms, semantic {:.0f} ms, render {:.0f} ms, "
+      "single-view {:.0f} ms, ekf {:.1f} ms; wall {:.1f} s\n",
+      read_ms / n, stats.slam_ms / n, stats.semantic_ms / n, stats.render_ms / n,
+      stats.single_view_ms / n, stats.ekf_ms / n, wall_ms / 1000);
+  s += "outputs in " + out_dir + ":";
+  for (const auto& f : files) s += " " + f;
+  return s + "\n";
+}
+
+RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
+  const auto t_start = Clock::now();
+  if (options.mode != "slam" && options.mode != "semantic" && options.mode != "full")
+    throw ConfigError("run: unknown mode '" + options.mode + "' (slam | semantic | full)");
+  if (options.out_dir.empty()) throw ConfigError("run: no output folder");
+  std::string why;
+  if (!config.IsValid(&why)) throw ConfigError("invalid configuration: " + why);
+
+  ObjectRpeParams params = ObjectRpeParams::from_config(config);
+  params.semantic_mapping = options.mode != "slam";
+  params.variants.clear();
+  if (options.mode == "full") {
+    if (options.ablations.empty()) {
+      params.variants.push_back(PoseVariant::from(config.pipeline));
+    } else {
+      for (const auto& name : options.ablations) params.variants.push_back(PoseVariant::named(name));
+    }
+  }
+  const auto reader = open_dataset(options.dataset_path, config.dataset);
+  const DatasetInfo& info = reader->info();
+  if (reader->size() == 0)
+    throw IoError(options.dataset_path, "no frames selected (check dataset.first_frame/last_frame)");
+  if (options.mode == "full" && info.model_points_paths.empty())
+    throw IoError(options.dataset_path,
+                  "the dataset has no object models (full mode estimates object poses)");
+
+  ObjectRpePipeline pipeline(params, info);
+  RunSummary summary;
+  summary.out_dir = options.out_dir;
+  summary.mode = options.mode;
+  for (size_t v = 0; v < pipeline.num_variants(); ++v)
+    summary.variants.push_back(pipeline.variant(v).name);
+  auto progress = [&](const std::string& line) {
+    if (options.progress)
+      options.progress(line);
+    else
+      spdlog::info("{}", line);
+  };
+  progress(fmt::format("{} ({}, scene {}): {} frames, mode {}{}", options.dataset_path, info.format,
+                       info.scene_id, reader->size(), options.mode,
+                       summary.variants.empty()
+                           ? std::string()
+                           : fmt::format(", poses: {}", fmt::join(summary.variants, ", "))));
+
+  FrameStream stream(*reader);
+  RgbdFrame frame;
+  const int every = config.pipeline.progress_every_n_frames;
+  const size_t total = reader->size();
+  while (true) {
+    const auto t_read = Clock::now();
+    if (!stream.next(frame)) break;
+    summary.read_ms += ms_since(t_read);
+    const PipelineFrameResult& r = pipeline.process(frame);
+    ++summary.frames;
+    if (every > 0 && (summary.frames % every == 0 || summary.frames == static_cast<int>(total)))
+      progress(fmt::format("[{:4d}/{}] {}", summary.frames, total, r.report()));
+  }
+  summary.skipped_frames = static_cast<int>(stream.skipped());
+  if (summary.frames == 0)
+    throw IoError(options.dataset_path, "no readable frame (every selected frame failed to load)");
+  pipeline.finalize();
+
+  // Outputs, each atomic.
+  const auto t_out = Clock::now();
+  namespace fs = std::filesystem;
+  const std::string out = options.out_dir;
+  auto path = [&](const std::string& name) { return (fs::path(out) / name).string(); };
+  write_tum_trajectory(path("trajectory.txt"), pipeline.trajectory());
+  summary.files.push_back("trajectory.txt");
+  const float min_conf = static_cast<float>(config.pipeline.output_min_confidence);
+  write_point_cloud_ply(path("map.ply"), surfel_map_cloud(pipeline.slam().map(), min_conf));
+  summary.files.push_back("map.ply");
+  summary.surfels = pipeline.slam().map().size();
+  if (const SemanticMapper* semantic = pipeline.semantic()) {
+    write_semantic_outputs(out, pipeline.slam().map(), semantic->fusion().instances(),
+                           info.class_names, min_conf);
+    summary.files.insert(summary.files.end(),
+                         {"semantic_map.ply", "semantic_map_instances.ply", "instances.json"});
+    summary.instances = static_cast<int>(semantic->fusion().instances().size());
+  }
+  if (pipeline.num_variants() > 0) {
+    // The evaluated frames as a YCB-Video keyframe list (`orpe eval poses --keyframes`), so that
+    // frames without pose estimates on purpose are not scored as misses.
+    write_file_atomic(path("evaluated_frames.txt"), [&](std::ostream& os) {
+      for (int f : pipeline.evaluated_frames()) os << fmt::format("{:04d}/{:06d}\n", info.scene_id, f);
+    });
+    summary.files.push_back("evaluated_frames.txt");
+  }
+  for (size_t v = 0; v < pipeline.num_variants(); ++v) {
+    const PoseVariant& variant = pipeline.variant(v);
+    summary.pose_rows.push_back(pipeline.pose_rows(v).size());
+    std::vector<std::string> dirs;
+    if (v == 0) dirs.push_back("");
+    if (!options.ablations.empty()) dirs.push_back("ablation/" + variant.name + "/");
+    for (const auto& dir : dirs) {
+      write_bop_results(path(dir + "poses.csv"), pipeline.pose_rows(v));
+      summary.files.push_back(dir + "poses.csv");
+      if (variant.ekf) {
+        write_bop_results(path(dir + "poses_final.csv"), pipeline.final_pose_rows(v));
+        summary.files.push_back(dir + "poses_final.csv");
+      }
+      write_single_view_csv(path(dir + "single_view.csv"), pipeline.single_view_records(v));
+      summary.files.push_back(dir + "single_view.csv");
+      const std::string objects = object_poses_json(pipeline.object_poses(v), variant);
+      write_file_atomic(path(dir + "objects.json"), [&](std::ostream& os) { os << objects << "\n"; });
+      summary.files.push_back(dir + "objects.json");
+    }
+  }
+  summary.stats = pipeline.stats();
+  summary.output_ms = ms_since(t_out);
+  summary.wall_ms = ms_since(t_start);
+
+  JsonSummary js;
+  js.set("mode", options.mode);
+  js.set("dataset.path", options.dataset_path);
+  js.set("dataset.format", info.format);
+  js.set("dataset.scene_id", info.scene_id);
+  js.set("dataset.frames_selected", static_cast<int>(total));
+  js.set("dataset.frames_processed", summary.frames);
+  js.set("dataset.frames_skipped", summary.skipped_frames);
+  std::vector<std::string> skipped;
+  for (const auto& [pos, msg] : stream.skipped_frames()) skipped.push_back(msg);
+  js.set("dataset.skipped_messages", skipped);
+  js.set("single_view_estimator",
+         pipeline.single_view_estimator() ? pipeline.single_view_estimator()->name() : "none");
+  js.set("variants", summary.variants);
+  for (size_t v = 0; v < pipeline.num_variants(); ++v) {
+    const PoseVariant& variant = pipeline.variant(v);
+    const std::string key = "variant." + variant.name;
+    js.set(key + ".projected_mask", variant.projected_mask);
+    js.set(key + ".projected_depth", variant.projected_depth);
+    js.set(key + ".projected_color", variant.projected_color);
+    js.set(key + ".ekf", variant.ekf);
+    js.set(key + ".pose_rows", summary.pose_rows[v]);
+    js.set(key + ".directory",
+           options.ablations.empty() ? std::string(".") : "ablation/" + variant.name);
+  }
+  const PipelineStats& st = summary.stats;
+  js.set("counts.frames", st.frames);
+  js.set("counts.keyframes", st.keyframes);
+  js.set("counts.evaluated_frames", st.evaluated_frames);
+  js.set("counts.tracking_degraded", st.degraded_frames);
+  js.set("counts.tracking_lost", st.lost_frames);
+  js.set("counts.detections", st.detections);
+  js.set("counts.instances", summary.instances);
+  js.set("counts.surfels", summary.surfels);
+  js.set("counts.single_view_estimates", st.single_view_estimates);
+  js.set("counts.single_view_valid", st.single_view_valid);
+  js.set("counts.single_view_reused", st.single_view_cache_hits);
+  js.set("counts.ekf_accepted", st.ekf_accepted);
+  js.set("counts.ekf_rejected", st.ekf_rejected);
+  const double n = std::max(summary.frames, 1);
+  js.set("timing_ms.total.read", summary.read_ms);
+  js.set("timing_ms.total.slam", st.slam_ms);
+  js.set("timing_ms.total.semantic", st.semantic_ms);
+  js.set("timing_ms.total.render_views", st.render_ms);
+  js.set("timing_ms.total.single_view", st.single_view_ms);
+  js.set("timing_ms.total.ekf", st.ekf_ms);
+  js.set("timing_ms.total.pipeline", st.total_ms);
+  js.set("timing_ms.total.output", summary.output_ms);
+  js.set("timing_ms.total.wall", summary.wall_ms);
+  js.set("timing_ms.per_frame.read", summary.read_ms / n);
+  js.set("timing_ms.per_frame.slam", st.slam_ms / n);
+  js.set("timing_ms.per_frame.semantic", st.semantic_ms / n);
+  js.set("timing_ms.per_frame.render_views", st.render_ms / n);
+  js.set("timing_ms.per_frame.single_view", st.single_view_ms / n);
+  js.set("timing_ms.per_frame.ekf", st.ekf_ms / n);
+  js.set("timing_ms.per_frame.pipeline", st.total_ms / n);
+  js.set("timing_ms.per_evaluated_frame.single_view",
+         st.evaluated_frames ? st.single_view_ms / st.evaluated_frames : 0.0);
+  if (st.single_view_estimates)
+    js.set("timing_ms.per_single_view_estimate", st.single_view_ms / st.single_view_estimates);
+  js.set_json("config", config_to_json(config));
+  summary.files.push_back("summary.json");
+  js.set("files", summary.files);
+  js.write(path("summary.json"));
+  return summary;
+}
+
+}  // namespace orpe

@@ -1,0 +1,69 @@
+// `orpe run`: a whole dataset through the pipeline, with every output written atomically.
+//
+//  OUT/trajectory.txt        TUM trajectory (T_world_cam per frame; timestamps of the dataset)
+//  OUT/map.ply               the surfel map (position, normal, colour, radius, confidence, instance)
+//  OUT/summary.json          timings per stage, counts, the effective configuration
+//  semantic and full modes:
+//  OUT/semantic_map.ply      surfels with instance and class ids (semantic/semantic_output.h)
+//  OUT/semantic_map_instances.ply  the same, coloured by instance
+//  OUT/instances.json        per instance: class distribution, surfels, box, detections
+//  full mode:
+//  OUT/poses.csv             BOP results: one row per object per evaluated frame (camera frame)
+//  OUT/poses_final.csv       (EKF) the final fused world poses moved into each evaluated frame
+//  OUT/objects.json          per instance: class, world pose, covariance, number of fused views
+//  OUT/single_view.csv      every single-view estimate with the tracked camera pose (write_single_view_csv)
+//  OUT/evaluated_frames.txt  the frames with pose estimates, as a keyframe list (scene/frame per line)
+//  OUT/ablation/<name>/{poses.csv, poses_final.csv, objects.json}  per configuration named in
+//                            RunOptions::ablations (the first-listed one is also written to OUT/)
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "orpe/pipeline/config.h"
+#include "orpe/pipeline/object_rpe.h"
+
+namespace orpe {
+
+struct RunOptions {
+  std::string dataset_path;
+  std::string out_dir;
+  std::string mode = "full";  ///< slam | semantic | full
+  /// Pose configurations (ablation names) to run in one pass; empty = config.pipeline's switches.
+  /// The first one is the primary, written to OUT/ directly.
+  std::vector<std::string> ablations;
+  /// Called with each progress line; null = spdlog::info.
+  std::function<void(const std::string&)> progress;
+};
+
+struct RunSummary {
+  std::string out_dir;
+  std::string mode;
+  int frames = 0;
+  int skipped_frames = 0;
+  int instances = 0;
+  size_t surfels = 0;
+  std::vector<std::string> variants;
+  std::vector<size_t> pose_rows;  ///< per variant
+  PipelineStats stats;
+  double read_ms = 0, output_ms = 0, wall_ms = 0;
+  std::vector<std::string> files;  ///< written, relative to out_dir
+  std::string report() const;
+};
+
+/// Runs the pipeline over the dataset at options.dataset_path (config.dataset selects the scene and
+/// frames) and writes the outputs above. Throws IoError / ConfigError with the file and the problem;
+/// outputs already written stay complete (each file is atomic).
+RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options);
+
+/// single_view.csv: every single-view estimate of a variant, one line each:
+/// frame,instance,class,class_probability,valid,score,mu_m,inlier_fraction,num_points,
+/// R_cam_obj (9 values row-major, spaces),t_cam_obj_m (3),R_world_cam (9),t_world_cam_m (3)
+void write_single_view_csv(const std::string& path,
+                           const std::vector<ObjectRpePipeline::SingleViewRecord>& records);
+
+/// objects.json text for a set of final object poses.
+std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const PoseVariant& variant);
+
+}  // namespace orpe

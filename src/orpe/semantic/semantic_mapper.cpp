@@ -1,0 +1,93 @@
+#include "orpe/semantic/semantic_mapper.h"
+
+#include <chrono>
+#include <fmt/format.h>
+
+namespace orpe {
+
+std::vector<InstanceView> split_instance_views(const InstanceImages& images,
+                                               const std::map<int, InstanceInfo>& instances,
+                                               int min_area_px) {
+  const int W = images.instance_id.width(), H = images.instance_id.height();
+  const bool have_color = images.color.width() == W && images.color.height() == H;
+  std::map<int, int> area;
+  for (const auto id : images.instance_id)
+    if (id > 0) ++area[id];
+  std::vector<InstanceView> out;
+  for (const auto& [id, pixels] : area) {
+    const auto it = instances.find(id);
+    if (it == instances.end() || pixels < min_area_px) continue;
+    InstanceView iv;
+    iv.instance_id = id;
+    iv.class_id = it->second.argmax_class();
+    iv.class_probability = it->second.argmax_probability();
+    iv.area_px = pixels;
+    iv.projected_mask = MaskImage(W, H, 0);
+    iv.projected_depth = DepthImage(W, H, 0.0f);
+    iv.projected_color = ColorImage(W, H, Rgb8{});
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u) {
+        if (images.instance_id.at(u, v) != id) continue;
+        iv.projected_mask.at(u, v) = 1;
+        iv.projected_depth.at(u, v) = images.depth.at(u, v);
+        if (have_color) iv.projected_color.at(u, v) = images.color.at(u, v);
+        iv.box.include(u, v);
+      }
+    out.push_back(std::move(iv));
+  }
+  return out;
+}
+
+SemanticMapper::SemanticMapper(const SegmentationParams& segmentation, const SemanticParams& semantic,
+                               std::vector<int> class_ids)
+    : SemanticMapper(make_segmenter(segmentation, std::move(class_ids)), segmentation, semantic) {}
+
+SemanticMapper::SemanticMapper(std::unique_ptr<Segmenter> segmenter,
+                               const SegmentationParams& segmentation, const SemanticParams& semantic)
+    : segmenter_(std::move(segmenter)), keyframe_selector_(segmentation), fusion_(semantic) {}
+
+const SemanticStep& SemanticMapper::process(const RgbdFrame& frame, const SE3& T_world_cam,
+                                            slam::SurfelMap& map, const slam::IndexImage* pixel_surfel) {
+  ++frames_;
+  step_ = SemanticStep{};
+  step_.keyframe = keyframe_selector_.is_keyframe(T_world_cam);
+  if (!step_.keyframe) return step_;
+  ++keyframes_;
+  const auto t0 = std::chrono::steady_clock::now();
+  step_.detections = segmenter_->detect(frame);
+  segment_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  detections_ += static_cast<int>(step_.detections.size());
+  step_.report = fusion_.integrate(frame, step_.detections, T_world_cam, map, pixel_surfel);
+  fuse_ms_ += step_.report.total_ms;
+  return step_;
+}
+
+std::vector<InstanceView> SemanticMapper::render_instance_views(const slam::SurfelMap& map,
+                                                                const SE3& T_world_cam,
+                                                                const PinholeIntrinsics& K,
+                                                                int min_area_px) {
+  InstanceImages images;
+  fusion_.render_instances(map, T_world_cam, K, true, &images);
+  return split_instance_views(images, fusion_.confirmed_instances(), min_area_px);
+}
+
+
+LabelImage SemanticMapper::render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
+                                                  const PinholeIntrinsics& K) {
+  InstanceImages images;
+  fusion_.render_instances(map, T_world_cam, K, false, &images);
+  const auto confirmed = fusion_.confirmed_instances();
+  for (auto& id : images.instance_id)
+    if (id > 0 && !confirmed.count(id)) id = 0;
+  return std::move(images.instance_id);
+}
+
+std::string SemanticMapper::summary() const {
+  return fmt::format(
+      "semantic: {} frames, {} keyframes ({} back-end), {} detections, {} instances; "
+      "segmentation {:.1f} ms/keyframe, fusion {:.1f} ms/keyframe",
+      frames_, keyframes_, segmenter_->name(), detections_, fusion_.instances().size(),
+      keyframes_ ? segment_ms_ / keyframes_ : 0.0, keyframes_ ? fuse_ms_ / keyframes_ : 0.0);
+}
+
+}  // namespace orpe

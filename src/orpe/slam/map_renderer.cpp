@@ -1,0 +1,244 @@
+#include "orpe/slam/map_renderer.h"
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include "orpe/slam/rigid_f.h"
+
+namespace orpe::slam {
+namespace {
+
+constexpr std::uint64_t kEmpty = std::numeric_limits<std::uint64_t>::max();
+
+// Positive floats order like their bit patterns, so (depth bits, index) packs into one key whose
+// minimum is the nearest surface, ties going to the lower index: deterministic under any schedule.
+inline std::uint64_t pack(float depth, std::uint32_t index) {
+  return (static_cast<std::uint64_t>(std::bit_cast<std::uint32_t>(depth)) << 32) | index;
+}
+inline float unpack_depth(std::uint64_t key) {
+  return std::bit_cast<float>(static_cast<std::uint32_t>(key >> 32));
+}
+inline std::int32_t unpack_index(std::uint64_t key) {
+  return static_cast<std::int32_t>(key & 0xffffffffu);
+}
+
+inline void atomic_min(std::uint64_t& slot, std::uint64_t key) {
+  std::atomic_ref<std::uint64_t> ref(slot);
+  std::uint64_t cur = ref.load(std::memory_order_relaxed);
+  while (key < cur && !ref.compare_exchange_weak(cur, key, std::memory_order_relaxed)) {
+  }
+}
+
+struct CameraF {
+  RigidF T_cam_world;
+  float fx, fy, cx, cy;
+  int width, height;
+  CameraF(const SE3& T_world_cam, const PinholeIntrinsics& K, int scale) {
+    T_cam_world = RigidF(T_world_cam.inverse());
+    fx = static_cast<float>(K.fx);
+    fy = static_cast<float>(K.fy);
+    cx = static_cast<float>(K.cx);
+    cy = static_cast<float>(K.cy);
+    width = K.width * scale;
+    height = K.height * scale;
+  }
+};
+
+// The surfel filter shared by both render modes.
+struct SurfelFilter {
+  const SurfelMap& map;
+  const RenderOptions& o;
+  bool operator()(size_t i) const {
+    if (o.only_instance > 0 && map.instance_id[i] != o.only_instance) return false;
+    if (!map.is_active(i, o.now, o.active_window_frames)) return false;
+    if (map.confidence[i] >= o.min_confidence) return true;
+    return o.also_seen_since >= 0 && map.last_seen_time[i] >= o.also_seen_since;
+  }
+};
+
+template <class T>
+void ensure_size(Image<T>& img, int w, int h) {
+  if (img.width() != w || img.height() != h) img = Image<T>(w, h, T{});
+}
+void ensure_size(Image<Vec3f>& img, int w, int h) {
+  if (img.width() != w || img.height() != h) img = Image<Vec3f>(w, h, Vec3f::Zero());
+}
+
+}  // namespace
+
+void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
+                         const RenderOptions& options, RenderedView* out) {
+  const CameraF cam(T_world_cam, K, 1);
+  const int W = cam.width, H = cam.height;
+  const size_t npix = static_cast<size_t>(W) * H;
+  if (zbuffer_.size() < npix) zbuffer_.resize(npix);
+  std::uint64_t* zbuf = zbuffer_.data();
+  std::fill(zbuf, zbuf + npix, kEmpty);
+
+  const SurfelFilter keep{map, options};
+  const long n = static_cast<long>(map.size());
+  const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
+  const float f_max = std::max(cam.fx, cam.fy);
+  size_t drawn = 0;
+
+#pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
+  for (long i = 0; i < n; ++i) {
+    if (!keep(static_cast<size_t>(i))) continue;
+    const Vec3f p = cam.T_cam_world(map.position_world[i]);
+    const float z = p.z();
+    if (z < options.near_m || z > options.far_m) continue;
+    const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[i]);
+    const float facing = nrm.dot(p);
+    if (facing >= 0.0f) continue;  // back-facing
+    const float u = cam.fx * p.x() / z + cam.cx;
+    const float v = cam.fy * p.y() / z + cam.cy;
+    const float r_m = map.radius_m[i] * options.radius_scale;
+    const float r_px = std::min(r_m * f_max / z, options.max_splat_radius_px);
+    if (u + r_px < -0.5f || v + r_px < -0.5f || u - r_px > W - 0.5f || v - r_px > H - 0.5f) continue;
+    ++drawn;
+    const auto idx = static_cast<std::uint32_t>(i);
+    const int uc = static_cast<int>(std::floor(u + 0.5f)), vc = static_cast<int>(std::floor(v + 0.5f));
+    const int u0 = std::max(0, static_cast<int>(std::ceil(u - r_px)));
+    const int u1 = std::min(W - 1, static_cast<int>(std::floor(u + r_px)));
+    const int v0 = std::max(0, static_cast<int>(std::ceil(v - r_px)));
+    const int v1 = std::min(H - 1, static_cast<int>(std::floor(v + r_px)));
+    const float r2 = r_m * r_m;
+    // The plane n . X = n . p; along the pixel ray X = d * t with d = ((x - cx)/fx, (y - cy)/fy, 1)
+    // the intersection's depth is t = (n . p) / (n . d).
+    const float np = facing;
+    bool centre_drawn = false;
+    const float kappa = options.centre_preference;
+    for (int y = v0; y <= v1; ++y) {
+      const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
+      const float py = static_cast<float>(y) - v;
+      for (int x = u0; x <= u1; ++x) {
+        const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
+        const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
+        if (nd > -1e-4f) continue;  // grazing ray
+        const float t = np / nd;
+        const float ex = dx * t - p.x(), ey = dy * t - p.y(), ez = t - z;
+        if (ex * ex + ey * ey + ez * ez > r2 || t < options.near_m) continue;
+        const float px = static_cast<float>(x) - u;
+        atomic_min(zbuf[static_cast<size_t>(y) * W + x], pack(t * (1.0f + kappa * (px * px + py * py)), idx));
+        if (x == uc && y == vc) centre_drawn = true;
+      }
+    }
+    // A splat smaller than a pixel (or missed by every pixel ray) still covers its centre's pixel.
+    if (!centre_drawn && uc >= 0 && vc >= 0 && uc < W && vc < H) {
+      const float px = static_cast<float>(uc) - u, py = static_cast<float>(vc) - v;
+      atomic_min(zbuf[static_cast<size_t>(vc) * W + uc], pack(z * (1.0f + kappa * (px * px + py * py)), idx));
+    }
+  }
+
+  ensure_size(out->depth, W, H);
+  ensure_size(out->surfel_index, W, H);
+  if (options.want_vertex) ensure_size(out->vertex, W, H);
+  if (options.want_normal) ensure_size(out->normal, W, H);
+  if (options.want_color) ensure_size(out->color, W, H);
+  if (options.want_instance) ensure_size(out->instance_id, W, H);
+  if (options.want_surfel_centre) ensure_size(out->surfel_centre, W, H);
+  out->drawn_surfels = drawn;
+
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
+    for (int x = 0; x < W; ++x) {
+      const size_t k = static_cast<size_t>(y) * W + x;
+      const std::uint64_t key = zbuf[k];
+      if (key == kEmpty) {
+        out->depth[k] = 0.0f;
+        out->surfel_index[k] = -1;
+        if (options.want_vertex) out->vertex[k].setZero();
+        if (options.want_normal) out->normal[k].setZero();
+        if (options.want_color) out->color[k] = Rgb8{};
+        if (options.want_instance) out->instance_id[k] = 0;
+        if (options.want_surfel_centre) out->surfel_centre[k].setZero();
+        continue;
+      }
+      const std::int32_t s = unpack_index(key);
+      // The key's depth carries the centre preference: recompute the ray-plane intersection.
+      const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
+      const Vec3f p = cam.T_cam_world(map.position_world[s]);
+      const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[s]);
+      const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
+      float t = nd < -1e-4f ? nrm.dot(p) / nd : p.z();
+      if (!(t > 0.0f) || std::fabs(t - p.z()) > map.radius_m[s] * options.radius_scale) t = p.z();
+      out->depth[k] = t;
+      out->surfel_index[k] = s;
+      if (options.want_vertex) out->vertex[k] = Vec3f(dx * t, dy * t, t);
+      if (options.want_normal) out->normal[k] = nrm;
+      if (options.want_color) out->color[k] = map.color[s];
+      if (options.want_instance) out->instance_id[k] = map.instance_id[s];
+      if (options.want_surfel_centre) out->surfel_centre[k] = p;
+    }
+  }
+}
+
+void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,
+                                   const PinholeIntrinsics& K, int supersample,
+                                   const RenderOptions& options, IndexMap* out,
+                                   bool want_attributes) {
+  const int s = std::max(1, supersample);
+  const CameraF cam(T_world_cam, K, s);
+  const int W = cam.width, H = cam.height;
+  const size_t ncell = static_cast<size_t>(W) * H;
+  if (zbuffer_.size() < ncell) zbuffer_.resize(ncell);
+  std::uint64_t* zbuf = zbuffer_.data();
+  std::fill(zbuf, zbuf + ncell, kEmpty);
+
+  const SurfelFilter keep{map, options};
+  const long n = static_cast<long>(map.size());
+  const float sf = static_cast<float>(s);
+  size_t drawn = 0;
+
+#pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
+  for (long i = 0; i < n; ++i) {
+    if (!keep(static_cast<size_t>(i))) continue;
+    const Vec3f p = cam.T_cam_world(map.position_world[i]);
+    const float z = p.z();
+    if (z < options.near_m || z > options.far_m) continue;
+    // Cell of the projected centre at s x resolution: pixel u covers [u - 0.5, u + 0.5).
+    const float cu = (cam.fx * p.x() / z + cam.cx + 0.5f) * sf;
+    const float cv = (cam.fy * p.y() / z + cam.cy + 0.5f) * sf;
+    if (!(cu >= 0.0f && cv >= 0.0f && cu < static_cast<float>(W) && cv < static_cast<float>(H)))
+      continue;
+    ++drawn;
+    const size_t cell = static_cast<size_t>(cv) * W + static_cast<size_t>(cu);
+    atomic_min(zbuf[cell], pack(z, static_cast<std::uint32_t>(i)));
+  }
+
+  out->supersample = s;
+  ensure_size(out->surfel_index, W, H);
+  ensure_size(out->depth, W, H);
+  ensure_size(out->position_cam, W, H);
+  if (want_attributes) {
+    ensure_size(out->normal_world, W, H);
+    ensure_size(out->radius_m, W, H);
+    ensure_size(out->confidence, W, H);
+  }
+  out->drawn_surfels = drawn;
+#pragma omp parallel for schedule(static)
+  for (long k = 0; k < static_cast<long>(ncell); ++k) {
+    const std::uint64_t key = zbuf[k];
+    if (key == kEmpty) {
+      out->surfel_index[k] = -1;
+      out->depth[k] = 0.0f;
+      out->position_cam[k].setZero();
+      continue;
+    }
+    const std::int32_t i = unpack_index(key);
+    out->surfel_index[k] = i;
+    out->depth[k] = unpack_depth(key);
+    out->position_cam[k] = cam.T_cam_world(map.position_world[i]);
+    if (want_attributes) {
+      out->normal_world[k] = map.normal_world[i];
+      out->radius_m[k] = map.radius_m[i];
+      out->confidence[k] = map.confidence[i];
+    }
+  }
+}
+
+}  // namespace orpe::slam

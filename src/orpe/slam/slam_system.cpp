@@ -1,0 +1,177 @@
+#include "orpe/slam/slam_system.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+
+#include "orpe/core/error.h"
+
+namespace orpe::slam {
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+}
+
+}  // namespace
+
+const char* to_string(TrackingStatus s) {
+  switch (s) {
+    case TrackingStatus::kOk: return "OK";
+    case TrackingStatus::kDegraded: return "DEGRADED";
+    case TrackingStatus::kLost: return "LOST";
+  }
+  return "?";
+}
+
+bool SlamOptions::IsValid(std::string* why) const {
+  if (reserve_surfels < 0) {
+    if (why) *why = "reserve_surfels must be >= 0";
+    return false;
+  }
+  if (prediction_level < 0 || prediction_level > 2) {
+    if (why) *why = "prediction_level must be 0, 1 or 2";
+    return false;
+  }
+  if (!(prediction_radius_scale >= 0.3 && prediction_radius_scale <= 2.0)) {
+    if (why) *why = "prediction_radius_scale must be in [0.3, 2]";
+    return false;
+  }
+  return true;
+}
+
+bool SlamParams::IsValid(std::string* why) const {
+  std::string w;
+  if (!preprocess.IsValid(&w)) {
+    if (why) *why = "slam_preprocess: " + w;
+    return false;
+  }
+  if (!tracker.IsValid(&w)) {
+    if (why) *why = "slam_tracking: " + w;
+    return false;
+  }
+  if (!fusion.IsValid(&w)) {
+    if (why) *why = "slam_fusion: " + w;
+    return false;
+  }
+  if (!options.IsValid(&w)) {
+    if (why) *why = "slam: " + w;
+    return false;
+  }
+  return true;
+}
+
+std::string SlamFrameResult::report() const {
+  return fmt::format(
+      "frame {:5d} {:<8} inliers {:6d} ({:4.2f}) icp_rms {:6.4f} m rgb_rms {:5.2f} it {:2d} | +{} ~{} -{} "
+      "merged {} surfels {} | {:5.1f} ms (pre {:4.1f} pred {:4.1f} track {:5.1f} fuse {:5.1f}){}{}",
+      frame_index, to_string(status), icp_inliers, inlier_fraction, icp_rms_m, rgb_rms, iterations,
+      fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space, fusion.merged,
+      fusion.surfels, total_ms, preprocess_ms, predict_ms, track_ms, fuse_ms, reason.empty() ? "" : " | ",
+      reason);
+}
+
+SlamSystem::SlamSystem(const SlamParams& params)
+    : params_(params),
+      preprocessor_(params.preprocess),
+      tracker_(params.tracker),
+      fusion_(params.fusion) {
+  std::string why;
+  if (!params_.IsValid(&why)) throw ConfigError(why);
+  map_.reserve(static_cast<size_t>(params_.options.reserve_surfels));
+}
+
+SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
+  const auto t_start = std::chrono::steady_clock::now();
+  SlamFrameResult res;
+  res.frame_index = frame.index;
+  if (frame_count_ == 0) {
+    std::string why;
+    if (!frame.intrinsics.IsValid(&why)) throw ConfigError("frame '" + frame.name + "': " + why);
+    intrinsics_ = frame.intrinsics;
+  } else if (!(frame.intrinsics == intrinsics_)) {
+    throw ConfigError("frame '" + frame.name + "': intrinsics or image size changed within the sequence");
+  }
+  const std::int32_t now = frame_count_;
+
+  auto t = std::chrono::steady_clock::now();
+  preprocessor_.process(frame, &pyramid_);
+  res.preprocess_ms = ms_since(t);
+
+  bool accept = true;
+  if (!map_.empty()) {
+    t = std::chrono::steady_clock::now();
+    RenderOptions opt;
+    opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
+    opt.also_seen_since = params_.options.track_recent_unstable ? now - 1 : -1;
+    opt.active_window_frames = params_.fusion.active_window_frames;
+    opt.now = now;
+    opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
+    opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
+    opt.want_surfel_centre = true;
+    const int pl = std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
+    const PinholeIntrinsics K_pred = intrinsics_.scaled(pl);
+    predict_renderer_.render(map_, T_world_cam_, K_pred, opt, &prediction_);
+    build_model_pyramid(prediction_, K_pred, params_.preprocess.pyramid_levels - pl,
+                        static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_, pl);
+    res.predict_ms = ms_since(t);
+
+    t = std::chrono::steady_clock::now();
+    const SE3 init = (params_.tracker.constant_velocity && status_ != TrackingStatus::kLost) ? last_motion_ : SE3();
+    const AlignmentResult a = tracker_.align(pyramid_, model_, init);
+    res.track_ms = ms_since(t);
+    res.icp_inliers = a.icp_inliers;
+    res.inlier_fraction = a.icp_overlap > 0 ? double(a.icp_inliers) / a.icp_overlap : 0.0;
+    res.icp_rms_m = a.icp_rms_m;
+    res.rgb_rms = a.rgb_rms;
+    res.iterations = a.iterations;
+    res.reason = a.reason;
+    if (a.failed) {
+      ++bad_frames_;
+      status_ = TrackingStatus::kLost;
+      accept = false;
+    } else if (a.weak) {
+      ++bad_frames_;
+      if (status_ == TrackingStatus::kLost) {
+        accept = false;  // re-acquire only on a good alignment
+        res.reason = "still lost: " + a.reason;
+      } else if (bad_frames_ > params_.tracker.max_bad_frames) {
+        status_ = TrackingStatus::kLost;
+        accept = false;
+        res.reason = std::to_string(bad_frames_) + " degraded frames in a row: " + a.reason;
+      } else {
+        status_ = TrackingStatus::kDegraded;
+      }
+    } else {
+      bad_frames_ = 0;
+      status_ = TrackingStatus::kOk;
+    }
+    if (accept) {
+      T_world_cam_ = T_world_cam_ * a.T_ref_cam;
+      last_motion_ = a.T_ref_cam;
+    } else {
+      last_motion_ = SE3();
+    }
+  } else {
+    status_ = TrackingStatus::kOk;
+  }
+  res.status = status_;
+  res.T_world_cam = T_world_cam_;
+
+  const bool fuse = accept && (status_ == TrackingStatus::kOk ||
+                               (status_ == TrackingStatus::kDegraded && params_.options.fuse_degraded));
+  if (fuse) {
+    t = std::chrono::steady_clock::now();
+    res.fusion = fusion_.fuse(pyramid_, T_world_cam_, now, &map_, &pixel_surfel_);
+    res.fuse_ms = ms_since(t);
+    res.fused = true;
+  } else {
+    pixel_surfel_ = IndexImage();
+    res.fusion.surfels = map_.size();
+  }
+  ++frame_count_;
+  res.total_ms = ms_since(t_start);
+  return res;
+}
+
+}  // namespace orpe::slam

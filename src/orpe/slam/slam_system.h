@@ -1,0 +1,132 @@
+// Dense surfel SLAM on the CPU (ElasticFusion without loop closure): per frame, preprocessing,
+// frame-to-model tracking against the map rendered at the previous pose, and surfel fusion.
+//
+// Tracking states:
+//  - OK: the alignment passed every quality gate; the pose is updated and the frame fused.
+//  - DEGRADED: usable but weak (low inlier fraction, high residual or degenerate geometry); the pose is
+//    updated and the frame fused. More than TrackerParams::max_bad_frames in a row -> LOST.
+//  - LOST: the alignment failed (or too many degraded frames). The system holds its last good pose,
+//    does not fuse, and tries each following frame against the map rendered at that pose; the first
+//    frame that aligns well (OK) re-acquires tracking.
+//
+// Hook for later stages (semantic mapping): call process(), then read/write map() (indices valid until
+// the next process()), use renderer() to render the map at any pose, and last_pixel_surfel() for
+// which surfel each pixel of the frame updated or created.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "orpe/core/frame.h"
+#include "orpe/core/se3.h"
+#include "orpe/slam/fusion.h"
+#include "orpe/slam/map_renderer.h"
+#include "orpe/slam/preprocess.h"
+#include "orpe/slam/surfel_map.h"
+#include "orpe/slam/tracker.h"
+
+namespace orpe::slam {
+
+enum class TrackingStatus { kOk, kDegraded, kLost };
+const char* to_string(TrackingStatus s);
+
+/// System-level options (the stage Params are separate config sections).
+struct SlamOptions {
+  /// Track unstable surfels that the previous frame created or updated, in addition to stable ones
+  /// (otherwise new parts of the scene are unusable for ~10 frames).
+  bool track_recent_unstable = true;
+  /// Initial surfel capacity reserved (surfels), to avoid reallocations.
+  int reserve_surfels = 500000;
+  /// Fuse frames whose tracking is DEGRADED (ElasticFusion fuses every frame that is not lost).
+  bool fuse_degraded = true;
+  /// Splat radius scale of the model prediction used for tracking (1 = ElasticFusion).
+  double prediction_radius_scale = 1.0;
+  /// Pyramid level at which the model prediction is rendered: 0 = full resolution (ElasticFusion),
+  /// 1 = half (4x fewer pixels to splat; full-resolution frame pixels are aligned against it).
+  int prediction_level = 1;
+
+  template <class V>
+  void visit(V&& v) {
+    v("track_recent_unstable", track_recent_unstable,
+      "Track against unstable surfels seen by the previous frame too (else stable ones only)");
+    v("reserve_surfels", reserve_surfels, "Surfel capacity reserved up front");
+    v("fuse_degraded", fuse_degraded, "Fuse frames whose tracking is DEGRADED");
+    v("prediction_radius_scale", prediction_radius_scale,
+      "Splat radius scale of the tracking prediction (1 = EF; < 1 trims disc overhang at depth edges)");
+    v("prediction_level", prediction_level,
+      "Resolution level of the tracking prediction: 0 = full (EF), 1 = half (faster)");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+struct SlamParams {
+  PreprocessParams preprocess;
+  TrackerParams tracker;
+  FusionParams fusion;
+  SlamOptions options;
+  bool IsValid(std::string* why) const;
+};
+
+/// Per-frame result.
+struct SlamFrameResult {
+  int frame_index = 0;  ///< RgbdFrame::index
+  TrackingStatus status = TrackingStatus::kOk;
+  SE3 T_world_cam;      ///< the pose after this frame (held pose when LOST)
+  bool fused = false;
+  std::string reason;   ///< why DEGRADED / LOST
+  int icp_inliers = 0;
+  double inlier_fraction = 0;
+  double icp_rms_m = 0;
+  double rgb_rms = 0;
+  int iterations = 0;
+  FusionStats fusion;
+  // Stage timings, milliseconds.
+  double preprocess_ms = 0, predict_ms = 0, track_ms = 0, fuse_ms = 0, total_ms = 0;
+  std::string report() const;
+};
+
+class SlamSystem {
+ public:
+  explicit SlamSystem(const SlamParams& params = {});
+
+  /// Sets the pose of the first frame (default identity). Call before the first process().
+  void set_initial_pose(const SE3& T_world_cam0) { T_world_cam_ = T_world_cam0; }
+  /// Tracks and fuses one frame. Throws ConfigError when the frame's size or intrinsics change.
+  SlamFrameResult process(const RgbdFrame& frame);
+
+  const SE3& T_world_cam() const { return T_world_cam_; }
+  SurfelMap& map() { return map_; }
+  const SurfelMap& map() const { return map_; }
+  MapRenderer& renderer() { return renderer_; }
+  const SlamParams& params() const { return params_; }
+  /// Frames processed so far (the map's time stamps count these).
+  std::int32_t frame_count() const { return frame_count_; }
+  /// Frame counter of the last process() (the `now` of its surfel updates).
+  std::int32_t last_time() const { return frame_count_ - 1; }
+  /// Preprocessed last frame.
+  const FramePyramid& last_frame() const { return pyramid_; }
+  /// Per pixel of the last frame: surfel it updated or created, -1 none (empty if not fused).
+  const IndexImage& last_pixel_surfel() const { return pixel_surfel_; }
+  TrackingStatus status() const { return status_; }
+
+ private:
+  SlamParams params_;
+  FramePreprocessor preprocessor_;
+  Tracker tracker_;
+  SurfelFusion fusion_;
+  MapRenderer renderer_;  // for users
+  MapRenderer predict_renderer_;
+  SurfelMap map_;
+  FramePyramid pyramid_;
+  RenderedView prediction_;
+  ModelPyramid model_;
+  IndexImage pixel_surfel_;
+  PinholeIntrinsics intrinsics_;
+  SE3 T_world_cam_;
+  SE3 last_motion_;  // T_prev_cur of the last accepted frame, for the constant-velocity guess
+  std::int32_t frame_count_ = 0;
+  int bad_frames_ = 0;
+  TrackingStatus status_ = TrackingStatus::kOk;
+};
+
+}  // namespace orpe::slam

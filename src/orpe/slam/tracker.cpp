@@ -1,0 +1,403 @@
+#include "orpe/slam/tracker.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+#include "orpe/core/error.h"
+#include "orpe/slam/rigid_f.h"
+
+namespace orpe::slam {
+namespace {
+
+template <class T>
+void ensure_size(Image<T>& img, int w, int h) {
+  if (img.width() != w || img.height() != h) img = Image<T>(w, h, T{});
+}
+void ensure_size(Image<Vec3f>& img, int w, int h) {
+  if (img.width() != w || img.height() != h) img = Image<Vec3f>(w, h, Vec3f::Zero());
+}
+
+// Per-row partial sums, reduced in row order afterwards so results do not depend on threads.
+struct RowSums {
+  double a[21];
+  double b[6];
+  double ss;
+  int count;
+  int overlap;
+};
+
+inline void accumulate(float (&a)[21], float (&b)[6], const float (&J)[6], float r, float w) {
+  float wJ[6];
+  for (int i = 0; i < 6; ++i) wJ[i] = w * J[i];
+  int k = 0;
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j <= i; ++j) a[k++] += wJ[i] * J[j];
+    b[i] += wJ[i] * r;
+  }
+}
+
+// Huber weight (delta <= 0: plain least squares).
+inline float huber_weight(float r, float delta) {
+  const float ar = std::fabs(r);
+  return (delta <= 0.0f || ar <= delta) ? 1.0f : delta / ar;
+}
+
+NormalEquations reduce(const std::vector<RowSums>& rows) {
+  NormalEquations ne;
+  double a[21] = {};
+  for (const RowSums& r : rows) {
+    for (int k = 0; k < 21; ++k) a[k] += r.a[k];
+    for (int i = 0; i < 6; ++i) ne.b[i] += r.b[i];
+    ne.sum_sq += r.ss;
+    ne.count += r.count;
+    ne.overlap += r.overlap;
+  }
+  int k = 0;
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j <= i; ++j) {
+      ne.A(i, j) = a[k];
+      ne.A(j, i) = a[k];
+      ++k;
+    }
+  return ne;
+}
+
+inline float bilinear(const Image<float>& img, float u, float v) {
+  const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
+  const float fu = u - static_cast<float>(u0), fv = v - static_cast<float>(v0);
+  const float* r0 = img.row(v0) + u0;
+  const float* r1 = img.row(v0 + 1) + u0;
+  return (1 - fv) * ((1 - fu) * r0[0] + fu * r0[1]) + fv * ((1 - fu) * r1[0] + fu * r1[1]);
+}
+
+int iterations_for_level(const TrackerParams& p, int level) {
+  if (level == 0) return p.iterations_level0;
+  if (level == 1) return p.iterations_level1;
+  return p.iterations_level2;
+}
+float gradient_for_level(const TrackerParams& p, int level) {
+  if (level == 0) return static_cast<float>(p.rgb_min_gradient_level0);
+  if (level == 1) return static_cast<float>(p.rgb_min_gradient_level1);
+  return static_cast<float>(p.rgb_min_gradient_level2);
+}
+
+}  // namespace
+
+bool TrackerParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0)
+    return fail("iterations must be >= 0");
+  if (!(icp_max_dist_m > 0)) return fail("icp_max_dist_m must be positive");
+  if (!(icp_max_angle_deg > 0 && icp_max_angle_deg <= 180)) return fail("icp_max_angle_deg must be in (0, 180]");
+  if (!use_icp && !use_rgb) return fail("at least one of use_icp, use_rgb must be on");
+  if (!(icp_weight > 0)) return fail("icp_weight must be positive");
+  if (!(rgb_max_depth_diff_m > 0)) return fail("rgb_max_depth_diff_m must be positive");
+  if (rgb_min_gradient_level0 < 0 || rgb_min_gradient_level1 < 0 || rgb_min_gradient_level2 < 0)
+    return fail("rgb_min_gradient_* must be >= 0");
+  if (level0_pixel_step < 1 || level0_pixel_step > 4) return fail("level0_pixel_step must be in 1..4");
+  if (!(max_translation_update_m > 0 && max_rotation_update_deg > 0))
+    return fail("max_translation_update_m and max_rotation_update_deg must be positive");
+  if (min_inliers < 0) return fail("min_inliers must be >= 0");
+  if (!(min_inlier_fraction >= 0 && min_inlier_fraction <= good_inlier_fraction && good_inlier_fraction <= 1))
+    return fail("need 0 <= min_inlier_fraction <= good_inlier_fraction <= 1");
+  if (!(good_icp_rms_m > 0 && good_icp_rms_m <= max_icp_rms_m))
+    return fail("need 0 < good_icp_rms_m <= max_icp_rms_m");
+  if (max_bad_frames < 0) return fail("max_bad_frames must be >= 0");
+  return true;
+}
+
+void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, int levels,
+                         float max_depth_jump_m, ModelPyramid* out, int first_level) {
+  out->levels.resize(static_cast<size_t>(std::max(1, levels)));
+  out->first_level = first_level;
+  ModelLevel& L0 = out->levels[0];
+  L0.K = K;
+  L0.depth = view.depth;
+  L0.vertex = view.vertex;
+  L0.normal = view.normal;
+  L0.color_point = view.surfel_centre;
+  color_to_intensity(view.color, &L0.intensity);
+  for (int l = 1; l < levels; ++l) {
+    const ModelLevel& P = out->levels[static_cast<size_t>(l - 1)];
+    ModelLevel& C = out->levels[static_cast<size_t>(l)];
+    C.K = K.scaled(l);
+    const int w = P.depth.width() / 2, h = P.depth.height() / 2;
+    ensure_size(C.depth, w, h);
+    ensure_size(C.normal, w, h);
+    ensure_size(C.intensity, w, h);
+    ensure_size(C.color_point, w, h);
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) {
+        float ref = 0.0f, zsum = 0.0f, isum = 0.0f;
+        Vec3f nsum = Vec3f::Zero(), csum = Vec3f::Zero();
+        int n = 0;
+        for (int k = 0; k < 4; ++k) {
+          const int x = 2 * u + (k & 1), y = 2 * v + (k >> 1);
+          const float z = P.depth.at(x, y);
+          if (z <= 0.0f) continue;
+          if (ref == 0.0f) ref = z;
+          if (std::fabs(z - ref) > max_depth_jump_m) continue;
+          zsum += z;
+          isum += P.intensity.at(x, y);
+          nsum += P.normal.at(x, y);
+          csum += P.color_point.at(x, y);
+          ++n;
+        }
+        const float len = nsum.norm();
+        if (n == 0 || !(len > 1e-3f)) {
+          C.depth.at(u, v) = 0.0f;
+          C.normal.at(u, v).setZero();
+          C.intensity.at(u, v) = 0.0f;
+          C.color_point.at(u, v).setZero();
+          continue;
+        }
+        C.depth.at(u, v) = zsum / static_cast<float>(n);
+        C.intensity.at(u, v) = isum / static_cast<float>(n);
+        C.normal.at(u, v) = nsum / len;
+        C.color_point.at(u, v) = csum / static_cast<float>(n);
+      }
+    }
+    compute_vertex_map(C.depth, C.K, &C.vertex);
+  }
+}
+
+Tracker::Tracker(const TrackerParams& params) : params_(params) {
+  std::string why;
+  if (!params_.IsValid(&why)) throw ConfigError("slam_tracking: " + why);
+}
+
+NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& model,
+                                  const SE3& T_ref_cam, int pixel_step) const {
+  const RigidF T(T_ref_cam);
+  const int W = live.depth.width(), H = live.depth.height();
+  const int MW = model.depth.width(), MH = model.depth.height();
+  const float fx = static_cast<float>(model.K.fx), fy = static_cast<float>(model.K.fy);
+  const float cx = static_cast<float>(model.K.cx), cy = static_cast<float>(model.K.cy);
+  const float max_d2 = static_cast<float>(params_.icp_max_dist_m * params_.icp_max_dist_m);
+  const float min_cos = static_cast<float>(std::cos(params_.icp_max_angle_deg * M_PI / 180.0));
+  const float icp_huber = static_cast<float>(params_.icp_huber_m);
+  const int step = std::max(1, pixel_step);
+  const int rows = (H + step - 1) / step;
+  std::vector<RowSums> sums(static_cast<size_t>(rows));
+
+#pragma omp parallel for schedule(static)
+  for (int ri = 0; ri < rows; ++ri) {
+    const int v = ri * step;
+    float a[21] = {}, b[6] = {}, ss = 0.0f;
+    int count = 0, overlap = 0;
+    const Vec3f* vrow = live.vertex.row(v);
+    const Vec3f* nrow = live.normal.row(v);
+    for (int u = 0; u < W; u += step) {
+      const Vec3f& x = vrow[u];
+      if (x.z() <= 0.0f) continue;
+      const Vec3f& nl = nrow[u];
+      if (nl.z() == 0.0f && nl.x() == 0.0f && nl.y() == 0.0f) continue;
+      const Vec3f q = T(x);
+      if (q.z() <= 0.0f) continue;
+      const int mu = static_cast<int>(std::floor(fx * q.x() / q.z() + cx + 0.5f));
+      const int mv = static_cast<int>(std::floor(fy * q.y() / q.z() + cy + 0.5f));
+      if (mu < 0 || mv < 0 || mu >= MW || mv >= MH) continue;
+      const Vec3f& vm = model.vertex.at(mu, mv);
+      if (vm.z() <= 0.0f) continue;
+      const Vec3f& nm = model.normal.at(mu, mv);
+      if (nm.squaredNorm() < 0.5f) continue;
+      ++overlap;
+      const Vec3f diff = q - vm;
+      if (diff.squaredNorm() > max_d2) continue;
+      if (T.rotate(nl).dot(nm) < min_cos) continue;
+      const float r = nm.dot(diff);
+      const Vec3f qxn = q.cross(nm);
+      const float J[6] = {nm.x(), nm.y(), nm.z(), qxn.x(), qxn.y(), qxn.z()};
+      accumulate(a, b, J, r, huber_weight(r, icp_huber));
+      ss += r * r;
+      ++count;
+    }
+    RowSums& s = sums[static_cast<size_t>(ri)];
+    for (int k = 0; k < 21; ++k) s.a[k] = a[k];
+    for (int k = 0; k < 6; ++k) s.b[k] = b[k];
+    s.ss = ss;
+    s.count = count;
+    s.overlap = overlap;
+  }
+  return reduce(sums);
+}
+
+NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& model,
+                                  const SE3& T_ref_cam, float min_gradient, int pixel_step,
+                                  float huber_delta) const {
+  const RigidF T_cam_ref(T_ref_cam.inverse());
+  const int W = live.depth.width(), H = live.depth.height();
+  const int MW = model.depth.width(), MH = model.depth.height();
+  const float fx = static_cast<float>(live.K.fx), fy = static_cast<float>(live.K.fy);
+  const float cx = static_cast<float>(live.K.cx), cy = static_cast<float>(live.K.cy);
+  const float max_dz = static_cast<float>(params_.rgb_max_depth_diff_m);
+  const float max_z = static_cast<float>(params_.rgb_max_depth_m);
+  const float min_g2 = min_gradient * min_gradient;
+  const float rgb_huber = huber_delta;
+  const int step = std::max(1, pixel_step);
+  const int rows = (MH + step - 1) / step;
+  std::vector<RowSums> sums(static_cast<size_t>(rows));
+
+#pragma omp parallel for schedule(static)
+  for (int ri = 0; ri < rows; ++ri) {
+    const int y = ri * step;
+    float a[21] = {}, b[6] = {}, ss = 0.0f;
+    int count = 0;
+    const Vec3f* vrow = model.color_point.row(y);
+    const float* irow = model.intensity.row(y);
+    for (int x = 0; x < MW; x += step) {
+      const Vec3f& vm = vrow[x];
+      if (vm.z() <= 0.0f || vm.z() > max_z) continue;
+      const Vec3f p = T_cam_ref(vm);
+      if (p.z() <= 0.0f) continue;
+      const float iz = 1.0f / p.z();
+      const float u = fx * p.x() * iz + cx, v = fy * p.y() * iz + cy;
+      if (!(u >= 0.0f && v >= 0.0f && u < static_cast<float>(W - 1) && v < static_cast<float>(H - 1)))
+        continue;
+      const int ui = static_cast<int>(u + 0.5f), vi = static_cast<int>(v + 0.5f);
+      const float dl = live.depth.at(ui, vi);
+      if (dl <= 0.0f || std::fabs(dl - p.z()) > max_dz) continue;
+      // Gradients only shape the Jacobian: the nearest pixel's are enough (the residual is bilinear).
+      const float gu = live.grad_u.at(ui, vi), gv = live.grad_v.at(ui, vi);
+      if (gu * gu + gv * gv < min_g2) continue;
+      const float r = bilinear(live.intensity, u, v) - irow[x];
+      // d r / d p = grad . d project / d p
+      const Vec3f dp(gu * fx * iz, gv * fy * iz, -(gu * fx * p.x() + gv * fy * p.y()) * iz * iz);
+      const Vec3f c = T_cam_ref.rotate_inverse(dp);
+      const Vec3f cxv = c.cross(vm);
+      const float J[6] = {-c.x(), -c.y(), -c.z(), cxv.x(), cxv.y(), cxv.z()};
+      accumulate(a, b, J, r, huber_weight(r, rgb_huber));
+      ss += r * r;
+      ++count;
+    }
+    RowSums& s = sums[static_cast<size_t>(ri)];
+    for (int k = 0; k < 21; ++k) s.a[k] = a[k];
+    for (int k = 0; k < 6; ++k) s.b[k] = b[k];
+    s.ss = ss;
+    s.count = count;
+    s.overlap = 0;
+  }
+  return reduce(sums);
+}
+
+AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& model,
+                               const SE3& T_ref_cam_init) const {
+  AlignmentResult res;
+  SE3 T = T_ref_cam_init;
+  const int levels =
+      static_cast<int>(std::min(live.levels.size(), model.levels.size() + static_cast<size_t>(model.first_level)));
+  const double w2 = params_.icp_weight * params_.icp_weight;
+  bool numerically_failed = false;
+  NormalEquations last_icp, last_rgb;
+  float rgb_sigma = 0.0f;  // RMS photometric residual of the previous iteration (0: none yet)
+  for (int level = levels - 1; level >= 0 && !numerically_failed; --level) {
+    const FrameLevel& L = live.levels[static_cast<size_t>(level)];
+    const int model_level = std::max(0, level - model.first_level);
+    const ModelLevel& M = model.levels[static_cast<size_t>(model_level)];
+    const int step = level == 0 ? params_.level0_pixel_step : 1;
+    // The photometric loop runs over model pixels: sparser already when the model is coarser.
+    const int rgb_step_px = (level == 0 && model.first_level == 0) ? params_.level0_pixel_step : 1;
+    const int iters = iterations_for_level(params_, level);
+    for (int it = 0; it < iters; ++it) {
+      ++res.iterations;
+      Mat6 A = Mat6::Zero();
+      Vec6 b = Vec6::Zero();
+      if (params_.use_icp) {
+        last_icp = icp_step(L, M, T, step);
+        A += w2 * last_icp.A;
+        b += w2 * last_icp.b;
+      }
+      if (params_.use_rgb) {
+        const float delta = static_cast<float>(params_.rgb_huber_sigmas) * rgb_sigma;
+        last_rgb = rgb_step(L, M, T, gradient_for_level(params_, level), rgb_step_px, delta);
+        if (last_rgb.count > 0) {
+          const double sigma2 = std::max(last_rgb.sum_sq / last_rgb.count, 1.0);
+          rgb_sigma = static_cast<float>(std::sqrt(sigma2));
+          A += last_rgb.A / sigma2;
+          b += last_rgb.b / sigma2;
+        }
+      }
+      if ((params_.use_icp ? last_icp.count : 0) + (params_.use_rgb ? last_rgb.count : 0) < 6) {
+        numerically_failed = true;
+        res.reason = "no correspondences at level " + std::to_string(level);
+        break;
+      }
+      // Levenberg-style tiny damping keeps a degenerate direction from exploding.
+      A.diagonal().array() += 1e-9 * A.diagonal().maxCoeff() + 1e-12;
+      const Eigen::LDLT<Mat6> ldlt(A);
+      if (ldlt.info() != Eigen::Success) {
+        numerically_failed = true;
+        res.reason = "singular normal equations";
+        break;
+      }
+      const Vec6 xi = ldlt.solve(-b);
+      if (!xi.allFinite()) {
+        numerically_failed = true;
+        res.reason = "non-finite update";
+        break;
+      }
+      T = SE3::exp(xi) * T;
+      if (xi.norm() < params_.convergence_step) {
+        if (level == 0) res.converged = true;
+        break;
+      }
+    }
+  }
+  res.T_ref_cam = T;
+  if (params_.use_icp) {
+    res.icp_inliers = last_icp.count;
+    res.icp_overlap = last_icp.overlap;
+    res.icp_rms_m = last_icp.count > 0 ? std::sqrt(last_icp.sum_sq / last_icp.count) : 0.0;
+    if (last_icp.count > 0) {
+      const Eigen::SelfAdjointEigenSolver<Mat6> es(last_icp.A / last_icp.count, Eigen::EigenvaluesOnly);
+      res.min_eigenvalue = es.eigenvalues()(0);
+    }
+  }
+  if (params_.use_rgb) {
+    res.rgb_count = last_rgb.count;
+    res.rgb_rms = last_rgb.count > 0 ? std::sqrt(last_rgb.sum_sq / last_rgb.count) : 0.0;
+  }
+
+  // Quality gates.
+  const SE3 motion = T_ref_cam_init.inverse() * T;
+  const PinholeIntrinsics& K0 = live.levels[0].K;
+  const int step0 = params_.level0_pixel_step;
+  const double area = static_cast<double>(K0.width) * K0.height / (640.0 * 480.0) / (step0 * step0);
+  const double inlier_fraction = res.icp_overlap > 0 ? double(res.icp_inliers) / res.icp_overlap : 0.0;
+  if (numerically_failed) {
+    res.failed = true;
+  } else if (motion.translation().norm() > params_.max_translation_update_m) {
+    res.failed = true;
+    res.reason = "translation update " + std::to_string(motion.translation().norm()) + " m too large";
+  } else if (motion.rotation_angle_deg() > params_.max_rotation_update_deg) {
+    res.failed = true;
+    res.reason = "rotation update " + std::to_string(motion.rotation_angle_deg()) + " deg too large";
+  } else if (params_.use_icp && res.icp_inliers < params_.min_inliers * area) {
+    res.failed = true;
+    res.reason = "too few ICP inliers (" + std::to_string(res.icp_inliers) + ")";
+  } else if (params_.use_icp && inlier_fraction < params_.min_inlier_fraction) {
+    res.failed = true;
+    res.reason = "inlier fraction " + std::to_string(inlier_fraction) + " too low";
+  } else if (params_.use_icp && res.icp_rms_m > params_.max_icp_rms_m) {
+    res.failed = true;
+    res.reason = "ICP RMS " + std::to_string(res.icp_rms_m) + " m too high";
+  } else if (params_.use_icp && inlier_fraction < params_.good_inlier_fraction) {
+    res.weak = true;
+    res.reason = "low inlier fraction " + std::to_string(inlier_fraction);
+  } else if (params_.use_icp && res.icp_rms_m > params_.good_icp_rms_m) {
+    res.weak = true;
+    res.reason = "high ICP RMS " + std::to_string(res.icp_rms_m) + " m";
+  } else if (params_.use_icp && res.min_eigenvalue < params_.min_hessian_eigenvalue) {
+    res.weak = true;
+    res.reason = "degenerate geometry (eigenvalue " + std::to_string(res.min_eigenvalue) + ")";
+  }
+  return res;
+}
+
+}  // namespace orpe::slam

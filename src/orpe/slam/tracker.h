@@ -1,0 +1,165 @@
+// Frame-to-model camera tracking (ElasticFusion): the live frame's pyramid is aligned against vertex,
+// normal and intensity maps rendered from the surfel map at a reference pose, by Gauss-Newton on a
+// joint point-to-plane ICP + photometric cost, coarse to fine.
+//
+// Unknown: T_ref_cam, the live camera in the reference (rendered) camera's frame. Increments are
+// left-multiplied in the reference frame: T_ref_cam <- exp(xi) * T_ref_cam, xi = [rho; phi].
+//
+// ICP residual (per live pixel p with vertex x, in the live camera frame):
+//   q = T_ref_cam x,  model pixel = round(project(q)),  r = n_m . (q - v_m)   (metres)
+//   J = [n_m^T, (q x n_m)^T]
+// Photometric residual (per model pixel with colour point v_m -- the centre of the surfel whose colour
+// I_m it shows -- in the reference frame):
+//   y = T_ref_cam^-1 v_m,  r = I_live(project(y)) - I_m   (0..255, bilinear)
+//   J = grad I_live . d project / d y . R_ref_cam^T [-I, hat(v_m)]
+// Normal equations: A = w_icp^2 A_icp + A_rgb / s^2, b likewise, where s is the RMS photometric residual
+// of the iteration (ElasticFusion normalises its RGB term by that sigma too).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "orpe/core/se3.h"
+#include "orpe/slam/preprocess.h"
+
+namespace orpe::slam {
+
+struct TrackerParams {
+  int iterations_level0 = 10;  ///< Gauss-Newton iterations at full resolution (ElasticFusion: 10)
+  int iterations_level1 = 5;   ///< at 1/2 resolution (5)
+  int iterations_level2 = 4;   ///< at 1/4 resolution (4); levels beyond 2 use this too
+  double icp_max_dist_m = 0.10;
+  double icp_max_angle_deg = 20.0;
+  bool use_icp = true;
+  bool use_rgb = true;
+  double icp_weight = 10.0;  ///< w_icp: A = w_icp^2 A_icp + A_rgb (ElasticFusion: 10)
+  double rgb_max_depth_diff_m = 0.07;
+  double rgb_min_gradient_level0 = 5.0 / 3.0;  ///< |grad I| threshold, 0..255 per pixel (see SLAM.md)
+  double rgb_min_gradient_level1 = 1.0;
+  double rgb_min_gradient_level2 = 1.0 / 3.0;
+  double rgb_max_depth_m = 6.0;
+  double icp_huber_m = 0.0;   ///< Huber threshold of ICP residuals (m); 0 = plain least squares (EF)
+  /// Huber threshold of photometric residuals in units of their RMS (of the previous iteration);
+  /// 0 = plain least squares (EF)
+  double rgb_huber_sigmas = 0.0;
+  /// Step the pixel loops by this at level 0 (1 = every pixel; 2 = every 2nd row and column).
+  int level0_pixel_step = 1;
+  double convergence_step = 1e-5;  ///< stop a level when |xi| (m, rad) falls below this
+  double max_translation_update_m = 0.3;  ///< reject a frame moving more than this (ElasticFusion)
+  double max_rotation_update_deg = 30.0;  ///< and rotating more than this
+  /// Predict the initial pose with the last inter-frame motion (off = previous pose, ElasticFusion).
+  bool constant_velocity = false;
+
+  // Quality gates, evaluated at the finest level after the last iteration.
+  int min_inliers = 2000;                 ///< fewer ICP inliers (level 0) -> the frame failed
+  double min_inlier_fraction = 0.25;      ///< inliers / overlap below this -> failed
+  double good_inlier_fraction = 0.5;      ///< below this -> degraded
+  double max_icp_rms_m = 0.03;            ///< point-to-plane RMS above this -> failed
+  double good_icp_rms_m = 0.015;          ///< above this -> degraded
+  double min_hessian_eigenvalue = 1e-3;   ///< of the per-inlier ICP normal matrix; below -> degraded
+  int max_bad_frames = 10;                ///< consecutive degraded frames before LOST (ElasticFusion)
+
+  template <class V>
+  void visit(V&& v) {
+    v("iterations_level0", iterations_level0, "Gauss-Newton iterations at full resolution (EF: 10)");
+    v("iterations_level1", iterations_level1, "Iterations at 1/2 resolution (EF: 5)");
+    v("iterations_level2", iterations_level2, "Iterations at 1/4 resolution and coarser (EF: 4)");
+    v("icp_max_dist_m", icp_max_dist_m, "ICP association: max point distance (m) (EF: 0.10)");
+    v("icp_max_angle_deg", icp_max_angle_deg, "ICP association: max normal angle (deg) (EF: 20)");
+    v("use_icp", use_icp, "Use the point-to-plane ICP term");
+    v("use_rgb", use_rgb, "Use the photometric term");
+    v("icp_weight", icp_weight, "w_icp: A = w_icp^2 A_icp + A_rgb (EF: 10)");
+    v("rgb_max_depth_diff_m", rgb_max_depth_diff_m, "Photometric: reject when depths differ by more (m) (EF: 0.07)");
+    v("rgb_min_gradient_level0", rgb_min_gradient_level0,
+      "Photometric: min |grad I| at level 0 (intensity 0..255 per pixel, Sobel/8)");
+    v("rgb_min_gradient_level1", rgb_min_gradient_level1, "Photometric: min |grad I| at level 1");
+    v("rgb_min_gradient_level2", rgb_min_gradient_level2, "Photometric: min |grad I| at level 2+");
+    v("rgb_max_depth_m", rgb_max_depth_m, "Photometric: max depth of a used pixel (m) (EF: 6)");
+    v("icp_huber_m", icp_huber_m, "Huber threshold of ICP residuals (m); 0 = plain least squares (EF)");
+    v("rgb_huber_sigmas", rgb_huber_sigmas,
+      "Huber threshold of photometric residuals, in RMS residuals of the previous iteration; 0 = off (EF)");
+    v("level0_pixel_step", level0_pixel_step, "Use every n-th row and column at level 0 (speed; 1 = all)");
+    v("convergence_step", convergence_step, "Stop a level when the update norm is below this");
+    v("max_translation_update_m", max_translation_update_m, "Reject a frame moving more than this (m) (EF: 0.3)");
+    v("max_rotation_update_deg", max_rotation_update_deg, "Reject a frame rotating more than this (deg)");
+    v("constant_velocity", constant_velocity, "Initial guess from the last motion (off: previous pose, as EF)");
+    v("min_inliers", min_inliers, "Fewer ICP inliers at level 0 (per 640x480, scaled by area) -> frame failed");
+    v("min_inlier_fraction", min_inlier_fraction, "ICP inliers / overlapping pixels below this -> failed");
+    v("good_inlier_fraction", good_inlier_fraction, "ICP inliers / overlapping pixels below this -> degraded");
+    v("max_icp_rms_m", max_icp_rms_m, "Point-to-plane RMS above this -> failed (m)");
+    v("good_icp_rms_m", good_icp_rms_m, "Point-to-plane RMS above this -> degraded (m)");
+    v("min_hessian_eigenvalue", min_hessian_eigenvalue,
+      "Smallest eigenvalue of the ICP normal matrix per inlier below this -> degraded (geometry degenerate)");
+    v("max_bad_frames", max_bad_frames, "Consecutive degraded frames before LOST (EF: 10)");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+/// Model maps rendered at the reference pose, as a pyramid (reference camera frame).
+struct ModelLevel {
+  PinholeIntrinsics K;
+  DepthImage depth;
+  VertexImage vertex;        ///< ray / surface intersection per pixel (ICP)
+  NormalImage normal;
+  IntensityImage intensity;  ///< colour of the pixel's surfel
+  VertexImage color_point;   ///< where that colour was measured: the surfel centre (photometric term)
+};
+struct ModelPyramid {
+  std::vector<ModelLevel> levels;
+  /// The frame pyramid level of levels[0]: 0 when rendered at full resolution; 1 when rendered at half
+  /// resolution, in which case frame level 0 is aligned against model level 0 (half resolution).
+  int first_level = 0;
+};
+/// Builds the model pyramid from a full-resolution rendered view (vertex, normal, colour and
+/// surfel_centre required).
+/// `K` is the rendered view's intrinsics; `first_level` its level in the frame pyramid.
+void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, int levels,
+                         float max_depth_jump_m, ModelPyramid* out, int first_level = 0);
+
+/// Outcome of one alignment (no state; the SLAM system turns it into OK / DEGRADED / LOST).
+struct AlignmentResult {
+  SE3 T_ref_cam;          ///< estimate
+  bool converged = false;
+  bool failed = false;    ///< numerically failed, too few inliers, implausible jump or residual
+  bool weak = false;      ///< usable but poor (degraded)
+  std::string reason;     ///< why failed / weak ("" when good)
+  int icp_inliers = 0;    ///< at level 0, last iteration
+  int icp_overlap = 0;    ///< live pixels that projected onto a valid model pixel
+  int rgb_count = 0;      ///< photometric residuals used, level 0
+  double icp_rms_m = 0;   ///< point-to-plane RMS, level 0
+  double rgb_rms = 0;     ///< photometric RMS (0..255), level 0
+  double min_eigenvalue = 0;  ///< smallest eigenvalue of A_icp / inliers
+  int iterations = 0;     ///< total over levels
+};
+
+/// Per-iteration normal equations (exposed for the Jacobian tests).
+struct NormalEquations {
+  Mat6 A = Mat6::Zero();
+  Vec6 b = Vec6::Zero();  ///< J^T r
+  double sum_sq = 0;      ///< sum r^2
+  int count = 0;
+  int overlap = 0;        ///< ICP only: projected onto a valid model pixel
+};
+
+class Tracker {
+ public:
+  explicit Tracker(const TrackerParams& params = {});
+  const TrackerParams& params() const { return params_; }
+
+  /// Aligns `live` against `model` starting from `T_ref_cam_init`.
+  AlignmentResult align(const FramePyramid& live, const ModelPyramid& model,
+                        const SE3& T_ref_cam_init) const;
+
+  /// One linearisation of each term at `T_ref_cam` on `level` (used by align and the tests).
+  NormalEquations icp_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
+                           int pixel_step) const;
+  /// `huber_delta` (0..255; <= 0 off) down-weights large photometric residuals.
+  NormalEquations rgb_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
+                           float min_gradient, int pixel_step, float huber_delta = 0.0f) const;
+
+ private:
+  TrackerParams params_;
+};
+
+}  // namespace orpe::slam

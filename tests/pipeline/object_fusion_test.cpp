@@ -1,0 +1,91 @@
+// ObjectPoseFusion: consensus initialisation against a wrong first measurement.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "orpe/pipeline/object_fusion.h"
+
+namespace orpe {
+namespace {
+
+PoseMeasurement measure(int frame, const SE3& T_world_obj, const SE3& T_world_cam, const Vec6& noise) {
+  PoseMeasurement m;
+  m.frame_index = frame;
+  m.T_world_cam = T_world_cam;
+  m.T_cam_obj = T_world_cam.inverse() * T_world_obj * SE3::exp(noise);
+  m.mu_m = 0.003;
+  return m;
+}
+
+struct Outcome {
+  double translation_error_m, rotation_error_rad;
+  int accepted, rejected;
+};
+
+Outcome run(int init_views, bool flipped_first) {
+  const SE3 truth(so3_exp(Vec3(0.3, -0.2, 0.1)), Vec3(0.2, 0.1, 0.9));
+  ObjectPoseFusion fusion(PoseEkfParams{}, ObjectSymmetry{}, init_views);
+  std::mt19937 rng(4);
+  std::normal_distribution<double> n(0, 1);
+  for (int f = 0; f < 12; ++f) {
+    const SE3 cam(so3_exp(Vec3(0, 0.02 * f, 0)), Vec3(0.01 * f, 0, 0));
+    Vec6 noise;
+    for (int i = 0; i < 3; ++i) noise[i] = 0.004 * n(rng);
+    for (int i = 3; i < 6; ++i) noise[i] = 0.02 * n(rng);
+    if (f == 0 && flipped_first) noise.tail<3>() = Vec3(M_PI, 0, 0);  // end over end
+    // Later outliers scatter (no two agree), so PoseEkf's restart cannot fire.
+    if (f % 4 == 3) noise.tail<3>() = Vec3(0, 0.5 + 0.3 * f, 0);
+    fusion.add(measure(f, truth, cam, noise), 0.8);
+  }
+  EXPECT_TRUE(fusion.has_estimate());
+  return {(fusion.T_world_obj().translation() - truth.translation()).norm(),
+          rotation_distance_rad(fusion.T_world_obj().rotation(), truth.rotation()), fusion.accepted(),
+          fusion.rejected()};
+}
+
+TEST(ObjectFusion, ConsensusInitialisationIgnoresAWrongFirstMeasurement) {
+  const Outcome first = run(1, true);
+  EXPECT_GT(first.rotation_error_rad, 2.0) << "started from the flip, the filter keeps it";
+  const Outcome consensus = run(3, true);
+  EXPECT_LT(consensus.rotation_error_rad, 0.05);
+  EXPECT_LT(consensus.translation_error_m, 0.01);
+  EXPECT_GE(consensus.rejected, 3) << "the flip and the scattered outliers";
+  EXPECT_GE(consensus.accepted, 7);
+}
+
+TEST(ObjectFusion, WithoutOutliersBothStartsAgree) {
+  const Outcome a = run(1, false);
+  const Outcome b = run(3, false);
+  EXPECT_LT(a.rotation_error_rad, 0.05);
+  EXPECT_LT(b.rotation_error_rad, 0.05);
+  EXPECT_LT(a.translation_error_m, 0.01);
+  EXPECT_NEAR(a.translation_error_m, b.translation_error_m, 0.005);
+}
+
+TEST(ObjectFusion, NoEstimateWhileCollectingInitialViews) {
+  ObjectPoseFusion fusion(PoseEkfParams{}, ObjectSymmetry{}, 3);
+  const SE3 truth(Mat3::Identity(), Vec3(0, 0, 1));
+  EXPECT_TRUE(fusion.add(measure(0, truth, SE3(), Vec6::Zero()), 0.5).accepted);
+  EXPECT_FALSE(fusion.has_estimate());
+  fusion.add(measure(1, truth, SE3(), Vec6::Zero()), 0.5);
+  EXPECT_FALSE(fusion.has_estimate());
+  EXPECT_TRUE(fusion.add(measure(2, truth, SE3(), Vec6::Zero()), 0.5).initialised);
+  EXPECT_TRUE(fusion.has_estimate());
+  EXPECT_NEAR(fusion.score(), 0.5, 1e-12);
+  EXPECT_EQ(fusion.accepted(), 3);
+
+  // An object seen fewer times than init_views gets its estimate at the end of the sequence.
+  ObjectPoseFusion few(PoseEkfParams{}, ObjectSymmetry{}, 5);
+  few.flush();
+  EXPECT_FALSE(few.has_estimate()) << "nothing to start from";
+  few.add(measure(0, truth, SE3(), Vec6::Zero()), 0.5);
+  few.add(measure(1, truth, SE3(), Vec6::Zero()), 0.5);
+  EXPECT_FALSE(few.has_estimate());
+  few.flush();
+  ASSERT_TRUE(few.has_estimate());
+  EXPECT_NEAR((few.T_world_obj().translation() - truth.translation()).norm(), 0, 1e-9);
+  EXPECT_EQ(few.accepted(), 2);
+}
+
+}  // namespace
+}  // namespace orpe

@@ -1,0 +1,196 @@
+// SurfelMap storage (arrays in step, removal with remap) and the CPU map renderer.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "orpe/slam/map_renderer.h"
+#include "orpe/slam/surfel_map.h"
+
+namespace orpe::slam {
+namespace {
+
+Surfel make_surfel(float x, float y, float z, int tag) {
+  Surfel s;
+  s.position_world = Vec3f(x, y, z);
+  s.normal_world = Vec3f(0, 0, -1);
+  s.radius_m = 0.01f;
+  s.confidence = static_cast<float>(tag);
+  s.instance_id = tag;
+  s.color = Rgb8{static_cast<std::uint8_t>(tag), 0, 0};
+  return s;
+}
+
+TEST(SurfelMap, PushGetSetKeepArraysInStep) {
+  SurfelMap map;
+  for (int i = 0; i < 5; ++i) map.push_back(make_surfel(i, 0, 1, i));
+  EXPECT_EQ(map.size(), 5u);
+  EXPECT_EQ(map.always_active.size(), 5u);
+  EXPECT_EQ(map.object_obs_count.size(), 5u);
+  Surfel s = map.get(3);
+  EXPECT_EQ(s.instance_id, 3);
+  s.p_object = 0.7f;
+  s.boundary_counter = 4;
+  map.set(1, s);
+  EXPECT_FLOAT_EQ(map.p_object[1], 0.7f);
+  EXPECT_EQ(map.boundary_counter[1], 4);
+  EXPECT_EQ(map.bytes(), 5 * SurfelMap::kBytesPerSurfel);
+}
+
+TEST(SurfelMap, RemoveKeepsSurvivorsAndReportsMoves) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 200; ++trial) {
+    SurfelMap map;
+    const int n = 1 + static_cast<int>(rng() % 40);
+    for (int i = 0; i < n; ++i) map.push_back(make_surfel(0, 0, 1, i));
+    std::vector<std::uint32_t> removals;
+    std::vector<bool> removed(n, false);
+    const int k = static_cast<int>(rng() % (n + 1));
+    for (int j = 0; j < k; ++j) {
+      const auto r = static_cast<std::uint32_t>(rng() % n);
+      removals.push_back(r);  // duplicates on purpose
+      removed[r] = true;
+    }
+    std::vector<std::uint32_t> moved_from;
+    map.remove(removals, &moved_from);
+    const int expected = static_cast<int>(std::count(removed.begin(), removed.end(), false));
+    ASSERT_EQ(static_cast<int>(map.size()), expected);
+    ASSERT_EQ(moved_from.size(), map.size());
+    std::vector<bool> seen(n, false);
+    for (size_t i = 0; i < map.size(); ++i) {
+      const int tag = map.instance_id[i];
+      EXPECT_FALSE(removed[tag]) << "removed surfel " << tag << " survived";
+      EXPECT_FALSE(seen[tag]) << "surfel " << tag << " duplicated";
+      seen[tag] = true;
+      EXPECT_EQ(static_cast<int>(moved_from[i]), tag);
+      EXPECT_FLOAT_EQ(map.confidence[i], static_cast<float>(tag));  // other arrays moved too
+    }
+  }
+}
+
+// A fronto-parallel wall of surfels at z = 2 m seen by a camera at the origin.
+SurfelMap make_wall(float z, int instance, float spacing = 0.01f) {
+  SurfelMap map;
+  for (float y = -0.5f; y <= 0.5f; y += spacing)
+    for (float x = -0.5f; x <= 0.5f; x += spacing) {
+      Surfel s = make_surfel(x, y, z, 1);
+      s.radius_m = spacing;
+      s.instance_id = instance;
+      s.color = Rgb8{200, 100, 50};
+      map.push_back(s);
+    }
+  return map;
+}
+
+PinholeIntrinsics small_camera() {
+  PinholeIntrinsics K;
+  K.width = 160;
+  K.height = 120;
+  K.fx = K.fy = 150;
+  K.cx = 79.5;
+  K.cy = 59.5;
+  return K;
+}
+
+TEST(MapRenderer, SplatsAWallAtItsDepthWithoutHoles) {
+  const SurfelMap map = make_wall(2.0f, 3);
+  MapRenderer renderer;
+  RenderedView view;
+  RenderOptions opt;
+  opt.want_instance = true;
+  renderer.render(map, SE3(), small_camera(), opt, &view);
+  // The wall spans x, y in [-0.5, 0.5] at 2 m: pixels within +-37 of the centre.
+  int covered = 0;
+  for (int v = 30; v < 90; ++v)
+    for (int u = 50; u < 110; ++u) {
+      ASSERT_NEAR(view.depth.at(u, v), 2.0f, 1e-4) << u << "," << v;
+      ASSERT_GE(view.surfel_index.at(u, v), 0);
+      EXPECT_EQ(view.instance_id.at(u, v), 3);
+      EXPECT_EQ(view.color.at(u, v), (Rgb8{200, 100, 50}));
+      EXPECT_NEAR(view.normal.at(u, v).z(), -1.0f, 1e-5);
+      EXPECT_NEAR(view.vertex.at(u, v).z(), 2.0f, 1e-4);
+      ++covered;
+    }
+  EXPECT_EQ(covered, 60 * 60);
+  EXPECT_EQ(view.depth.at(5, 5), 0.0f);
+  EXPECT_EQ(view.surfel_index.at(5, 5), -1);
+}
+
+TEST(MapRenderer, NearerSurfaceOccludesAndBackFacesAreSkipped) {
+  SurfelMap map = make_wall(2.0f, 1);
+  const SurfelMap front = make_wall(1.5f, 2, 0.02f);
+  for (size_t i = 0; i < front.size(); ++i) map.push_back(front.get(i));
+  MapRenderer renderer;
+  RenderedView view;
+  RenderOptions opt;
+  opt.want_instance = true;
+  renderer.render(map, SE3(), small_camera(), opt, &view);
+  EXPECT_EQ(view.instance_id.at(80, 60), 2);
+  EXPECT_NEAR(view.depth.at(80, 60), 1.5f, 1e-4);
+  // Only one instance requested.
+  opt.only_instance = 1;
+  renderer.render(map, SE3(), small_camera(), opt, &view);
+  EXPECT_EQ(view.instance_id.at(80, 60), 1);
+  EXPECT_NEAR(view.depth.at(80, 60), 2.0f, 1e-4);
+  // Seen from behind (camera at z = 4 looking back), the walls face away: nothing is drawn.
+  const SE3 T_world_cam(so3_exp(Vec3(0, M_PI, 0)), Vec3(0, 0, 4));
+  opt.only_instance = 0;
+  renderer.render(map, T_world_cam, small_camera(), opt, &view);
+  EXPECT_EQ(view.drawn_surfels, 0u);
+  EXPECT_EQ(view.surfel_index.at(80, 60), -1);
+}
+
+TEST(MapRenderer, FiltersByConfidenceAndActiveWindow) {
+  SurfelMap map = make_wall(2.0f, 1);
+  for (size_t i = 0; i < map.size(); ++i) {
+    map.confidence[i] = (i % 2 == 0) ? 20.0f : 1.0f;
+    map.last_seen_time[i] = (i % 3 == 0) ? 0 : 500;
+  }
+  MapRenderer renderer;
+  RenderedView view;
+  RenderOptions opt;
+  opt.min_confidence = 10.0f;
+  renderer.render(map, SE3(), small_camera(), opt, &view);
+  for (int v = 0; v < 120; ++v)
+    for (int u = 0; u < 160; ++u)
+      if (const int s = view.surfel_index.at(u, v); s >= 0) {
+        ASSERT_GE(map.confidence[s], 10.0f);
+      }
+  opt.min_confidence = 0.0f;
+  opt.active_window_frames = 200;
+  opt.now = 600;
+  renderer.render(map, SE3(), small_camera(), opt, &view);
+  for (int v = 0; v < 120; ++v)
+    for (int u = 0; u < 160; ++u)
+      if (const int s = view.surfel_index.at(u, v); s >= 0) {
+        ASSERT_EQ(map.last_seen_time[s], 500);
+      }
+  EXPECT_GT(view.drawn_surfels, 0u);
+}
+
+TEST(MapRenderer, IndexMapHoldsEachSurfelCentreInItsCell) {
+  const SurfelMap map = make_wall(2.0f, 1, 0.02f);
+  MapRenderer renderer;
+  IndexMap index;
+  renderer.render_index_map(map, SE3(), small_camera(), 2, RenderOptions{}, &index);
+  ASSERT_EQ(index.surfel_index.width(), 320);
+  ASSERT_EQ(index.surfel_index.height(), 240);
+  const PinholeIntrinsics K = small_camera();
+  size_t found = 0;
+  for (int y = 0; y < 240; ++y)
+    for (int x = 0; x < 320; ++x) {
+      const int s = index.surfel_index.at(x, y);
+      if (s < 0) continue;
+      ++found;
+      const Vec3f p = map.position_world[s];
+      const double u = K.fx * p.x() / p.z() + K.cx, v = K.fy * p.y() / p.z() + K.cy;
+      EXPECT_EQ(static_cast<int>(std::floor((u + 0.5) * 2)), x);
+      EXPECT_EQ(static_cast<int>(std::floor((v + 0.5) * 2)), y);
+      EXPECT_NEAR(index.depth.at(x, y), 2.0f, 1e-5);
+    }
+  // 2 cm spacing at 2 m is 1.5 px: every surfel gets its own cell.
+  EXPECT_EQ(found, map.size());
+  EXPECT_EQ(index.drawn_surfels, map.size());
+}
+
+}  // namespace
+}  // namespace orpe::slam

@@ -1,0 +1,155 @@
+// Frame-to-model tracker: analytic Gauss-Newton gradients against numeric differences, and
+// convergence to a known relative pose on synthetic frames.
+#include <gtest/gtest.h>
+
+#include "orpe/core/error.h"
+#include "orpe/slam/tracker.h"
+#include "synthetic_scene.h"
+
+namespace orpe::slam {
+namespace {
+
+using test::SyntheticScene;
+
+PreprocessParams exact_preprocess() {
+  PreprocessParams p;
+  p.bilateral_radius_px = 0;  // synthetic depth is exact
+  return p;
+}
+
+// The model pyramid of a frame: its own depth/vertex/normal/intensity (a perfect map render).
+ModelPyramid model_from_frame(const FramePyramid& f) {
+  ModelPyramid m;
+  for (const FrameLevel& L : f.levels) {
+    ModelLevel M;
+    M.K = L.K;
+    M.depth = L.depth;
+    M.vertex = L.vertex;
+    M.normal = L.normal;
+    M.intensity = L.intensity;
+    M.color_point = L.vertex;
+    m.levels.push_back(M);
+  }
+  return m;
+}
+
+FramePyramid preprocess(const RgbdFrame& f) {
+  FramePyramid p;
+  FramePreprocessor(exact_preprocess()).process(f, &p);
+  return p;
+}
+
+// Checks b = J^T r against the central difference of E = 0.5 sum r^2 along each tangent direction,
+// requiring the residual count to stay constant (same correspondences).
+template <class Step>
+void check_gradient(const Step& step, const SE3& T, double h, double rel_tol) {
+  const NormalEquations ne = step(T);
+  ASSERT_GT(ne.count, 500);
+  Vec6 numeric;
+  for (int k = 0; k < 6; ++k) {
+    Vec6 xi = Vec6::Zero();
+    xi[k] = h;
+    const NormalEquations plus = step(SE3::exp(xi) * T);
+    const NormalEquations minus = step(SE3::exp(-xi) * T);
+    ASSERT_NEAR(plus.count, ne.count, ne.count * 0.002) << "correspondences changed along " << k;
+    // Normalise by the count so an occasional correspondence change does not dominate.
+    numeric[k] = (0.5 * plus.sum_sq / plus.count - 0.5 * minus.sum_sq / minus.count) / (2 * h) * ne.count;
+  }
+  const Vec6 analytic = ne.b;
+  EXPECT_LT((numeric - analytic).norm(), rel_tol * analytic.norm())
+      << "numeric  " << numeric.transpose() << "\nanalytic " << analytic.transpose();
+}
+
+TEST(TrackerJacobian, IcpGradientMatchesNumericDifferences) {
+  // A tilted wall: point-to-plane residuals do not depend on which model pixel a point lands on.
+  SyntheticScene scene = SyntheticScene::wall(2.0);
+  const PinholeIntrinsics K = test::small_intrinsics();
+  const SE3 T_world_ref(so3_exp(Vec3(0.3, -0.4, 0.1)), Vec3(0.1, 0.0, 0.2));
+  const SE3 T_world_cam = T_world_ref * SE3(so3_exp(Vec3(0.01, 0.02, -0.01)), Vec3(0.02, -0.01, 0.03));
+  const FramePyramid model_frame = preprocess(scene.render(T_world_ref, K, 0));
+  const FramePyramid live = preprocess(scene.render(T_world_cam, K, 1));
+  const ModelPyramid model = model_from_frame(model_frame);
+  const Tracker tracker;
+  // Evaluate away from the optimum so residuals are not zero.
+  const SE3 T_eval = SE3(so3_exp(Vec3(0.004, -0.003, 0.002)), Vec3(0.01, 0.005, -0.01)) *
+                     (T_world_ref.inverse() * T_world_cam);
+  check_gradient([&](const SE3& T) { return tracker.icp_step(live.levels[0], model.levels[0], T, 1); },
+                 T_eval, 1e-5, 0.02);
+}
+
+TEST(TrackerJacobian, PhotometricGradientMatchesNumericDifferences) {
+  SyntheticScene scene = SyntheticScene::wall(2.0);
+  scene.texture_detail = 0;  // smooth texture: the Sobel gradient is close to the true derivative
+  const PinholeIntrinsics K = test::small_intrinsics();
+  const SE3 T_world_ref(so3_exp(Vec3(0.2, -0.3, 0.1)), Vec3(0.1, 0.0, 0.2));
+  const SE3 T_world_cam = T_world_ref * SE3(so3_exp(Vec3(0.01, -0.01, 0.01)), Vec3(0.01, 0.01, 0.02));
+  const FramePyramid live = preprocess(scene.render(T_world_cam, K, 1));
+  const ModelPyramid model = model_from_frame(preprocess(scene.render(T_world_ref, K, 0)));
+  const Tracker tracker;
+  const SE3 T_eval = SE3(so3_exp(Vec3(0.002, -0.003, 0.001)), Vec3(0.004, 0.003, -0.004)) *
+                     (T_world_ref.inverse() * T_world_cam);
+  check_gradient(
+      [&](const SE3& T) { return tracker.rgb_step(live.levels[0], model.levels[0], T, 0.0f, 1); }, T_eval,
+      1e-5, 0.05);
+}
+
+struct AlignCase {
+  bool icp, rgb;
+};
+
+class TrackerConvergence : public ::testing::TestWithParam<AlignCase> {};
+
+TEST_P(TrackerConvergence, RecoversAKnownRelativePose) {
+  const SyntheticScene scene = SyntheticScene::room();
+  const PinholeIntrinsics K = test::small_intrinsics();
+  const SE3 T_world_ref = test::trajectory_pose(10);
+  const SE3 T_ref_cam_true(so3_exp(Vec3(0.02, -0.03, 0.015)), Vec3(0.03, -0.02, 0.04));
+  const FramePyramid live = preprocess(scene.render(T_world_ref * T_ref_cam_true, K, 1));
+  const ModelPyramid model = model_from_frame(preprocess(scene.render(T_world_ref, K, 0)));
+  TrackerParams p;
+  p.use_icp = GetParam().icp;
+  p.use_rgb = GetParam().rgb;
+  p.min_inliers = 0;
+  const Tracker tracker(p);
+  const AlignmentResult r = tracker.align(live, model, SE3());
+  EXPECT_FALSE(r.failed) << r.reason;
+  const SE3 err = T_ref_cam_true.inverse() * r.T_ref_cam;
+  EXPECT_LT(err.translation().norm(), 2e-3);
+  EXPECT_LT(err.rotation_angle_deg(), 0.1);
+  if (p.use_icp) {
+    EXPECT_GT(double(r.icp_inliers) / r.icp_overlap, 0.9);
+    EXPECT_LT(r.icp_rms_m, 2e-3);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Terms, TrackerConvergence,
+                         ::testing::Values(AlignCase{true, false}, AlignCase{false, true}, AlignCase{true, true}),
+                         [](const auto& param_info) {
+                           return std::string(param_info.param.icp ? "Icp" : "") + (param_info.param.rgb ? "Rgb" : "");
+                         });
+
+TEST(Tracker, FlagsAnImplausibleAlignmentAsFailed) {
+  const SyntheticScene scene = SyntheticScene::room();
+  const PinholeIntrinsics K = test::small_intrinsics();
+  const SE3 T_world_ref = test::trajectory_pose(0);
+  // The live camera looks the other way: nothing overlaps sensibly.
+  const SE3 T_world_cam = T_world_ref * SE3(so3_exp(Vec3(0, 2.2, 0)), Vec3(0, 0, 0));
+  const FramePyramid live = preprocess(scene.render(T_world_cam, K, 1));
+  const ModelPyramid model = model_from_frame(preprocess(scene.render(T_world_ref, K, 0)));
+  const AlignmentResult r = Tracker().align(live, model, SE3());
+  EXPECT_TRUE(r.failed);
+  EXPECT_FALSE(r.reason.empty());
+}
+
+TEST(TrackerParams, ValidationNamesTheProblem) {
+  TrackerParams p;
+  std::string why;
+  EXPECT_TRUE(p.IsValid(&why));
+  p.use_icp = p.use_rgb = false;
+  EXPECT_FALSE(p.IsValid(&why));
+  EXPECT_NE(why.find("use_icp"), std::string::npos);
+  EXPECT_THROW(Tracker{p}, ConfigError);
+}
+
+}  // namespace
+}  // namespace orpe::slam

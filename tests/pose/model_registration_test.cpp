@@ -125,6 +125,27 @@ TEST(ModelRegistration, AsymmetricShapeRecoversFullRotationUnderOcclusion) {
   EXPECT_GE(good, n - 1);
 }
 
+TEST(ModelRegistration, HalfOccludedBox) {
+  // Half of the box's image width behind an occluder 12 cm in front: the mask boundary there is an
+  // occluder's edge, which switches on the translation search.
+  const SurfaceSamples dense = test::sample_box({0.12f, 0.07f, 0.05f}, 0.0008f);
+  const ObjectModel model = test::make_model(test::sample_box({0.12f, 0.07f, 0.05f}, 0.004f));
+  std::mt19937 rng(16);
+  SceneOptions opt;
+  opt.noise_std_m = 0.001;
+  opt.plane_depth_m = 0.75;
+  opt.occluded_fraction = 0.5;
+  int good = 0;
+  const int n = 3;
+  for (int k = 0; k < n; ++k) {
+    const SE3 T_gt = random_pose(rng, 0.6);
+    const Case c = run_case(dense, model, T_gt, opt);
+    ASSERT_TRUE(c.estimate.valid) << c.estimate.reason;
+    good += c.add_s_m < 0.008;
+  }
+  EXPECT_GE(good, n - 1);
+}
+
 TEST(ModelRegistration, NoisyMaskBoundaryWithBackgroundLeak) {
   // Dilate the mask by 3 px so that it includes the support plane around the object.
   const SurfaceSamples dense = test::sample_box({0.09f, 0.06f, 0.05f}, 0.0008f);

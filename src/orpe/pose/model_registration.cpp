@@ -29,6 +29,9 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (coarse_max_corr_factor <= 0 || refine_max_corr_factor <= 0)
     return fail("association distance factors must be > 0");
   if (refine_top_k < 1) return fail("refine_top_k must be >= 1");
+  if (translation_search_occlusion > 1) return fail("translation_search_occlusion must be <= 1");
+  if (translation_search_step_factor <= 0 || translation_search_step_factor > 1)
+    return fail("translation_search_step_factor must be in (0, 1]");
   if (final_max_corr_m <= 0) return fail("final_max_corr_m must be > 0");
   if (huber_delta_m <= 0) return fail("huber_delta_m must be > 0");
   if (point_to_point_weight < 0) return fail("point_to_point_weight must be >= 0");
@@ -313,6 +316,33 @@ class Registration {
   const ScoringContext& ctx_;
 };
 
+/// Fraction of the mask's boundary pixels that have, within 4 px outside the mask, a valid depth
+/// more than 2 cm nearer than their own: the boundary is an occluder's edge, not the silhouette.
+double occluded_boundary_fraction(const MaskImage& mask, const DepthImage& depth) {
+  const int w = mask.width(), h = mask.height(), r = 4;
+  int boundary = 0, occluded = 0;
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      if (!mask.at(u, v)) continue;
+      const bool edge = u == 0 || v == 0 || u == w - 1 || v == h - 1 || !mask.at(u - 1, v) ||
+                        !mask.at(u + 1, v) || !mask.at(u, v - 1) || !mask.at(u, v + 1);
+      if (!edge) continue;
+      ++boundary;
+      const float z = depth.at(u, v);
+      if (!(z > 0)) continue;
+      bool hit = false;
+      for (int dv = -r; dv <= r && !hit; ++dv)
+        for (int du = -r; du <= r && !hit; ++du) {
+          const int uu = u + du, vv = v + dv;
+          if (!mask.in_bounds(uu, vv) || mask.at(uu, vv)) continue;
+          const float zz = depth.at(uu, vv);
+          hit = zz > 0 && zz < z - 0.02f;
+        }
+      occluded += hit;
+    }
+  return boundary ? static_cast<double>(occluded) / boundary : 0.0;
+}
+
 std::vector<Vec3f> strided_subset(const std::vector<Vec3f>& pts, int n) {
   if (n <= 0 || static_cast<int>(pts.size()) <= n) return pts;
   std::vector<Vec3f> out;
@@ -326,7 +356,8 @@ std::vector<Vec3f> strided_subset(const std::vector<Vec3f>& pts, int n) {
 /// caller's prior). Fills `refine` with the refined, scored hypotheses.
 void search(const ModelRegistrationParams& params, const std::vector<Mat3>& rotations,
             const Registration& reg, const SegmentedCloud& cloud, double diameter,
-            const SingleViewInput& input, std::vector<Hypothesis>& refine) {
+            const SingleViewInput& input, bool translation_search,
+            std::vector<Hypothesis>& refine) {
   const std::vector<Vec3f> coarse_pts = strided_subset(cloud.points, params.coarse_points);
 
   // Coarse stage: every rotation of the grid.
@@ -339,6 +370,25 @@ void search(const ModelRegistrationParams& params, const std::vector<Mat3>& rota
     const Mat3& R = rotations[static_cast<size_t>(i)];
     Hypothesis h;
     h.T_cam_obj = SE3(R, reg.initial_translation(R, cloud.centroid));
+    if (translation_search) {
+      // Occluded view: the observed centroid is off the visible model centroid; try a 3x3 grid of
+      // shifts across the viewing ray and start from the best-scoring one.
+      const Vec3 ray = h.T_cam_obj.translation().normalized();
+      const Vec3 side = Vec3::UnitY().cross(ray).normalized();
+      const Vec3 up = ray.cross(side).normalized();
+      const double a = params.translation_search_step_factor * diameter;
+      Hypothesis best = h;
+      reg.score(coarse_pts, best, true);
+      for (int sx = -1; sx <= 1; ++sx)
+        for (int sy = -1; sy <= 1; ++sy) {
+          if (sx == 0 && sy == 0) continue;
+          Hypothesis c = h;
+          c.T_cam_obj.translation() += a * (sx * side + sy * up);
+          reg.score(coarse_pts, c, true);
+          if (c.score > best.score) best = c;
+        }
+      h = best;
+    }
     h.T_cam_obj = reg.icp(coarse_pts, h.T_cam_obj, params.coarse_iterations, coarse_start,
                           std::min(coarse_start, coarse_end), true);
     reg.score(coarse_pts, h, true);
@@ -459,7 +509,10 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
     reg.score(cloud.points, h, false);
     refine.push_back(h);
   } else {
-    search(params_, rotations_, reg, cloud, diameter, input, refine);
+    const double occluded = occluded_boundary_fraction(*input.mask, *input.depth);
+    const bool translation_search =
+        params.translation_search_occlusion >= 0 && occluded >= params.translation_search_occlusion;
+    search(params_, rotations_, reg, cloud, diameter, input, translation_search, refine);
   }
   const auto best = std::max_element(
       refine.begin(), refine.end(), [](const auto& a, const auto& b) { return a.score < b.score; });

@@ -40,6 +40,8 @@ struct ModelRegistrationParams {
   int refine_top_k = 5;
   int refine_iterations = 25;
   double refine_max_corr_factor = 0.1;
+  double translation_search_occlusion = 0.1;
+  double translation_search_step_factor = 0.2;
   double final_max_corr_m = 0.015;
   double huber_delta_m = 0.005;
   double point_to_point_weight = 0.1;
@@ -74,6 +76,12 @@ struct ModelRegistrationParams {
     v("refine_iterations", refine_iterations, "ICP iterations per refined hypothesis");
     v("refine_max_corr_factor", refine_max_corr_factor,
       "Refinement: initial association distance as a fraction of the model diameter");
+    v("translation_search_occlusion", translation_search_occlusion,
+      "When at least this fraction of the mask boundary is an occluder's edge, each rotation also "
+      "tries "
+      "a 3x3 grid of shifts across the ray before ICP (0 = always, -1 = never)");
+    v("translation_search_step_factor", translation_search_step_factor,
+      "Step of that shift grid as a fraction of the model diameter");
     v("final_max_corr_m", final_max_corr_m,
       "Association distance (m) reached at the last ICP iteration");
     v("huber_delta_m", huber_delta_m, "Huber loss threshold on point-to-plane residuals (m)");

@@ -59,19 +59,26 @@ struct SceneResult {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data = std::getenv("ORPE_DATA_DIR") ? std::string(std::getenv("ORPE_DATA_DIR")) : "/work/shared/data";
+  std::string data = std::getenv("ORPE_DATA_DIR") ? std::string(std::getenv("ORPE_DATA_DIR"))
+                                                  : "/work/shared/data";
   std::vector<std::string> scenes;
   std::string poses = "gt", out_dir, figures_dir;
   OrpeConfig config;
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
-      if (a == "--data" && i + 1 < argc) data = argv[++i];
-      else if (a == "--scene" && i + 1 < argc) scenes.push_back(argv[++i]);
-      else if (a == "--poses" && i + 1 < argc) poses = argv[++i];
-      else if (a == "--out" && i + 1 < argc) out_dir = argv[++i];
-      else if (a == "--figures" && i + 1 < argc) figures_dir = argv[++i];
-      else if (a == "--set" && i + 1 < argc) apply_config_override(config, argv[++i]);
+      if (a == "--data" && i + 1 < argc)
+        data = argv[++i];
+      else if (a == "--scene" && i + 1 < argc)
+        scenes.push_back(argv[++i]);
+      else if (a == "--poses" && i + 1 < argc)
+        poses = argv[++i];
+      else if (a == "--out" && i + 1 < argc)
+        out_dir = argv[++i];
+      else if (a == "--figures" && i + 1 < argc)
+        figures_dir = argv[++i];
+      else if (a == "--set" && i + 1 < argc)
+        apply_config_override(config, argv[++i]);
       else {
         std::cerr << "unknown argument " << a << "\n";
         return 2;
@@ -126,18 +133,24 @@ int main(int argc, char** argv) {
         }
         const auto ts = std::chrono::steady_clock::now();
         const SemanticStep& step = mapper.process(frame, T_world_cam, *map, pix);
-        semantic_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts).count();
-        const LabelImage projected = mapper.render_instance_labels(*map, T_world_cam, frame.intrinsics);
+        semantic_ms +=
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - ts)
+                .count();
+        const LabelImage projected =
+            mapper.render_instance_labels(*map, T_world_cam, frame.intrinsics);
         evaluator.add_frame(frame, step.detections, projected, mapper.fusion().instances());
         // Class-aware scores (eval's metric): gt labels with their classes, detections, projection.
         LabelClasses gt_classes, det_classes, proj_classes;
         for (size_t k = 0; k < frame.objects_gt.size(); ++k)
           gt_classes[static_cast<int>(k) + 1] = frame.objects_gt[k].class_id;
-        const LabelImage det = detection_labels(step.detections, frame.depth.width(), frame.depth.height(),
-                                                static_cast<float>(config.segmentation.mask_threshold), &det_classes);
+        const LabelImage det =
+            detection_labels(step.detections, frame.depth.width(), frame.depth.height(),
+                             static_cast<float>(config.segmentation.mask_threshold), &det_classes);
         for (const auto id : projected)
-          if (id > 0 && !proj_classes.count(id)) proj_classes[id] = mapper.fusion().instances().at(id).argmax_class();
-        for (auto& [label, cls] : proj_classes)  // a detection's class id as colour key: 0 is not a class
+          if (id > 0 && !proj_classes.count(id))
+            proj_classes[id] = mapper.fusion().instances().at(id).argmax_class();
+        for (auto& [label, cls] :
+             proj_classes)  // a detection's class id as colour key: 0 is not a class
           if (cls == 0) cls = -1;
         if (!figures_dir.empty()) {
           // gt | input | projected, coloured by class so the three panels are comparable.
@@ -148,7 +161,8 @@ int main(int argc, char** argv) {
               for (int u = 0; u < W; ++u) {
                 const int l = labels.at(u, v);
                 const Rgb8 c = frame.color.at(u, v);
-                const Rgb8 dim{static_cast<std::uint8_t>(c.r / 3), static_cast<std::uint8_t>(c.g / 3),
+                const Rgb8 dim{static_cast<std::uint8_t>(c.r / 3),
+                               static_cast<std::uint8_t>(c.g / 3),
                                static_cast<std::uint8_t>(c.b / 3)};
                 panel.at(slot * W + u, v) = l > 0 ? label_color(classes.at(l)) : dim;
               }
@@ -160,29 +174,33 @@ int main(int argc, char** argv) {
         }
         input_eval.add_frame(frame.labels_gt, gt_classes, det, det_classes);
         projected_eval.add_frame(frame.labels_gt, gt_classes, projected, proj_classes);
-        if (step.keyframe && std::getenv("ORPE_SEMANTIC_REPORTS")) std::cout << step.report.report() << "\n";
+        if (step.keyframe && std::getenv("ORPE_SEMANTIC_REPORTS"))
+          std::cout << step.report.report() << "\n";
         ++n;
       }
       const int removed = mapper.finalize(own_map.empty() ? system.map() : own_map);
-      const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      const double total_ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       const SemanticMaskResult r = evaluator.result(mapper.fusion().instances());
-      std::cout << "=== scene " << scene << ": " << n << " frames, " << mapper.summary() << "; " << removed
-                << " instances removed at finalize; " << total_ms / std::max(1, n) << " ms/frame in all, semantic "
-                << semantic_ms / std::max(1, n) << " ms/frame\n"
+      std::cout << "=== scene " << scene << ": " << n << " frames, " << mapper.summary() << "; "
+                << removed << " instances removed at finalize; " << total_ms / std::max(1, n)
+                << " ms/frame in all, semantic " << semantic_ms / std::max(1, n) << " ms/frame\n"
                 << r.report();
       for (const auto& [id, info] : mapper.fusion().instances())
         std::cout << "  instance " << id << ": class " << info.argmax_class() << " ("
-                  << class_names[info.argmax_class()] << ", p " << info.argmax_probability() << "), "
-                  << info.detections << " detections\n";
+                  << class_names[info.argmax_class()] << ", p " << info.argmax_probability()
+                  << "), " << info.detections << " detections\n";
       if (!out_dir.empty()) {
         const slam::SurfelMap& m = own_map.empty() ? system.map() : own_map;
         write_semantic_outputs(out_dir + "/" + scene, m, mapper.fusion().instances(), class_names);
-        write_file_atomic(out_dir + "/" + scene + "/mask_eval.json", [&](std::ostream& os) { os << r.to_json() << "\n"; });
+        write_file_atomic(out_dir + "/" + scene + "/mask_eval.json",
+                          [&](std::ostream& os) { os << r.to_json() << "\n"; });
       }
       sum_in += r.overall.input_miou * r.overall.samples;
       sum_proj += r.overall.projected_miou * r.overall.samples;
       samples += r.overall.samples;
-      const int m_in = r.overall.samples - r.overall.input_missed, m_proj = r.overall.samples - r.overall.projected_missed;
+      const int m_in = r.overall.samples - r.overall.input_missed,
+                m_proj = r.overall.samples - r.overall.projected_missed;
       sum_in_m += r.overall.input_miou_matched * m_in;
       sum_proj_m += r.overall.projected_miou_matched * m_proj;
       matched_in += m_in;
@@ -192,15 +210,20 @@ int main(int argc, char** argv) {
       correct += r.objects_with_correct_class;
       spurious += static_cast<int>(r.spurious_instances.size());
     }
-    std::cout << "=== all scenes: class-agnostic mask IoU over " << samples << " object samples: input "
-              << sum_in / std::max(1, samples) << " (matched " << sum_in_m / std::max(1, matched_in)
-              << "), map-projected " << sum_proj / std::max(1, samples) << " (matched "
+    std::cout << "=== all scenes: class-agnostic mask IoU over " << samples
+              << " object samples: input " << sum_in / std::max(1, samples) << " (matched "
+              << sum_in_m / std::max(1, matched_in) << "), map-projected "
+              << sum_proj / std::max(1, samples) << " (matched "
               << sum_proj_m / std::max(1, matched_proj) << ")\n"
-              << "instances: " << exactly_one << " of " << objects << " objects exactly one instance, " << correct
-              << " with the right class, " << spurious << " spurious\n";
-    const MaskEvaluation ein = input_eval.summary(class_names), eproj = projected_eval.summary(class_names);
-    std::cout << "=== class-aware (eval masks) input detections:\n" << ein.report() << "\n"
-              << "=== class-aware (eval masks) map-projected:\n" << eproj.report() << "\n";
+              << "instances: " << exactly_one << " of " << objects
+              << " objects exactly one instance, " << correct << " with the right class, "
+              << spurious << " spurious\n";
+    const MaskEvaluation ein = input_eval.summary(class_names),
+                         eproj = projected_eval.summary(class_names);
+    std::cout << "=== class-aware (eval masks) input detections:\n"
+              << ein.report() << "\n"
+              << "=== class-aware (eval masks) map-projected:\n"
+              << eproj.report() << "\n";
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

@@ -1,6 +1,6 @@
-// The semantic stage end to end on a synthetic table-top scene: the SLAM's surfel fusion at ground-truth
-// poses, degraded ground-truth detections (boundary errors, misses, wrong classes, spurious blobs),
-// semantic fusion, then instance-level and mask-level checks.
+// The semantic stage end to end on a synthetic table-top scene: the SLAM's surfel fusion at
+// ground-truth poses, degraded ground-truth detections (boundary errors, misses, wrong classes,
+// spurious blobs), semantic fusion, then instance-level and mask-level checks.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -48,7 +48,8 @@ RunResult run_scene(const test::SyntheticScene& scene, const std::vector<SE3>& p
     fusion.fuse(pyramid, poses[i], static_cast<std::int32_t>(i), &r.map, &pixel_surfel);
     const auto& step = mapper.process(frame, poses[i], r.map, &pixel_surfel);
     if (step.keyframe) r.reports.push_back(step.report);
-    evaluator.add_frame(frame, step.detections, mapper.render_instance_labels(r.map, poses[i], scene.K),
+    evaluator.add_frame(frame, step.detections,
+                        mapper.render_instance_labels(r.map, poses[i], scene.K),
                         mapper.fusion().instances());
   }
   mapper.finalize(r.map);
@@ -64,7 +65,9 @@ RunResult run_scene(const test::SyntheticScene& scene, const std::vector<SE3>& p
     if (r.map.instance_id[i] > 0) ++votes[r.map.instance_id[i]][surfel_object[i]];
   }
   for (const auto& [id, v] : votes)
-    owner[id] = std::max_element(v.begin(), v.end(), [](auto& a, auto& b) { return a.second < b.second; })->first;
+    owner[id] = std::max_element(v.begin(), v.end(), [](auto& a, auto& b) {
+                  return a.second < b.second;
+                })->first;
   int correct = 0, background = 0, background_labelled = 0, all = 0, all_correct = 0;
   for (size_t i = 0; i < r.map.size(); ++i) {
     if (surfel_object[i] < 0) {
@@ -91,12 +94,15 @@ TEST(SemanticEndToEnd, NineObjectsDegradedDetections) {
   const test::SyntheticScene scene = test::nine_object_scene(320, 240);
   const auto poses = test::orbit(24, 0.75, 0.5, 100.0, -50.0);
   SegmentationParams seg;  // default degradation: boundary shift 0..3 px per object, +-1 per frame,
-  seg.gt_spurious_per_frame = 0.5;  // 10 % misses, 5 % wrong class; more spurious blobs than default
+  seg.gt_spurious_per_frame =
+      0.5;  // 10 % misses, 5 % wrong class; more spurious blobs than default
   const RunResult r = run_scene(scene, poses, seg, SemanticParams{});
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::cout << r.eval.report() << "stable object surfels " << r.object_surfels << ", right instance "
-            << r.surfel_accuracy << " (all surfels " << r.all_surfel_accuracy << "), background surfels labelled " << r.background_labelled << ", "
-            << seconds << " s\n";
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::cout << r.eval.report() << "stable object surfels " << r.object_surfels
+            << ", right instance " << r.surfel_accuracy << " (all surfels " << r.all_surfel_accuracy
+            << "), background surfels labelled " << r.background_labelled << ", " << seconds
+            << " s\n";
 
   // Every object exactly one instance with the right class, no spurious instance.
   EXPECT_EQ(r.instances.size(), scene.objects.size());
@@ -104,8 +110,10 @@ TEST(SemanticEndToEnd, NineObjectsDegradedDetections) {
   EXPECT_EQ(r.eval.objects_with_exactly_one_instance, static_cast<int>(scene.objects.size()));
   EXPECT_EQ(r.eval.objects_with_correct_class, static_cast<int>(scene.objects.size()));
   EXPECT_TRUE(r.eval.spurious_instances.empty());
-  for (const auto& o : r.eval.objects) EXPECT_EQ(o.argmax_class, o.class_id) << o.object_instance_id;
-  // Surfels: >= 95 % of (stable) object surfels carry their object's instance; few background ones do.
+  for (const auto& o : r.eval.objects)
+    EXPECT_EQ(o.argmax_class, o.class_id) << o.object_instance_id;
+  // Surfels: >= 95 % of (stable) object surfels carry their object's instance; few background ones
+  // do.
   EXPECT_GE(r.surfel_accuracy, 0.95);
   EXPECT_GE(r.all_surfel_accuracy, 0.85);
   EXPECT_LT(r.background_labelled, 0.02);
@@ -147,12 +155,14 @@ TEST(SemanticEndToEnd, ExactDetectionsGiveNearPerfectMasksAndOutputs) {
   for (size_t i = 0; i < cloud.size(); ++i) {
     ASSERT_EQ(cloud.instance_ids[i], r.map.instance_id[i]);
     ASSERT_EQ(cloud.colors[i], r.map.color[i]);
-    const int expected_class = r.map.instance_id[i] > 0 ? r.instances.at(r.map.instance_id[i]).argmax_class() : 0;
+    const int expected_class =
+        r.map.instance_id[i] > 0 ? r.instances.at(r.map.instance_id[i]).argmax_class() : 0;
     ASSERT_EQ(cloud.class_ids[i], expected_class);
   }
   const PointCloudData coded = read_point_cloud_ply(dir + "/semantic_map_instances.ply");
   ASSERT_EQ(coded.size(), r.map.size());
-  for (size_t i = 0; i < coded.size(); i += 37) ASSERT_EQ(coded.colors[i], label_color(r.map.instance_id[i]));
+  for (size_t i = 0; i < coded.size(); i += 37)
+    ASSERT_EQ(coded.colors[i], label_color(r.map.instance_id[i]));
   const auto j = nlohmann::json::parse(std::ifstream(dir + "/instances.json"));
   ASSERT_EQ(j["instances"].size(), r.instances.size());
   int surfels = 0;
@@ -202,7 +212,8 @@ TEST(SemanticEndToEnd, InstanceViewsAreTheMapsMaskDepthAndColour) {
           continue;
         }
         ++area;
-        ASSERT_TRUE(view.box.u_min <= u && u <= view.box.u_max && view.box.v_min <= v && v <= view.box.v_max);
+        ASSERT_TRUE(view.box.u_min <= u && u <= view.box.u_max && view.box.v_min <= v &&
+                    v <= view.box.v_max);
         depth_ok += std::abs(view.projected_depth.at(u, v) - frame.depth.at(u, v)) < 0.01;
         const int k = frame.labels_gt.at(u, v);
         gt_ok += k > 0 && scene.objects[k - 1].class_id == view.class_id;

@@ -41,7 +41,8 @@ TEST(GtSegmenter, ExactMasksMatchLabels) {
     EXPECT_EQ(dets[k].source_instance_id, kTwoDiscs[k].instance_id);
     for (size_t i = 0; i < f.labels_gt.size(); ++i)
       ASSERT_EQ(dets[k].probability[i] >= 0.5f, f.labels_gt[i] == static_cast<int>(k) + 1);
-    EXPECT_EQ(dets[k].box.u_min, static_cast<int>(std::ceil(kTwoDiscs[k].cu - kTwoDiscs[k].radius_px)));
+    EXPECT_EQ(dets[k].box.u_min,
+              static_cast<int>(std::ceil(kTwoDiscs[k].cu - kTwoDiscs[k].radius_px)));
   }
 }
 
@@ -59,7 +60,7 @@ TEST(GtSegmenter, ErodedBoundaryIsJustBelowHalfAndBackgroundFarBelow) {
       const float pr = p.at(u, v);
       if (f.labels_gt.at(u, v) == 0) {
         ASSERT_LT(pr, 0.35f) << u << "," << v;  // real background: far below 0.5
-      } else if (r > 20 - 1.5) {  // outermost object ring: eroded
+      } else if (r > 20 - 1.5) {                // outermost object ring: eroded
         ASSERT_GE(pr, 0.4f);
         ASSERT_LT(pr, 0.5f);
         ++band;
@@ -87,7 +88,8 @@ TEST(GtSegmenter, DeterministicPerSeedAndFrame) {
   p.gt_spurious_per_frame = 2.0;
   p.gt_probability_noise = 0.01;
   GroundTruthSegmenter a(p, {}), b(p, {});
-  const RgbdFrame f3 = test::frame_with_discs(3, kTwoDiscs), f4 = test::frame_with_discs(4, kTwoDiscs);
+  const RgbdFrame f3 = test::frame_with_discs(3, kTwoDiscs),
+                  f4 = test::frame_with_discs(4, kTwoDiscs);
   const auto d1 = a.detect(f3), d2 = b.detect(f3), d3 = a.detect(f3);
   ASSERT_EQ(d1.size(), d2.size());
   ASSERT_EQ(d1.size(), d3.size());
@@ -95,7 +97,8 @@ TEST(GtSegmenter, DeterministicPerSeedAndFrame) {
     EXPECT_EQ(d1[k].class_id, d2[k].class_id);
     EXPECT_EQ(d1[k].score, d2[k].score);
     EXPECT_EQ(d1[k].box, d2[k].box);
-    EXPECT_TRUE(std::equal(d1[k].probability.begin(), d1[k].probability.end(), d3[k].probability.begin()));
+    EXPECT_TRUE(
+        std::equal(d1[k].probability.begin(), d1[k].probability.end(), d3[k].probability.begin()));
   }
   // Another frame index or seed gives other random choices (compare the summed probability mass).
   auto mass = [](const std::vector<Detection>& ds) {
@@ -137,7 +140,8 @@ TEST(GtSegmenter, ErrorRatesAreRoughlyAsConfigured) {
 TEST(GtSegmenter, SmallObjectsAreNotDetectedAndMissingLabelsGiveNothing) {
   SegmentationParams p = exact_params();
   p.gt_min_visible_px = 1500;  // between the two discs (1257 and 1963 px)
-  EXPECT_TRUE(GroundTruthSegmenter(p, {}).detect(test::frame_with_discs(0, kTwoDiscs)).size() == 1u);
+  EXPECT_TRUE(GroundTruthSegmenter(p, {}).detect(test::frame_with_discs(0, kTwoDiscs)).size() ==
+              1u);
   RgbdFrame bare = test::frame_with_discs(0, kTwoDiscs);
   bare.labels_gt = LabelImage();
   EXPECT_TRUE(GroundTruthSegmenter(exact_params(), {}).detect(bare).empty());
@@ -196,9 +200,11 @@ TEST(FileSegmenter, BinaryMaskOnlyAndBadFilesNameTheFile) {
   expect_error("{not json", "invalid JSON");
   expect_error(R"({"detections": [{"score": 0.9, "mask": "000001_00_mask.png"}]})", "malformed");
   expect_error(R"({"detections": [{"class_id": 2}]})", "needs");
-  expect_error(R"({"detections": [{"class_id": 2, "mask": "000001_00_mask.png", "score": 3}]})", "score");
+  expect_error(R"({"detections": [{"class_id": 2, "mask": "000001_00_mask.png", "score": 3}]})",
+               "score");
   EXPECT_THROW(FileSegmenter::read(dir, 1, 320, 240), IoError);  // size mismatch
-  std::ofstream(detection_json_path(dir, 3)) << R"({"detections": [{"class_id": 2, "mask": "nope.png"}]})";
+  std::ofstream(detection_json_path(dir, 3))
+      << R"({"detections": [{"class_id": 2, "mask": "nope.png"}]})";
   try {
     FileSegmenter::read(dir, 3, 160, 120);
     FAIL();

@@ -25,8 +25,8 @@ TEST(Association, LargestOverlapAboveThresholdElseNew) {
   paint(rendered, 5, 0, 0, 9, 9);    // 100 px
   paint(rendered, 8, 30, 0, 49, 9);  // 200 px
   // Covers 60 % of instance 5 and 10 % of instance 8.
-  const auto a = associate_detections({rect_mask(60, 40, 4, 0, 31, 9), rect_mask(60, 40, 0, 20, 20, 30)},
-                                      rendered, 0.3, 1);
+  const auto a = associate_detections(
+      {rect_mask(60, 40, 4, 0, 31, 9), rect_mask(60, 40, 0, 20, 20, 30)}, rendered, 0.3, 1);
   EXPECT_EQ(a[0].instance_id, 5);
   EXPECT_NEAR(a[0].overlap, 0.6, 1e-9);
   EXPECT_EQ(a[1].instance_id, 0);  // no overlap: new instance
@@ -38,8 +38,8 @@ TEST(Association, LargestOverlapAboveThresholdElseNew) {
 
 TEST(Association, TiesGoToLargerIntersectionThenLowerId) {
   LabelImage rendered(60, 40, 0);
-  paint(rendered, 7, 0, 0, 9, 9);     // 100 px
-  paint(rendered, 3, 20, 0, 39, 9);   // 200 px
+  paint(rendered, 7, 0, 0, 9, 9);    // 100 px
+  paint(rendered, 3, 20, 0, 39, 9);  // 200 px
   // Half of each: U = 0.5 for both; instance 3's intersection (100) beats 7's (50).
   auto a = associate_detections({rect_mask(60, 40, 5, 0, 29, 9)}, rendered, 0.3, 1);
   EXPECT_EQ(a[0].instance_id, 3);
@@ -55,13 +55,16 @@ TEST(Association, TiesGoToLargerIntersectionThenLowerId) {
 
 TEST(Association, TinyProjectionsCannotCaptureALargeDetection) {
   LabelImage rendered(60, 40, 0);
-  paint(rendered, 2, 0, 0, 1, 1);      // 4 stray pixels
-  paint(rendered, 6, 10, 10, 29, 29);  // 400 px
+  paint(rendered, 2, 0, 0, 1, 1);                         // 4 stray pixels
+  paint(rendered, 6, 10, 10, 29, 29);                     // 400 px
   const MaskImage big = rect_mask(60, 40, 0, 0, 25, 25);  // all of 2, 64 % of 6
-  EXPECT_EQ(associate_detections({big}, rendered, 0.3, 1)[0].instance_id, 2);  // the paper's raw rule
+  EXPECT_EQ(associate_detections({big}, rendered, 0.3, 1)[0].instance_id,
+            2);  // the paper's raw rule
   EXPECT_EQ(associate_detections({big}, rendered, 0.3, 50)[0].instance_id, 6);  // with the floor
   // A tiny detection on a big instance: U = 4 / 400, a new instance.
-  EXPECT_EQ(associate_detections({rect_mask(60, 40, 12, 12, 13, 13)}, rendered, 0.3, 50)[0].instance_id, 0);
+  EXPECT_EQ(
+      associate_detections({rect_mask(60, 40, 12, 12, 13, 13)}, rendered, 0.3, 50)[0].instance_id,
+      0);
   // An empty mask never matches.
   EXPECT_EQ(associate_detections({MaskImage(60, 40, 0)}, rendered, 0.3, 50)[0].instance_id, 0);
 }
@@ -70,8 +73,12 @@ TEST(Association, MasksAtTheImageBorder) {
   LabelImage rendered(60, 40, 0);
   paint(rendered, 1, 50, 30, 59, 39);  // bottom-right corner, 100 px
   // The detection is cut by the border: only the in-image part counts.
-  EXPECT_EQ(associate_detections({rect_mask(60, 40, 54, 34, 70, 50)}, rendered, 0.3, 1)[0].instance_id, 1);
-  EXPECT_NEAR(associate_detections({rect_mask(60, 40, 54, 34, 70, 50)}, rendered, 0.3, 1)[0].overlap, 0.36, 1e-9);
+  EXPECT_EQ(
+      associate_detections({rect_mask(60, 40, 54, 34, 70, 50)}, rendered, 0.3, 1)[0].instance_id,
+      1);
+  EXPECT_NEAR(
+      associate_detections({rect_mask(60, 40, 54, 34, 70, 50)}, rendered, 0.3, 1)[0].overlap, 0.36,
+      1e-9);
   EXPECT_THROW(associate_detections({MaskImage(30, 40, 0)}, rendered, 0.3, 1), ConfigError);
 }
 
@@ -137,8 +144,9 @@ TEST(SemanticFusion, SurfelsTakeTheInstanceAndAverageTheirProbability) {
   test::PlanarSetup s;
   SemanticFusion fusion(no_pruning());
   const int W = s.K.width, H = s.K.height;
-  const auto rep = fusion.integrate(s.frame(0), {test::rect_detection(W, H, 2, 0.9f, 10, 10, 19, 19, 0.9f, 0.1f)},
-                                    SE3(), s.map, &s.pixel_surfel);
+  const auto rep = fusion.integrate(
+      s.frame(0), {test::rect_detection(W, H, 2, 0.9f, 10, 10, 19, 19, 0.9f, 0.1f)}, SE3(), s.map,
+      &s.pixel_surfel);
   EXPECT_EQ(rep.new_instances, 1);
   EXPECT_EQ(rep.surfels_labelled, 100);
   EXPECT_EQ(rep.surfels_observed, W * H);
@@ -148,8 +156,9 @@ TEST(SemanticFusion, SurfelsTakeTheInstanceAndAverageTheirProbability) {
   EXPECT_EQ(s.map.instance_id[s.surfel(25, 15)], 0);
   EXPECT_EQ(s.map.always_active[s.surfel(25, 15)], 0);
   // Second frame shifted by 2 px: associates (U = 0.8), p_o averages.
-  const auto rep2 = fusion.integrate(s.frame(1), {test::rect_detection(W, H, 2, 0.9f, 12, 10, 21, 19, 0.8f, 0.1f)},
-                                     SE3(), s.map, &s.pixel_surfel);
+  const auto rep2 = fusion.integrate(
+      s.frame(1), {test::rect_detection(W, H, 2, 0.9f, 12, 10, 21, 19, 0.8f, 0.1f)}, SE3(), s.map,
+      &s.pixel_surfel);
   EXPECT_EQ(rep2.associated, 1);
   EXPECT_EQ(rep2.new_instances, 0);
   EXPECT_EQ(fusion.instances().size(), 1u);
@@ -159,8 +168,8 @@ TEST(SemanticFusion, SurfelsTakeTheInstanceAndAverageTheirProbability) {
   EXPECT_EQ(s.map.instance_id[s.surfel(21, 15)], id);  // newly covered, p_o 0.45 > 0.4: joins
   EXPECT_EQ(s.map.instance_id[s.surfel(11, 15)], id);  // p_o 0.5 > 0.4: kept
   // A third frame of background there: p_o = 1.1 / 3 <= 0.4 -> released.
-  fusion.integrate(s.frame(2), {test::rect_detection(W, H, 2, 0.9f, 12, 10, 21, 19, 0.7f, 0.1f)}, SE3(),
-                   s.map, &s.pixel_surfel);
+  fusion.integrate(s.frame(2), {test::rect_detection(W, H, 2, 0.9f, 12, 10, 21, 19, 0.7f, 0.1f)},
+                   SE3(), s.map, &s.pixel_surfel);
   EXPECT_EQ(s.map.instance_id[s.surfel(11, 15)], 0);
   EXPECT_EQ(s.map.always_active[s.surfel(11, 15)], 0);
   EXPECT_EQ(s.map.instance_id[s.surfel(15, 15)], id);
@@ -182,8 +191,8 @@ TEST(SemanticFusion, IndexMapPathMatchesThePixelSurfelPath) {
   EXPECT_EQ(fb.integrate(far, {det}, SE3(), b.map).surfels_observed, 0);
 }
 
-// Boundary band: object core u <= 29 (p = 0.9); u in [30, 33] p = band_p(frame); u >= 40 p = 0.45 but
-// more than 6 px from any object pixel; elsewhere 0.05.
+// Boundary band: object core u <= 29 (p = 0.9); u in [30, 33] p = band_p(frame); u >= 40 p = 0.45
+// but more than 6 px from any object pixel; elsewhere 0.05.
 Detection band_detection(int W, int H, float band_p) {
   return test::make_detection(W, H, 4, 0.9f, [=](int u, int v) -> float {
     if (v < 10 || v > 40) return 0.05f;
@@ -201,13 +210,14 @@ TEST(SemanticFusion, BoundarySurfelsJoinAfterNSupportingFrames) {
   const auto band = s.surfel(32, 20), far = s.surfel(42, 20);
   int joined = 0;
   for (int f = 0; f < 10; ++f) {
-    const auto rep = fusion.integrate(s.frame(f), {band_detection(W, H, 0.45f)}, SE3(), s.map, &s.pixel_surfel);
+    const auto rep =
+        fusion.integrate(s.frame(f), {band_detection(W, H, 0.45f)}, SE3(), s.map, &s.pixel_surfel);
     joined += rep.boundary_joined;
     if (f < 9) {
       EXPECT_EQ(s.map.instance_id[band], 0) << f;
       EXPECT_EQ(s.map.boundary_counter[band] & 0x0f, f + 1);  // criteria (i) and (ii) hold
       EXPECT_EQ(s.map.boundary_counter[band] >> 4, f + 1);
-      EXPECT_EQ(s.map.boundary_counter[far] & 0x0f, 0);       // (ii) fails: no object pixel within 6
+      EXPECT_EQ(s.map.boundary_counter[far] & 0x0f, 0);  // (ii) fails: no object pixel within 6
     }
   }
   const int id = fusion.instances().begin()->first;
@@ -225,7 +235,8 @@ TEST(SemanticFusion, BoundaryCounterResetsWhenAFrameFailsCriterionOne) {
   const auto band = s.surfel(32, 20);
   // Frame 4 gives the band 0.39 (<= 0.4): p_o stays in (0.4, 0.5) but the frame does not count.
   for (int f = 0; f < 10; ++f)
-    fusion.integrate(s.frame(f), {band_detection(W, H, f == 4 ? 0.39f : 0.47f)}, SE3(), s.map, &s.pixel_surfel);
+    fusion.integrate(s.frame(f), {band_detection(W, H, f == 4 ? 0.39f : 0.47f)}, SE3(), s.map,
+                     &s.pixel_surfel);
   EXPECT_GT(s.map.p_object[band], 0.4f);
   EXPECT_LT(s.map.p_object[band], 0.5f);
   EXPECT_EQ(s.map.instance_id[band], 0);
@@ -238,7 +249,8 @@ TEST(SemanticFusion, BoundaryCounterResetsWhenAFrameFailsCriterionOne) {
 TEST(SemanticFusion, SpuriousInstancesArePrunedAndFinalizeRemovesRareOnes) {
   test::PlanarSetup s;
   SemanticParams p;
-  p.release_probability = 0;  // keep the blob's surfels labelled: pruning, not release, must remove it
+  p.release_probability =
+      0;  // keep the blob's surfels labelled: pruning, not release, must remove it
   p.min_instance_detections = 3;
   p.prune_missed_keyframes = 5;
   p.min_instance_surfels = 10;
@@ -276,12 +288,13 @@ TEST(SemanticFusion, InstancesWhoseSurfelsWereAllReleasedAreRemoved) {
   SemanticFusion fusion(p);
   const int W = s.K.width, H = s.K.height;
   const auto object = test::rect_detection(W, H, 1, 0.95f, 5, 5, 24, 24);
-  fusion.integrate(s.frame(0), {object, test::rect_detection(W, H, 7, 0.6f, 50, 30, 59, 39)}, SE3(), s.map,
-                   &s.pixel_surfel);
+  fusion.integrate(s.frame(0), {object, test::rect_detection(W, H, 7, 0.6f, 50, 30, 59, 39)}, SE3(),
+                   s.map, &s.pixel_surfel);
   ASSERT_EQ(fusion.instances().size(), 2u);
   fusion.integrate(s.frame(1), {object}, SE3(), s.map, &s.pixel_surfel);  // blob p_o 0.475: kept
   EXPECT_EQ(fusion.instances().size(), 2u);
-  const auto rep = fusion.integrate(s.frame(2), {object}, SE3(), s.map, &s.pixel_surfel);  // 0.33: released
+  const auto rep =
+      fusion.integrate(s.frame(2), {object}, SE3(), s.map, &s.pixel_surfel);  // 0.33: released
   EXPECT_EQ(rep.surfels_released, 100);
   EXPECT_EQ(rep.pruned_instances, 1);
   ASSERT_EQ(fusion.instances().size(), 1u);
@@ -310,7 +323,8 @@ TEST(SemanticFusion, AMissedDetectionDoesNotPullSurfelsTowardsBackground) {
       EXPECT_NEAR(s.map.p_object[inside], 0.6f, 1e-6);
       EXPECT_EQ(s.map.object_obs_count[inside], 2);
       EXPECT_EQ(s.map.object_obs_count[near], 2);  // within 6 px of the projection: skipped too
-      EXPECT_EQ(rep.surfels_skipped, 32 * 32);  // the 20x20 projection dilated by 6 px (square window)
+      EXPECT_EQ(rep.surfels_skipped,
+                32 * 32);  // the 20x20 projection dilated by 6 px (square window)
       EXPECT_EQ(s.map.instance_id[inside], fusion.instances().begin()->first);
     } else {
       EXPECT_NEAR(s.map.p_object[inside], 0.4f, 1e-6);
@@ -324,13 +338,16 @@ TEST(SemanticFusion, SameClassInstancesOverlappedByOneDetectionMerge) {
   test::PlanarSetup s;
   SemanticFusion fusion(no_pruning());
   const int W = s.K.width, H = s.K.height;
-  // Two halves of one object detected as two instances (both class 3), then one detection over both.
-  fusion.integrate(s.frame(0), {test::rect_detection(W, H, 3, 0.9f, 10, 10, 19, 29),
-                                test::rect_detection(W, H, 3, 0.8f, 20, 10, 29, 29)},
+  // Two halves of one object detected as two instances (both class 3), then one detection over
+  // both.
+  fusion.integrate(s.frame(0),
+                   {test::rect_detection(W, H, 3, 0.9f, 10, 10, 19, 29),
+                    test::rect_detection(W, H, 3, 0.8f, 20, 10, 29, 29)},
                    SE3(), s.map, &s.pixel_surfel);
   ASSERT_EQ(fusion.instances().size(), 2u);
-  const auto rep = fusion.integrate(s.frame(1), {test::rect_detection(W, H, 3, 0.9f, 10, 10, 29, 29)}, SE3(),
-                                    s.map, &s.pixel_surfel);
+  const auto rep =
+      fusion.integrate(s.frame(1), {test::rect_detection(W, H, 3, 0.9f, 10, 10, 29, 29)}, SE3(),
+                       s.map, &s.pixel_surfel);
   EXPECT_EQ(rep.merged_instances, 1);
   ASSERT_EQ(fusion.instances().size(), 1u);
   const int id = fusion.instances().begin()->first;
@@ -340,10 +357,12 @@ TEST(SemanticFusion, SameClassInstancesOverlappedByOneDetectionMerge) {
   // Different classes never merge.
   test::PlanarSetup t;
   SemanticFusion other(no_pruning());
-  other.integrate(t.frame(0), {test::rect_detection(W, H, 3, 0.9f, 10, 10, 19, 29),
-                               test::rect_detection(W, H, 4, 0.8f, 20, 10, 29, 29)},
+  other.integrate(t.frame(0),
+                  {test::rect_detection(W, H, 3, 0.9f, 10, 10, 19, 29),
+                   test::rect_detection(W, H, 4, 0.8f, 20, 10, 29, 29)},
                   SE3(), t.map, &t.pixel_surfel);
-  other.integrate(t.frame(1), {test::rect_detection(W, H, 3, 0.9f, 10, 10, 29, 29)}, SE3(), t.map, &t.pixel_surfel);
+  other.integrate(t.frame(1), {test::rect_detection(W, H, 3, 0.9f, 10, 10, 29, 29)}, SE3(), t.map,
+                  &t.pixel_surfel);
   EXPECT_EQ(other.instances().size(), 2u);
 }
 
@@ -352,15 +371,17 @@ TEST(SemanticFusion, FirstComeOwnershipBetweenOverlappingDetections) {
   SemanticFusion fusion(no_pruning());
   const int W = s.K.width, H = s.K.height;
   // Overlap columns 20..24: the higher probability wins the pixel in the first frame.
-  fusion.integrate(s.frame(0), {test::rect_detection(W, H, 1, 0.9f, 5, 10, 24, 29, 0.95f),
-                                test::rect_detection(W, H, 2, 0.8f, 20, 10, 40, 29, 0.7f)},
+  fusion.integrate(s.frame(0),
+                   {test::rect_detection(W, H, 1, 0.9f, 5, 10, 24, 29, 0.95f),
+                    test::rect_detection(W, H, 2, 0.8f, 20, 10, 40, 29, 0.7f)},
                    SE3(), s.map, &s.pixel_surfel);
   const int a = s.map.instance_id[s.surfel(10, 15)], b = s.map.instance_id[s.surfel(35, 15)];
   ASSERT_NE(a, b);
   EXPECT_EQ(s.map.instance_id[s.surfel(22, 15)], a);
   // Later, the other detection is more confident there: the surfel keeps its owner.
-  fusion.integrate(s.frame(1), {test::rect_detection(W, H, 1, 0.9f, 5, 10, 24, 29, 0.6f),
-                                test::rect_detection(W, H, 2, 0.8f, 20, 10, 40, 29, 0.99f)},
+  fusion.integrate(s.frame(1),
+                   {test::rect_detection(W, H, 1, 0.9f, 5, 10, 24, 29, 0.6f),
+                    test::rect_detection(W, H, 2, 0.8f, 20, 10, 40, 29, 0.99f)},
                    SE3(), s.map, &s.pixel_surfel);
   EXPECT_EQ(s.map.instance_id[s.surfel(22, 15)], a);
 }
@@ -368,7 +389,8 @@ TEST(SemanticFusion, FirstComeOwnershipBetweenOverlappingDetections) {
 TEST(SemanticFusion, BadInputsAreErrors) {
   test::PlanarSetup s;
   SemanticFusion fusion(no_pruning());
-  EXPECT_THROW(fusion.integrate(s.frame(0), {test::rect_detection(10, 10, 1, 0.9f, 0, 0, 5, 5)}, SE3(), s.map),
+  EXPECT_THROW(fusion.integrate(s.frame(0), {test::rect_detection(10, 10, 1, 0.9f, 0, 0, 5, 5)},
+                                SE3(), s.map),
                IoError);
   RgbdFrame no_depth = s.frame(0);
   no_depth.depth = DepthImage();

@@ -16,7 +16,7 @@ struct SceneObject {
   Shape shape = Shape::kSphere;
   int class_id = 1;
   int instance_id = 1;
-  Vec3 centre_world = Vec3::Zero();  ///< m
+  Vec3 centre_world = Vec3::Zero();           ///< m
   Vec3 half_extent_m = Vec3::Constant(0.05);  ///< box half sizes; sphere radius = x()
   Rgb8 color{200, 50, 50};
 
@@ -25,7 +25,8 @@ struct SceneObject {
     const double inf = std::numeric_limits<double>::infinity();
     if (shape == Shape::kSphere) {
       const Vec3 oc = o - centre_world;
-      const double a = d.squaredNorm(), b = oc.dot(d), c = oc.squaredNorm() - half_extent_m.x() * half_extent_m.x();
+      const double a = d.squaredNorm(), b = oc.dot(d),
+                   c = oc.squaredNorm() - half_extent_m.x() * half_extent_m.x();
       const double disc = b * b - a * c;
       if (disc < 0) return inf;
       const double t = (-b - std::sqrt(disc)) / a;
@@ -91,10 +92,13 @@ struct SyntheticScene {
         if (std::abs(d.z()) > 1e-9) {
           const double t = -o.z() / d.z();
           const Vec3 p = o + t * d;
-          if (t > 0 && t < best && std::abs(p.x()) <= table_half_size_m && std::abs(p.y()) <= table_half_size_m) {
+          if (t > 0 && t < best && std::abs(p.x()) <= table_half_size_m &&
+              std::abs(p.y()) <= table_half_size_m) {
             best = t;
             label = 0;
-            const bool check = (static_cast<int>(std::floor(p.x() / 0.05)) + static_cast<int>(std::floor(p.y() / 0.05))) % 2;
+            const bool check = (static_cast<int>(std::floor(p.x() / 0.05)) +
+                                static_cast<int>(std::floor(p.y() / 0.05))) %
+                               2;
             c = check ? Rgb8{90, 70, 50} : Rgb8{150, 120, 90};
           }
         }
@@ -115,8 +119,8 @@ struct SyntheticScene {
     return f;
   }
 
-  /// Index of the object whose surface is within `tolerance_m` of p and nearer than the table plane,
-  /// or -1 (background).
+  /// Index of the object whose surface is within `tolerance_m` of p and nearer than the table
+  /// plane, or -1 (background).
   int object_at(const Vec3& p, double tolerance_m) const {
     int best = -1;
     double best_d = std::min(tolerance_m, std::abs(p.z()));
@@ -150,7 +154,8 @@ inline std::vector<SE3> orbit(int frames, double radius_m, double height_m, doub
   std::vector<SE3> poses;
   for (int i = 0; i < frames; ++i) {
     const double a = (start_deg + arc_deg * i / std::max(1, frames - 1)) * M_PI / 180.0;
-    poses.push_back(look_at(Vec3(radius_m * std::cos(a), radius_m * std::sin(a), height_m), Vec3(0, 0, 0.05)));
+    poses.push_back(
+        look_at(Vec3(radius_m * std::cos(a), radius_m * std::sin(a), height_m), Vec3(0, 0, 0.05)));
   }
   return poses;
 }

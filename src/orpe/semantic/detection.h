@@ -2,7 +2,8 @@
 //
 // The soft mask is the per-pixel object (non-background) probability before the 0.5 threshold, as
 // Mask R-CNN's mask branch gives it once resized to the RoI and pasted into the image (the paper's
-// p_o(I_t)). Pixels outside the RoI have probability 0. The binary mask is probability >= threshold.
+// p_o(I_t)). Pixels outside the RoI have probability 0. The binary mask is probability >=
+// threshold.
 #pragma once
 
 #include <utility>
@@ -25,10 +26,10 @@ struct BoxPx {
 struct Detection {
   int class_id = 0;    ///< dataset class id (YCB-Video 1..21, BOP obj_id); > 0
   float score = 0.0f;  ///< detector confidence in [0, 1]
-  BoxPx box;           ///< box of the binary mask (or the detector's box when it has no mask pixels)
+  BoxPx box;  ///< box of the binary mask (or the detector's box when it has no mask pixels)
   ProbabilityImage probability;  ///< full-image soft mask in [0, 1]
-  /// Optional full class distribution {class id, probability}; empty = {class_id: score} (the rest of
-  /// the mass is "other"). Used by the instance class-probability average.
+  /// Optional full class distribution {class id, probability}; empty = {class_id: score} (the rest
+  /// of the mass is "other"). Used by the instance class-probability average.
   std::vector<std::pair<int, float>> class_probabilities;
   /// Where it came from, for evaluation only: the ground-truth instance id (gt back-end), -1 for an
   /// injected spurious blob, 0 when unknown (files back-end). Fusion never reads it.

@@ -1,12 +1,12 @@
 // Label-aware rendering of the map's object instances (the masks M^ of the association, and the
 // projected mask / depth / colour given to the pose stage).
 //
-// A plain splat render labels a pixel with whatever surfel is nearest. On real depth the fusion keeps
-// creating young, noisy surfels (8 % of the pixels per frame on the YCB-Video clips) that sit a few
-// millimetres in front of the fused object surface; unlabelled, they punch holes into the masks. So
-// the labelled surfels are rendered on their own, and a pixel takes the nearest instance surface when
-// it lies within `depth_tolerance_m` of the map's visible surface (all surfels): surfaces truly in
-// front (another object, background) still occlude.
+// A plain splat render labels a pixel with whatever surfel is nearest. On real depth the fusion
+// keeps creating young, noisy surfels (8 % of the pixels per frame on the YCB-Video clips) that sit
+// a few millimetres in front of the fused object surface; unlabelled, they punch holes into the
+// masks. So the labelled surfels are rendered on their own, and a pixel takes the nearest instance
+// surface when it lies within `depth_tolerance_m` of the map's visible surface (all surfels):
+// surfaces truly in front (another object, background) still occlude.
 #pragma once
 
 #include <cstdint>

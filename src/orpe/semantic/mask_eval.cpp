@@ -1,16 +1,16 @@
 #include "orpe/semantic/mask_eval.h"
 
-#include <algorithm>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <tuple>
 
 namespace orpe {
 
 std::vector<int> match_by_iou(const std::vector<std::vector<long>>& intersections,
-                              const std::vector<long>& row_areas, const std::vector<long>& column_areas,
-                              std::vector<double>* row_iou) {
+                              const std::vector<long>& row_areas,
+                              const std::vector<long>& column_areas, std::vector<double>* row_iou) {
   struct Pair {
     double iou;
     int r, c;
@@ -39,8 +39,10 @@ std::vector<int> match_by_iou(const std::vector<std::vector<long>>& intersection
   return match;
 }
 
-bool SemanticMaskEvaluator::add_frame(const RgbdFrame& frame, const std::vector<Detection>& detections,
-                              const LabelImage& projected, const std::map<int, InstanceInfo>& instances) {
+bool SemanticMaskEvaluator::add_frame(const RgbdFrame& frame,
+                                      const std::vector<Detection>& detections,
+                                      const LabelImage& projected,
+                                      const std::map<int, InstanceInfo>& instances) {
   const LabelImage& gt = frame.labels_gt;
   if (gt.empty() || frame.objects_gt.empty()) return false;
   const int num_objects = static_cast<int>(frame.objects_gt.size());
@@ -113,7 +115,8 @@ bool SemanticMaskEvaluator::add_frame(const RgbdFrame& frame, const std::vector<
   return true;
 }
 
-SemanticMaskResult SemanticMaskEvaluator::result(const std::map<int, InstanceInfo>& final_instances) const {
+SemanticMaskResult SemanticMaskEvaluator::result(
+    const std::map<int, InstanceInfo>& final_instances) const {
   SemanticMaskResult r;
   r.frames = frames_;
   auto row = [](int class_id, const Accum& a) {
@@ -128,14 +131,17 @@ SemanticMaskResult SemanticMaskEvaluator::result(const std::map<int, InstanceInf
       out.input_miou = a.input_sum / a.samples;
       out.projected_miou = a.projected_sum / a.samples;
     }
-    if (a.samples - a.input_missed > 0) out.input_miou_matched = a.input_sum / (a.samples - a.input_missed);
+    if (a.samples - a.input_missed > 0)
+      out.input_miou_matched = a.input_sum / (a.samples - a.input_missed);
     if (a.samples - a.projected_missed > 0)
       out.projected_miou_matched = a.projected_sum / (a.samples - a.projected_missed);
     return out;
   };
   for (const auto& [c, a] : per_class_) {
-    if (c == 0) r.overall = row(0, a);
-    else r.per_class.push_back(row(c, a));
+    if (c == 0)
+      r.overall = row(0, a);
+    else
+      r.per_class.push_back(row(c, a));
   }
   // Instance ownership over the run (only instances that still exist).
   std::map<int, std::vector<std::pair<long, int>>> owned;  // object -> (pixels, instance)
@@ -148,8 +154,10 @@ SemanticMaskResult SemanticMaskEvaluator::result(const std::map<int, InstanceInf
         best = px;
         owner = obj;
       }
-    if (owner == 0) r.spurious_instances.push_back(id);
-    else owned[owner].push_back({best, id});
+    if (owner == 0)
+      r.spurious_instances.push_back(id);
+    else
+      owned[owner].push_back({best, id});
   }
   for (const auto& [obj, cls] : object_class_) {
     ObjectInstanceRow o;
@@ -172,22 +180,25 @@ SemanticMaskResult SemanticMaskEvaluator::result(const std::map<int, InstanceInf
 }
 
 std::string SemanticMaskResult::report() const {
-  std::string s = fmt::format("mask IoU over {} frames ({} object samples): input {:.3f} ({:.3f} matched, "
-                              "{} missed), map-projected {:.3f} ({:.3f} matched, {} missed)\n",
-                              frames, overall.samples, overall.input_miou, overall.input_miou_matched,
-                              overall.input_missed, overall.projected_miou, overall.projected_miou_matched,
-                              overall.projected_missed);
+  std::string s = fmt::format(
+      "mask IoU over {} frames ({} object samples): input {:.3f} ({:.3f} matched, "
+      "{} missed), map-projected {:.3f} ({:.3f} matched, {} missed)\n",
+      frames, overall.samples, overall.input_miou, overall.input_miou_matched, overall.input_missed,
+      overall.projected_miou, overall.projected_miou_matched, overall.projected_missed);
   s += "  class  samples  input_mIoU  projected_mIoU  input_class_ok  projected_class_ok\n";
   for (const auto& c : per_class)
     s += fmt::format("  {:5d}  {:7d}  {:10.3f}  {:14.3f}  {:14d}  {:18d}\n", c.class_id, c.samples,
-                     c.input_miou, c.projected_miou, c.input_class_correct, c.projected_class_correct);
-  s += fmt::format("instances: {} of {} objects have exactly one instance, {} with the right class; "
-                   "{} spurious instances\n",
-                   objects_with_exactly_one_instance, objects.size(), objects_with_correct_class,
-                   spurious_instances.size());
+                     c.input_miou, c.projected_miou, c.input_class_correct,
+                     c.projected_class_correct);
+  s += fmt::format(
+      "instances: {} of {} objects have exactly one instance, {} with the right class; "
+      "{} spurious instances\n",
+      objects_with_exactly_one_instance, objects.size(), objects_with_correct_class,
+      spurious_instances.size());
   for (const auto& o : objects)
-    s += fmt::format("  object {} (class {}): instances [{}], argmax class {}\n", o.object_instance_id,
-                     o.class_id, fmt::join(o.instances, ", "), o.argmax_class);
+    s +=
+        fmt::format("  object {} (class {}): instances [{}], argmax class {}\n",
+                    o.object_instance_id, o.class_id, fmt::join(o.instances, ", "), o.argmax_class);
   return s;
 }
 

@@ -22,7 +22,8 @@ bool SegmentationParams::IsValid(std::string* why) const {
   if (!(keyframe_min_rotation_deg >= 0)) return fail("keyframe_min_rotation_deg must be >= 0");
   if (keyframe_every_n_frames == 0 && keyframe_min_translation_m == 0 &&
       keyframe_min_rotation_deg == 0)
-    return fail("every keyframe rule is disabled: set keyframe_every_n_frames or a motion threshold");
+    return fail(
+        "every keyframe rule is disabled: set keyframe_every_n_frames or a motion threshold");
   if (gt_min_visible_px < 0) return fail("gt_min_visible_px must be >= 0");
   if (gt_boundary_shift_min_px > gt_boundary_shift_max_px)
     return fail("gt_boundary_shift_min_px must be <= gt_boundary_shift_max_px");
@@ -41,7 +42,8 @@ bool SegmentationParams::IsValid(std::string* why) const {
   if (!(gt_probability_noise >= 0 && gt_probability_noise <= 0.5))
     return fail("gt_probability_noise must be in [0, 0.5]");
   for (double rate : {gt_miss_rate, gt_wrong_class_rate})
-    if (!(rate >= 0 && rate <= 1)) return fail("gt_miss_rate and gt_wrong_class_rate must be in [0, 1]");
+    if (!(rate >= 0 && rate <= 1))
+      return fail("gt_miss_rate and gt_wrong_class_rate must be in [0, 1]");
   if (!(gt_spurious_per_frame >= 0 && gt_spurious_per_frame <= 20))
     return fail("gt_spurious_per_frame must be in [0, 20]");
   if (gt_spurious_min_radius_px < 1 || gt_spurious_max_radius_px < gt_spurious_min_radius_px)

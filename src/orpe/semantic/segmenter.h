@@ -1,8 +1,8 @@
-// 2D instance segmentation back-ends: a frame in, a list of detections (class, score, box, soft mask)
-// out. The paper runs Mask R-CNN on keyframes; here the back-ends are
+// 2D instance segmentation back-ends: a frame in, a list of detections (class, score, box, soft
+// mask) out. The paper runs Mask R-CNN on keyframes; here the back-ends are
 //   - "gt":    the frame's ground-truth labels (labels_gt / objects_gt), optionally degraded by a
-//              seeded model of a real detector's errors (boundary erosion/dilation with soft edges just
-//              below 0.5, missed detections, wrong classes, spurious blobs);
+//              seeded model of a real detector's errors (boundary erosion/dilation with soft edges
+//              just below 0.5, missed detections, wrong classes, spurious blobs);
 //   - "files": precomputed detections of any external detector (docs/SEMANTIC.md, "files format").
 // A back-end is deterministic: the same frame (and seed) always gives the same detections.
 #pragma once
@@ -18,21 +18,24 @@
 namespace orpe {
 
 struct SegmentationParams {
-  std::string backend = "gt";  ///< gt | files
-  std::string files_dir;       ///< files back-end: folder of <frame index:06d>.json + mask images
+  std::string backend = "gt";   ///< gt | files
+  std::string files_dir;        ///< files back-end: folder of <frame index:06d>.json + mask images
   double mask_threshold = 0.5;  ///< soft mask -> binary mask (Mask R-CNN: 0.5)
   double min_score = 0.5;       ///< detections below this score are dropped (every back-end)
   int min_mask_area_px = 30;    ///< detections with fewer mask pixels are dropped (every back-end)
 
-  // Keyframe policy: a frame is a keyframe when either enabled rule fires; the first frame always is.
-  int keyframe_every_n_frames = 1;         ///< every n-th frame; 0 disables the rule
-  double keyframe_min_translation_m = 0;   ///< camera moved this far since the last keyframe; 0 = off
-  double keyframe_min_rotation_deg = 0;    ///< camera turned this much since the last keyframe; 0 = off
+  // Keyframe policy: a frame is a keyframe when either enabled rule fires; the first frame always
+  // is.
+  int keyframe_every_n_frames = 1;  ///< every n-th frame; 0 disables the rule
+  double keyframe_min_translation_m =
+      0;  ///< camera moved this far since the last keyframe; 0 = off
+  double keyframe_min_rotation_deg =
+      0;  ///< camera turned this much since the last keyframe; 0 = off
 
   // gt back-end degradation (deterministic per (seed, frame index, object)).
-  bool gt_degrade = true;               ///< false = exact ground-truth masks (probability 1 / 0)
-  int seed = 7;                         ///< seed of every random choice of the degradation
-  int gt_min_visible_px = 100;          ///< objects with fewer visible pixels are never detected
+  bool gt_degrade = true;       ///< false = exact ground-truth masks (probability 1 / 0)
+  int seed = 7;                 ///< seed of every random choice of the degradation
+  int gt_min_visible_px = 100;  ///< objects with fewer visible pixels are never detected
   /// Boundary shift of an object's masks: a per-object base, uniform integer in [min, max] and the
   /// same in every frame (a detector errs systematically on an object's outline), plus a per-frame
   /// jitter, uniform integer in [-jitter, jitter]. > 0 erodes (object edge pixels fall just below
@@ -40,22 +43,25 @@ struct SegmentationParams {
   int gt_boundary_shift_min_px = 0;
   int gt_boundary_shift_max_px = 3;
   int gt_boundary_jitter_px = 1;
-  double gt_band_min_probability = 0.42;  ///< eroded object pixels get [this, 0.5): "slightly below 0.5"
-  double gt_core_probability = 0.95;      ///< probability deep inside the mask
-  double gt_core_ramp_px = 3;             ///< distance over which 0.5 rises to the core probability
+  double gt_band_min_probability =
+      0.42;  ///< eroded object pixels get [this, 0.5): "slightly below 0.5"
+  double gt_core_probability = 0.95;  ///< probability deep inside the mask
+  double gt_core_ramp_px = 3;         ///< distance over which 0.5 rises to the core probability
   double gt_background_edge_probability = 0.3;  ///< background next to the mask (far below 0.5)
-  double gt_background_decay_px = 2;      ///< e-folding distance of the background probability
-  double gt_probability_noise = 0.0;      ///< std of per-pixel Gaussian noise added to the soft mask
-  double gt_miss_rate = 0.1;              ///< probability that a visible object is not detected
-  double gt_wrong_class_rate = 0.05;      ///< probability that a detection gets another class
-  double gt_spurious_per_frame = 0.2;     ///< mean number of spurious blobs per frame (Poisson)
-  int gt_spurious_min_radius_px = 8;      ///< spurious blob (ellipse) semi-axis range
+  double gt_background_decay_px = 2;   ///< e-folding distance of the background probability
+  double gt_probability_noise = 0.0;   ///< std of per-pixel Gaussian noise added to the soft mask
+  double gt_miss_rate = 0.1;           ///< probability that a visible object is not detected
+  double gt_wrong_class_rate = 0.05;   ///< probability that a detection gets another class
+  double gt_spurious_per_frame = 0.2;  ///< mean number of spurious blobs per frame (Poisson)
+  int gt_spurious_min_radius_px = 8;   ///< spurious blob (ellipse) semi-axis range
   int gt_spurious_max_radius_px = 30;
 
   template <class V>
   void visit(V&& v) {
-    v("backend", backend, "Segmentation back-end: gt (ground-truth labels, optionally degraded) | files");
-    v("files_dir", files_dir, "files back-end: folder of <frame index:06d>.json + masks (docs/SEMANTIC.md)");
+    v("backend", backend,
+      "Segmentation back-end: gt (ground-truth labels, optionally degraded) | files");
+    v("files_dir", files_dir,
+      "files back-end: folder of <frame index:06d>.json + masks (docs/SEMANTIC.md)");
     v("mask_threshold", mask_threshold, "Soft mask -> binary mask threshold (Mask R-CNN: 0.5)");
     v("min_score", min_score, "Detections with a lower score are dropped, in [0, 1]");
     v("min_mask_area_px", min_mask_area_px, "Detections with fewer mask pixels are dropped");
@@ -65,19 +71,25 @@ struct SegmentationParams {
       "Also a keyframe when the camera moved this far (m) since the last one; 0 = off");
     v("keyframe_min_rotation_deg", keyframe_min_rotation_deg,
       "Also a keyframe when the camera turned this much (deg) since the last one; 0 = off");
-    v("gt_degrade", gt_degrade, "gt back-end: degrade the masks like a real detector (false = exact)");
-    v("seed", seed, "gt back-end: seed of the degradation (deterministic per seed and frame index)");
-    v("gt_min_visible_px", gt_min_visible_px, "gt back-end: objects with fewer visible pixels are missed");
+    v("gt_degrade", gt_degrade,
+      "gt back-end: degrade the masks like a real detector (false = exact)");
+    v("seed", seed,
+      "gt back-end: seed of the degradation (deterministic per seed and frame index)");
+    v("gt_min_visible_px", gt_min_visible_px,
+      "gt back-end: objects with fewer visible pixels are missed");
     v("gt_boundary_shift_min_px", gt_boundary_shift_min_px,
-      "gt back-end: per-object boundary shift (same in every frame), lower bound (px; < 0 dilates)");
+      "gt back-end: per-object boundary shift (same in every frame), lower bound (px; < 0 "
+      "dilates)");
     v("gt_boundary_shift_max_px", gt_boundary_shift_max_px,
       "gt back-end: per-object boundary shift (same in every frame), upper bound (px; > 0 erodes)");
     v("gt_boundary_jitter_px", gt_boundary_jitter_px,
-      "gt back-end: per-frame jitter added to the boundary shift, uniform in [-jitter, jitter] (px)");
+      "gt back-end: per-frame jitter added to the boundary shift, uniform in [-jitter, jitter] "
+      "(px)");
     v("gt_band_min_probability", gt_band_min_probability,
       "gt back-end: eroded object pixels get probabilities in [this, 0.5)");
     v("gt_core_probability", gt_core_probability, "gt back-end: probability deep inside a mask");
-    v("gt_core_ramp_px", gt_core_ramp_px, "gt back-end: distance (px) over which 0.5 rises to the core");
+    v("gt_core_ramp_px", gt_core_ramp_px,
+      "gt back-end: distance (px) over which 0.5 rises to the core");
     v("gt_background_edge_probability", gt_background_edge_probability,
       "gt back-end: probability of the background pixels next to a mask");
     v("gt_background_decay_px", gt_background_decay_px,
@@ -88,8 +100,10 @@ struct SegmentationParams {
     v("gt_wrong_class_rate", gt_wrong_class_rate, "gt back-end: probability of a wrong class");
     v("gt_spurious_per_frame", gt_spurious_per_frame,
       "gt back-end: mean number of spurious blobs per frame (Poisson)");
-    v("gt_spurious_min_radius_px", gt_spurious_min_radius_px, "gt back-end: spurious blob min semi-axis (px)");
-    v("gt_spurious_max_radius_px", gt_spurious_max_radius_px, "gt back-end: spurious blob max semi-axis (px)");
+    v("gt_spurious_min_radius_px", gt_spurious_min_radius_px,
+      "gt back-end: spurious blob min semi-axis (px)");
+    v("gt_spurious_max_radius_px", gt_spurious_max_radius_px,
+      "gt back-end: spurious blob max semi-axis (px)");
   }
   bool IsValid(std::string* why) const;
 };
@@ -128,14 +142,16 @@ class FileSegmenter : public Segmenter {
   std::string name() const override { return "files"; }
   std::vector<Detection> detect(const RgbdFrame& frame) const override;
   /// Reads the detections of one frame index from `dir` (unfiltered). Throws IoError.
-  static std::vector<Detection> read(const std::string& dir, int frame_index, int width, int height);
+  static std::vector<Detection> read(const std::string& dir, int frame_index, int width,
+                                     int height);
 
  private:
   SegmentationParams params_;
 };
 
 /// Writes detections in the files back-end's format (JSON + 8-bit mask + 16-bit probability PNG per
-/// detection), atomically, the JSON last. Lets any detector's output, or the gt back-end's, be stored.
+/// detection), atomically, the JSON last. Lets any detector's output, or the gt back-end's, be
+/// stored.
 void write_detection_files(const std::string& dir, int frame_index,
                            const std::vector<Detection>& detections, float mask_threshold = 0.5f);
 

@@ -1,12 +1,12 @@
 // The files back-end: precomputed detections of an external detector (format: docs/SEMANTIC.md).
 #include <opencv2/imgcodecs.hpp>
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <cmath>
 #include <filesystem>
-#include <fmt/format.h>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
@@ -22,9 +22,12 @@ ProbabilityImage read_probability_image(const std::string& path) {
   if (raw.empty()) throw IoError(path, "cannot read probability image");
   if (raw.channels() != 1) throw IoError(path, "probability image must have one channel");
   double scale;
-  if (raw.depth() == CV_8U) scale = 1.0 / 255.0;
-  else if (raw.depth() == CV_16U) scale = 1.0 / 65535.0;
-  else throw IoError(path, "probability image must be 8- or 16-bit");
+  if (raw.depth() == CV_8U)
+    scale = 1.0 / 255.0;
+  else if (raw.depth() == CV_16U)
+    scale = 1.0 / 65535.0;
+  else
+    throw IoError(path, "probability image must be 8- or 16-bit");
   cv::Mat1f p;
   raw.convertTo(p, CV_32F, scale);
   ProbabilityImage out(p.cols, p.rows);
@@ -68,7 +71,8 @@ std::vector<Detection> FileSegmenter::read(const std::string& dir, int frame_ind
       det.class_id = jd.at("class_id").get<int>();
       if (det.class_id <= 0) throw IoError(path, where + "class_id must be > 0");
       det.score = jd.value("score", 1.0f);
-      if (!(det.score >= 0 && det.score <= 1)) throw IoError(path, where + "score must be in [0, 1]");
+      if (!(det.score >= 0 && det.score <= 1))
+        throw IoError(path, where + "score must be in [0, 1]");
       const std::string mask_file = jd.value("mask", std::string());
       const std::string prob_file = jd.value("probability", std::string());
       if (mask_file.empty() && prob_file.empty())
@@ -82,9 +86,9 @@ std::vector<Detection> FileSegmenter::read(const std::string& dir, int frame_ind
         for (size_t i = 0; i < mask.size(); ++i) det.probability[i] = mask[i] > 0 ? 1.0f : 0.0f;
       }
       if (det.probability.width() != width || det.probability.height() != height)
-        throw IoError(path, where + fmt::format("mask is {}x{}, the frame {}x{}",
-                                                det.probability.width(), det.probability.height(),
-                                                width, height));
+        throw IoError(path,
+                      where + fmt::format("mask is {}x{}, the frame {}x{}", det.probability.width(),
+                                          det.probability.height(), width, height));
       for (float p : det.probability)
         if (!std::isfinite(p)) throw IoError(path, where + "non-finite probability");
       if (jd.contains("box")) {
@@ -139,7 +143,8 @@ void write_detection_files(const std::string& dir, int frame_index,
                    binary_mask(det.probability, mask_threshold));
     LabelImage prob16(det.probability.width(), det.probability.height());
     for (size_t k = 0; k < prob16.size(); ++k)
-      prob16[k] = static_cast<std::int32_t>(std::lround(std::clamp(det.probability[k], 0.0f, 1.0f) * 65535.0));
+      prob16[k] = static_cast<std::int32_t>(
+          std::lround(std::clamp(det.probability[k], 0.0f, 1.0f) * 65535.0));
     write_label_png((std::filesystem::path(dir) / (stem + "_prob.png")).string(), prob16, false);
     nlohmann::json jd;
     jd["class_id"] = det.class_id;

@@ -5,20 +5,21 @@
 // with d_in the Euclidean distance of an object pixel to the nearest background pixel (>= 1) and
 // d_out that of a background pixel to the nearest object pixel (>= 1),
 //   object pixel, d_in > e       -> 0.5 + (core - 0.5) * min(1, (d_in - e) / ramp)   (kept, >= 0.5)
-//   object pixel, d_in <= e      -> band_min .. 0.5 rising inwards                     (eroded, < 0.5)
-//   background,   d_out <= -e    -> 0.5 + (core - 0.5) * min(1, (-e - d_out + 1) / ramp) (dilated)
-//   background otherwise         -> edge * exp(-(d_out - max(0, -e) - 1) / decay)       (far below 0.5)
+//   object pixel, d_in <= e      -> band_min .. 0.5 rising inwards                     (eroded, <
+//   0.5) background,   d_out <= -e    -> 0.5 + (core - 0.5) * min(1, (-e - d_out + 1) / ramp)
+//   (dilated) background otherwise         -> edge * exp(-(d_out - max(0, -e) - 1) / decay) (far
+//   below 0.5)
 // so misclassified object boundary pixels sit just below 0.5 while true background is far below,
 // the observation the paper's boundary refinement exploits.
 #include <opencv2/imgproc.hpp>
 
+#include <spdlog/spdlog.h>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <map>
 #include <random>
-#include <spdlog/spdlog.h>
 
 #include "orpe/semantic/segmenter.h"
 
@@ -63,10 +64,11 @@ constexpr std::uint64_t kObjectStream = 0xfffffffff0b1ec75ULL;  // never a frame
 
 /// Writes the soft mask of `object` (a 0/1 full-size mask whose non-zero pixels lie in `box`) into
 /// `probability`, with boundary shift `shift_px`.
-void soft_mask(const cv::Mat1b& object, const BoxPx& box, int shift_px,
-               const SegmentationParams& p, Rng& rng, ProbabilityImage& probability) {
-  const int margin = std::abs(shift_px) + static_cast<int>(std::ceil(p.gt_background_decay_px * 8 +
-                                                                     p.gt_core_ramp_px)) + 2;
+void soft_mask(const cv::Mat1b& object, const BoxPx& box, int shift_px, const SegmentationParams& p,
+               Rng& rng, ProbabilityImage& probability) {
+  const int margin = std::abs(shift_px) +
+                     static_cast<int>(std::ceil(p.gt_background_decay_px * 8 + p.gt_core_ramp_px)) +
+                     2;
   const cv::Rect roi = cv::Rect(box.u_min - margin, box.v_min - margin, box.width_px() + 2 * margin,
                                 box.height_px() + 2 * margin) &
                        cv::Rect(0, 0, object.cols, object.rows);
@@ -127,7 +129,8 @@ std::vector<Detection> GroundTruthSegmenter::detect(const RgbdFrame& frame) cons
   if (labels.empty() || frame.objects_gt.empty()) {
     static std::atomic<bool> warned{false};
     if (!warned.exchange(true))
-      spdlog::warn("segmentation gt: frame '{}' has no ground-truth labels; no detections", frame.name);
+      spdlog::warn("segmentation gt: frame '{}' has no ground-truth labels; no detections",
+                   frame.name);
     return out;
   }
   const int width = labels.width(), height = labels.height();
@@ -159,8 +162,8 @@ std::vector<Detection> GroundTruthSegmenter::detect(const RgbdFrame& frame) cons
     } else {
       const auto object_key = 0x1000000ULL + static_cast<std::uint64_t>(object.instance_id);
       Rng object_rng(seed, kObjectStream, object_key);  // same in every frame
-      const int base_shift =
-          object_rng.uniform_int(params_.gt_boundary_shift_min_px, params_.gt_boundary_shift_max_px);
+      const int base_shift = object_rng.uniform_int(params_.gt_boundary_shift_min_px,
+                                                    params_.gt_boundary_shift_max_px);
       Rng rng(seed, frame_key, object_key);
       if (rng.bernoulli(params_.gt_miss_rate)) continue;
       const int shift = base_shift + rng.uniform_int(-params_.gt_boundary_jitter_px,
@@ -189,8 +192,10 @@ std::vector<Detection> GroundTruthSegmenter::detect(const RgbdFrame& frame) cons
     Rng rng(seed, frame_key, kSpuriousStream);
     const int count = rng.poisson(params_.gt_spurious_per_frame);
     for (int i = 0; i < count; ++i) {
-      const int ru = rng.uniform_int(params_.gt_spurious_min_radius_px, params_.gt_spurious_max_radius_px);
-      const int rv = rng.uniform_int(params_.gt_spurious_min_radius_px, params_.gt_spurious_max_radius_px);
+      const int ru =
+          rng.uniform_int(params_.gt_spurious_min_radius_px, params_.gt_spurious_max_radius_px);
+      const int rv =
+          rng.uniform_int(params_.gt_spurious_min_radius_px, params_.gt_spurious_max_radius_px);
       const int cu = rng.uniform_int(0, width - 1), cv_ = rng.uniform_int(0, height - 1);
       const double angle_deg = rng.uniform(0.0, 180.0);
       Detection det;
@@ -201,8 +206,10 @@ std::vector<Detection> GroundTruthSegmenter::detect(const RgbdFrame& frame) cons
       cv::Mat1b mask(height, width, static_cast<uchar>(0));
       cv::ellipse(mask, cv::Point(cu, cv_), cv::Size(ru, rv), angle_deg, 0, 360, cv::Scalar(1), -1);
       BoxPx box;
-      for (int v = std::max(0, cv_ - std::max(ru, rv)); v <= std::min(height - 1, cv_ + std::max(ru, rv)); ++v)
-        for (int u = std::max(0, cu - std::max(ru, rv)); u <= std::min(width - 1, cu + std::max(ru, rv)); ++u)
+      for (int v = std::max(0, cv_ - std::max(ru, rv));
+           v <= std::min(height - 1, cv_ + std::max(ru, rv)); ++v)
+        for (int u = std::max(0, cu - std::max(ru, rv));
+             u <= std::min(width - 1, cu + std::max(ru, rv)); ++u)
           if (mask(v, u)) box.include(u, v);
       if (box.empty()) continue;
       soft_mask(mask, box, 0, params_, rng, det.probability);

@@ -1,8 +1,8 @@
 #include "orpe/semantic/semantic_fusion.h"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <chrono>
-#include <fmt/format.h>
 #include <limits>
 #include <numeric>
 #include <optional>
@@ -30,7 +30,8 @@ bool SemanticParams::IsValid(std::string* why) const {
     return fail("object_probability_threshold must be in (0, 1)");
   if (!(association_min_overlap >= 0 && association_min_overlap < 1))
     return fail("association_min_overlap must be in [0, 1)");
-  if (association_min_projected_area_px < 1) return fail("association_min_projected_area_px must be >= 1");
+  if (association_min_projected_area_px < 1)
+    return fail("association_min_projected_area_px must be >= 1");
   if (!(release_probability >= 0 && release_probability < object_probability_threshold))
     return fail("release_probability must be in [0, object_probability_threshold)");
   if (!(boundary_low_probability >= 0 && boundary_low_probability < boundary_high_probability &&
@@ -44,7 +45,8 @@ bool SemanticParams::IsValid(std::string* why) const {
     return fail("boundary_window_frames must be in [1, 15] (stored in 4 bits per surfel)");
   if (boundary_min_count < 1 || boundary_min_count > boundary_window_frames)
     return fail("boundary_min_count must be in [1, boundary_window_frames]");
-  if (index_supersample < 1 || index_supersample > 8) return fail("index_supersample must be in [1, 8]");
+  if (index_supersample < 1 || index_supersample > 8)
+    return fail("index_supersample must be in [1, 8]");
   if (!(mask_splat_radius_px >= 0.5 && mask_splat_radius_px <= 50))
     return fail("mask_splat_radius_px must be in [0.5, 50]");
   if (!(mask_depth_tolerance_m >= 0)) return fail("mask_depth_tolerance_m must be >= 0");
@@ -64,7 +66,8 @@ std::vector<std::pair<int, double>> InstanceInfo::class_distribution() const {
   std::vector<std::pair<int, double>> out;
   if (detections == 0) return out;
   for (const auto& [c, sum] : class_probability_sum) out.emplace_back(c, sum / detections);
-  std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+  std::stable_sort(out.begin(), out.end(),
+                   [](const auto& a, const auto& b) { return a.second > b.second; });
   return out;
 }
 
@@ -94,11 +97,12 @@ std::map<int, InstanceGeometry> instance_geometry(const slam::SurfelMap& map) {
 std::string SemanticFrameReport::report() const {
   return fmt::format(
       "semantic frame {}: {} detections ({} associated, {} new, {} merged, {} pruned, {} missed "
-      "instances); surfels: {} observed, {} skipped, {} labelled, {} released, {} boundary candidates, "
+      "instances); surfels: {} observed, {} skipped, {} labelled, {} released, {} boundary "
+      "candidates, "
       "{} joined; {:.1f} ms (render {:.1f}, associate {:.1f}, update {:.1f})",
       frame_index, detections, associated, new_instances, merged_instances, pruned_instances,
-      missed_instances, surfels_observed, surfels_skipped, surfels_labelled, surfels_released, boundary_candidates, boundary_joined,
-      total_ms, render_ms, associate_ms, update_ms);
+      missed_instances, surfels_observed, surfels_skipped, surfels_labelled, surfels_released,
+      boundary_candidates, boundary_joined, total_ms, render_ms, associate_ms, update_ms);
 }
 
 std::vector<Association> associate_detections(const std::vector<MaskImage>& masks,
@@ -111,8 +115,8 @@ std::vector<Association> associate_detections(const std::vector<MaskImage>& mask
   for (size_t d = 0; d < masks.size(); ++d) {
     const MaskImage& mask = masks[d];
     if (mask.width() != rendered_instances.width() || mask.height() != rendered_instances.height())
-      throw ConfigError(fmt::format("associate_detections: mask {} is {}x{}, rendered image {}x{}", d,
-                                    mask.width(), mask.height(), rendered_instances.width(),
+      throw ConfigError(fmt::format("associate_detections: mask {} is {}x{}, rendered image {}x{}",
+                                    d, mask.width(), mask.height(), rendered_instances.width(),
                                     rendered_instances.height()));
     std::map<int, int> intersection;
     for (size_t k = 0; k < mask.size(); ++k)
@@ -123,7 +127,8 @@ std::vector<Association> associate_detections(const std::vector<MaskImage>& mask
     };
     std::vector<Candidate> candidates;
     for (const auto& [id, inter] : intersection)
-      candidates.push_back({id, inter, static_cast<double>(inter) / std::max(area[id], min_projected_area_px)});
+      candidates.push_back(
+          {id, inter, static_cast<double>(inter) / std::max(area[id], min_projected_area_px)});
     std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
       if (a.u != b.u) return a.u > b.u;
       if (a.inter != b.inter) return a.inter > b.inter;
@@ -183,7 +188,8 @@ SemanticFusion::SemanticFusion(const SemanticParams& params) : params_(params) {
 }
 
 void SemanticFusion::render_instances(const slam::SurfelMap& map, const SE3& T_world_cam,
-                                      const PinholeIntrinsics& K, bool want_color, InstanceImages* out) {
+                                      const PinholeIntrinsics& K, bool want_color,
+                                      InstanceImages* out) {
   instance_renderer_.render(map, T_world_cam, K, static_cast<float>(params_.mask_splat_radius_px),
                             static_cast<float>(params_.mask_splat_radius_scale),
                             params_.mask_depth_tolerance_m, want_color, out);
@@ -213,7 +219,8 @@ void SemanticFusion::merge_into(int keep, int absorb, slam::SurfelMap& map) {
   const InstanceInfo& a = instances_.at(absorb);
   for (const auto& [c, sum] : a.class_probability_sum) k.class_probability_sum[c] += sum;
   k.detections += a.detections;
-  if (a.first_frame >= 0 && (k.first_frame < 0 || a.first_frame < k.first_frame)) k.first_frame = a.first_frame;
+  if (a.first_frame >= 0 && (k.first_frame < 0 || a.first_frame < k.first_frame))
+    k.first_frame = a.first_frame;
   k.last_frame = std::max(k.last_frame, a.last_frame);
   k.visible_keyframes = std::max(k.visible_keyframes, a.visible_keyframes);
   instances_.erase(absorb);
@@ -287,7 +294,8 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   SemanticFrameReport rep;
   rep.frame_index = frame.index;
   rep.detections = static_cast<int>(detections.size());
-  if (frame.depth.empty()) throw IoError(frame.name, "semantic fusion needs the frame's depth image");
+  if (frame.depth.empty())
+    throw IoError(frame.name, "semantic fusion needs the frame's depth image");
   const int W = frame.depth.width(), H = frame.depth.height();
   PinholeIntrinsics K = frame.intrinsics;
   K.width = W;
@@ -416,8 +424,9 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   UpdateCounts counts;
   if (pixel_surfel) {
     if (pixel_surfel->width() != W || pixel_surfel->height() != H)
-      throw ConfigError(fmt::format("semantic fusion: pixel->surfel image is {}x{}, the frame {}x{}",
-                                    pixel_surfel->width(), pixel_surfel->height(), W, H));
+      throw ConfigError(
+          fmt::format("semantic fusion: pixel->surfel image is {}x{}, the frame {}x{}",
+                      pixel_surfel->width(), pixel_surfel->height(), W, H));
     // A surfel may cover several pixels (the SLAM lists the surfel a pixel updated, created or is
     // covered by): each surfel is updated once, at its listed pixel nearest its projected centre.
     const auto n = static_cast<std::int32_t>(map.size());
@@ -455,14 +464,15 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     {
       UpdateCounts local;
 #pragma omp for schedule(static)
-      for (long c = 0; c < cells; ++c) {  // each surfel lies in at most one cell: no write conflicts
+      for (long c = 0; c < cells;
+           ++c) {  // each surfel lies in at most one cell: no write conflicts
         const std::int32_t i = index_map_.surfel_index[c];
         if (i < 0) continue;
         const int u = static_cast<int>(c % Ws) / s, v = static_cast<int>(c / Ws) / s;
         const float z_frame = frame.depth.at(u, v);
         if (z_frame <= 0.0f) continue;
-        const double tol =
-            std::max(params_.surfel_depth_tolerance_m, params_.surfel_depth_tolerance_rel * z_frame);
+        const double tol = std::max(params_.surfel_depth_tolerance_m,
+                                    params_.surfel_depth_tolerance_rel * z_frame);
         if (std::abs(index_map_.depth[c] - z_frame) > tol) continue;
         update_surfel(i, u, v, neighbourhood, missed_ptr, map, local);
       }

@@ -1,40 +1,43 @@
-// Instance-aware semantic fusion (the paper, sec. III-A): detections of a keyframe are associated to
-// the map's object instances through masks rendered from the map, each instance keeps one
+// Instance-aware semantic fusion (the paper, sec. III-A): detections of a keyframe are associated
+// to the map's object instances through masks rendered from the map, each instance keeps one
 // class-probability vector (simple average over the frames that detected it), each surfel keeps an
 // instance id and its averaged non-background probability p_o, and boundary surfels whose p_o sits
 // just below 0.5 join the closest instance when a sequence of frames supports it.
 //
 // Choices where the paper is silent (docs/SEMANTIC.md has the full rationale):
 //  - Which surfels a frame updates: the surfels this frame's pixels fused into. Given the SLAM's
-//    pixel -> surfel image (SlamSystem::last_pixel_surfel()), exactly those, each at its listed pixel
-//    nearest its projected centre (a surfel can cover several pixels); otherwise the surfels whose
-//    centres the supersampled index map puts in a pixel (one pixel per surfel and frame) and whose
-//    depth agrees with the frame's measured depth. Splatted rendering is used only for the association
-//    masks M^ and the per-instance outputs.
+//    pixel -> surfel image (SlamSystem::last_pixel_surfel()), exactly those, each at its listed
+//    pixel nearest its projected centre (a surfel can cover several pixels); otherwise the surfels
+//    whose centres the supersampled index map puts in a pixel (one pixel per surfel and frame) and
+//    whose depth agrees with the frame's measured depth. Splatted rendering is used only for the
+//    association masks M^ and the per-instance outputs.
 //  - Ownership: an unlabelled surfel takes the instance of the detection covering its pixel
-//    (probability >= 0.5, highest probability wins between overlapping detections); a labelled surfel
-//    keeps its instance (first come) until its p_o falls to <= release_probability (0.4: clearly
-//    background) or its instance is removed.
+//    (probability >= 0.5, highest probability wins between overlapping detections); a labelled
+//    surfel keeps its instance (first come) until its p_o falls to <= release_probability (0.4:
+//    clearly background) or its instance is removed.
 //  - U = |M n M^| / max(|M^|, association_min_projected_area_px): the floor keeps a large detection
 //    from being captured by a few stray pixels of another instance. Ties: larger U, then larger
 //    intersection, then lower instance id.
-//  - "6-neighbourhood" on an image: the (2r+1) x (2r+1) window of Chebyshev radius r = 6 px around the
+//  - "6-neighbourhood" on an image: the (2r+1) x (2r+1) window of Chebyshev radius r = 6 px around
+//  the
 //    surfel's pixel ("object pixel" = a pixel of this frame's associated detection masks).
 //  - "n frames" of the boundary rule: the keyframes in which the candidate surfel was observed.
-//    The window length and the count are packed into SurfelMap::boundary_counter (high / low nibble),
-//    so n and sigma are at most 15.
-//  - Detector misses: when an instance renders >= min_visible_area_px pixels but no detection joined it,
-//    the surfels seen in its projection (dilated by boundary_neighbourhood_px) are not updated in this
-//    keyframe (skip_missed_instances): the paper would average a 0 into their p_o, which unlabels new
-//    surfels and pushes boundary surfels out of the refinement band.
+//    The window length and the count are packed into SurfelMap::boundary_counter (high / low
+//    nibble), so n and sigma are at most 15.
+//  - Detector misses: when an instance renders >= min_visible_area_px pixels but no detection
+//  joined it,
+//    the surfels seen in its projection (dilated by boundary_neighbourhood_px) are not updated in
+//    this keyframe (skip_missed_instances): the paper would average a 0 into their p_o, which
+//    unlabels new surfels and pushes boundary surfels out of the refinement band.
 //  - Only confirmed instances (>= min_confirmed_detections detections) protect their surfels from a
 //    miss: a tentative one (likely spurious) must not blank real surfels around it. The projected
 //    outputs (SemanticMapper::render_instance_labels / render_instance_views) show confirmed ones.
-//  - Spurious instances die: an instance detected in fewer than min_instance_detections keyframes is
-//    removed once it was visible but undetected in prune_missed_keyframes keyframes in a row, and at
-//    finalize(); an instance left without surfels (all released) is removed at once; one with fewer
-//    than min_instance_surfels surfels is removed at finalize(). Removing an instance unlabels its
-//    surfels.
+//  - Spurious instances die: an instance detected in fewer than min_instance_detections keyframes
+//  is
+//    removed once it was visible but undetected in prune_missed_keyframes keyframes in a row, and
+//    at finalize(); an instance left without surfels (all released) is removed at once; one with
+//    fewer than min_instance_surfels surfels is removed at finalize(). Removing an instance
+//    unlabels its surfels.
 #pragma once
 
 #include <array>
@@ -54,37 +57,43 @@
 namespace orpe {
 
 struct SemanticParams {
-  double object_probability_threshold = 0.5;  ///< a pixel is an object pixel at >= this (Mask R-CNN)
-  double association_min_overlap = 0.3;        ///< U must exceed this to join an instance (paper)
+  double object_probability_threshold =
+      0.5;                               ///< a pixel is an object pixel at >= this (Mask R-CNN)
+  double association_min_overlap = 0.3;  ///< U must exceed this to join an instance (paper)
   int association_min_projected_area_px = 50;  ///< floor of U's denominator |M^|
-  bool merge_same_class_instances = true;  ///< merge instances of one argmax class that one detection overlaps
-  double release_probability = 0.4;        ///< a labelled surfel with p_o <= this becomes background
-  bool boundary_refinement = true;         ///< the paper's boundary refinement (off: ablation)
-  double boundary_low_probability = 0.4;   ///< boundary candidates: low < p_o < high (paper 0.4, 0.5)
+  bool merge_same_class_instances =
+      true;  ///< merge instances of one argmax class that one detection overlaps
+  double release_probability = 0.4;  ///< a labelled surfel with p_o <= this becomes background
+  bool boundary_refinement = true;   ///< the paper's boundary refinement (off: ablation)
+  double boundary_low_probability =
+      0.4;  ///< boundary candidates: low < p_o < high (paper 0.4, 0.5)
   double boundary_high_probability = 0.5;
   double boundary_pixel_min_probability = 0.4;  ///< criterion (i): pixel probability > this
-  int boundary_neighbourhood_px = 6;       ///< criterion (ii): object pixel within this Chebyshev radius
-  int boundary_window_frames = 10;         ///< n: observations per decision window (<= 15)
-  int boundary_min_count = 10;             ///< sigma: supporting observations needed (<= n)
-  int index_supersample = 4;               ///< index map resolution factor (ElasticFusion: 4)
+  int boundary_neighbourhood_px = 6;  ///< criterion (ii): object pixel within this Chebyshev radius
+  int boundary_window_frames = 10;    ///< n: observations per decision window (<= 15)
+  int boundary_min_count = 10;        ///< sigma: supporting observations needed (<= n)
+  int index_supersample = 4;          ///< index map resolution factor (ElasticFusion: 4)
   /// Cap of a surfel's splat radius on screen when rendering instance masks (M^ and the projected
   /// masks): bounds the overhang of grazing-angle discs past silhouettes and the cost.
   double mask_splat_radius_px = 2.0;
-  /// Splat radius = surfel radius x this when rendering instance masks (RenderOptions::radius_scale).
+  /// Splat radius = surfel radius x this when rendering instance masks
+  /// (RenderOptions::radius_scale).
   double mask_splat_radius_scale = 1.0;
-  /// Instance masks are rendered label-aware (instance_render.h): the nearest labelled surface wins a
-  /// pixel when it lies within this of the map's visible surface (young noisy surfels in front).
+  /// Instance masks are rendered label-aware (instance_render.h): the nearest labelled surface wins
+  /// a pixel when it lies within this of the map's visible surface (young noisy surfels in front).
   double mask_depth_tolerance_m = 0.02;
-  double surfel_depth_tolerance_m = 0.02;  ///< a surfel is observed when |z_surfel - z_frame| <= max(
+  double surfel_depth_tolerance_m =
+      0.02;  ///< a surfel is observed when |z_surfel - z_frame| <= max(
   double surfel_depth_tolerance_rel = 0.02;  ///<   tolerance_m, tolerance_rel * z_frame)
-  int min_visible_area_px = 50;            ///< an instance rendering this many pixels counts as visible
-  int min_confirmed_detections = 2;        ///< an instance is confirmed after this many detections
-  int min_instance_detections = 3;         ///< instances detected in fewer keyframes are pruned
-  int prune_missed_keyframes = 5;          ///< ... once visible but undetected this many keyframes in a row
-  int min_instance_surfels = 50;           ///< instances with fewer surfels are removed at finalize()
-  bool always_active_objects = true;       ///< flag object surfels always active (paper)
+  int min_visible_area_px = 50;      ///< an instance rendering this many pixels counts as visible
+  int min_confirmed_detections = 2;  ///< an instance is confirmed after this many detections
+  int min_instance_detections = 3;   ///< instances detected in fewer keyframes are pruned
+  int prune_missed_keyframes = 5;  ///< ... once visible but undetected this many keyframes in a row
+  int min_instance_surfels = 50;   ///< instances with fewer surfels are removed at finalize()
+  bool always_active_objects = true;  ///< flag object surfels always active (paper)
   /// A keyframe in which a visible instance got no detection does not update the surfels in and
-  /// around (boundary_neighbourhood_px) its projection: a detector miss is not evidence of background.
+  /// around (boundary_neighbourhood_px) its projection: a detector miss is not evidence of
+  /// background.
   bool skip_missed_instances = true;
 
   template <class V>
@@ -94,32 +103,40 @@ struct SemanticParams {
     v("association_min_overlap", association_min_overlap,
       "Association: U = |M n M^| / |M^| must exceed this to join an instance (paper: 0.3)");
     v("association_min_projected_area_px", association_min_projected_area_px,
-      "Association: floor of |M^| in U, so a few stray pixels of an instance cannot capture a detection");
+      "Association: floor of |M^| in U, so a few stray pixels of an instance cannot capture a "
+      "detection");
     v("merge_same_class_instances", merge_same_class_instances,
-      "Merge instances with the same argmax class when one detection overlaps both (U > threshold)");
+      "Merge instances with the same argmax class when one detection overlaps both (U > "
+      "threshold)");
     v("release_probability", release_probability,
       "A labelled surfel whose averaged p_o falls to <= this becomes background");
     v("boundary_refinement", boundary_refinement,
-      "Boundary refinement: surfels with p_o just below 0.5 join the closest instance (paper; off = ablation)");
+      "Boundary refinement: surfels with p_o just below 0.5 join the closest instance (paper; off "
+      "= ablation)");
     v("boundary_low_probability", boundary_low_probability,
       "Boundary refinement candidates have low < p_o < high (paper: 0.4)");
     v("boundary_high_probability", boundary_high_probability,
       "Boundary refinement candidates have low < p_o < high (paper: 0.5)");
     v("boundary_pixel_min_probability", boundary_pixel_min_probability,
-      "Boundary criterion (i): the pixel's non-background probability must exceed this (paper: 0.4)");
+      "Boundary criterion (i): the pixel's non-background probability must exceed this (paper: "
+      "0.4)");
     v("boundary_neighbourhood_px", boundary_neighbourhood_px,
-      "Boundary criterion (ii): an object pixel within this Chebyshev radius (px; paper: 6-neighbourhood)");
+      "Boundary criterion (ii): an object pixel within this Chebyshev radius (px; paper: "
+      "6-neighbourhood)");
     v("boundary_window_frames", boundary_window_frames,
       "Boundary refinement window n: observations per decision (paper: 10; <= 15)");
     v("boundary_min_count", boundary_min_count,
-      "Boundary refinement sigma: supporting observations in a window to join an instance (paper: 10)");
+      "Boundary refinement sigma: supporting observations in a window to join an instance (paper: "
+      "10)");
     v("index_supersample", index_supersample, "Index map supersampling for surfel updates (1-8)");
     v("mask_splat_radius_px", mask_splat_radius_px,
       "Splat radius cap (px) when rendering instance masks; full splats overhang silhouettes");
     v("mask_splat_radius_scale", mask_splat_radius_scale,
-      "Instance masks: splat radius = surfel radius x this (< 1 trims the overhang past silhouettes)");
+      "Instance masks: splat radius = surfel radius x this (< 1 trims the overhang past "
+      "silhouettes)");
     v("mask_depth_tolerance_m", mask_depth_tolerance_m,
-      "Instance masks: an instance surface within this (m) of the visible surface labels the pixel");
+      "Instance masks: an instance surface within this (m) of the visible surface labels the "
+      "pixel");
     v("surfel_depth_tolerance_m", surfel_depth_tolerance_m,
       "A surfel is observed by a pixel when |z_surfel - z_pixel| <= max(this (m), rel * z)");
     v("surfel_depth_tolerance_rel", surfel_depth_tolerance_rel,
@@ -127,13 +144,15 @@ struct SemanticParams {
     v("min_visible_area_px", min_visible_area_px,
       "An instance rendering at least this many pixels counts as visible in a keyframe");
     v("min_confirmed_detections", min_confirmed_detections,
-      "An instance detected in this many keyframes is confirmed: only confirmed instances appear in the "
+      "An instance detected in this many keyframes is confirmed: only confirmed instances appear "
+      "in the "
       "projected masks / instance views and protect their surfels from a missed detection");
     v("min_instance_detections", min_instance_detections,
       "Instances detected in fewer keyframes are pruned (spurious detections)");
     v("prune_missed_keyframes", prune_missed_keyframes,
       "Prune such an instance once it was visible but undetected this many keyframes in a row");
-    v("min_instance_surfels", min_instance_surfels, "Instances with fewer surfels are removed at the end");
+    v("min_instance_surfels", min_instance_surfels,
+      "Instances with fewer surfels are removed at the end");
     v("always_active_objects", always_active_objects,
       "Flag object surfels always active (never leave the active window; paper)");
     v("skip_missed_instances", skip_missed_instances,
@@ -146,8 +165,8 @@ struct SemanticParams {
 struct InstanceInfo {
   int id = 0;
   std::map<int, double> class_probability_sum;  ///< class id -> sum over detecting keyframes
-  int detections = 0;          ///< keyframes that detected it (the t of the class average)
-  int first_frame = -1;        ///< frame index of its first / last detection
+  int detections = 0;    ///< keyframes that detected it (the t of the class average)
+  int first_frame = -1;  ///< frame index of its first / last detection
   int last_frame = -1;
   int visible_keyframes = 0;   ///< keyframes in which it rendered >= min_visible_area_px pixels
   int consecutive_misses = 0;  ///< visible-but-undetected keyframes since its last detection
@@ -170,7 +189,7 @@ std::map<int, InstanceGeometry> instance_geometry(const slam::SurfelMap& map);
 struct SemanticFrameReport {
   int frame_index = 0;
   int detections = 0;
-  int associated = 0;        ///< detections joined to an existing instance
+  int associated = 0;  ///< detections joined to an existing instance
   int new_instances = 0;
   int merged_instances = 0;
   int pruned_instances = 0;
@@ -180,15 +199,15 @@ struct SemanticFrameReport {
   int surfels_labelled = 0;  ///< surfels that got an instance from a detection
   int surfels_released = 0;  ///< surfels that became background
   int boundary_candidates = 0;
-  int boundary_joined = 0;   ///< surfels that joined an instance by boundary refinement
+  int boundary_joined = 0;  ///< surfels that joined an instance by boundary refinement
   double render_ms = 0, associate_ms = 0, update_ms = 0, total_ms = 0;
   std::string report() const;
 };
 
 /// Association of detection masks to rendered instance masks (the paper's rule).
 struct Association {
-  int instance_id = 0;  ///< matched instance, 0 = start a new one
-  double overlap = 0;   ///< U of the match (best U when unmatched)
+  int instance_id = 0;                ///< matched instance, 0 = start a new one
+  double overlap = 0;                 ///< U of the match (best U when unmatched)
   std::vector<int> also_overlapping;  ///< other instances with U > threshold (merge candidates)
 };
 std::vector<Association> associate_detections(const std::vector<MaskImage>& masks,
@@ -213,10 +232,12 @@ class SemanticFusion {
  public:
   explicit SemanticFusion(const SemanticParams& params);
 
-  /// Fuses one keyframe's detections into `map`, which already holds this frame's geometry (call after
-  /// tracking and geometric fusion). `frame` provides intrinsics, depth (observation test) and index.
-  /// `pixel_surfel` (optional, frame-sized): per pixel the surfel this frame fused the pixel into
-  /// (-1 none), e.g. SlamSystem::last_pixel_surfel(); without it the surfels are found by rendering.
+  /// Fuses one keyframe's detections into `map`, which already holds this frame's geometry (call
+  /// after tracking and geometric fusion). `frame` provides intrinsics, depth (observation test)
+  /// and index. `pixel_surfel` (optional, frame-sized): per pixel the surfel this frame fused the
+  /// pixel into
+  /// (-1 none), e.g. SlamSystem::last_pixel_surfel(); without it the surfels are found by
+  /// rendering.
   SemanticFrameReport integrate(const RgbdFrame& frame, const std::vector<Detection>& detections,
                                 const SE3& T_world_cam, slam::SurfelMap& map,
                                 const slam::IndexImage* pixel_surfel = nullptr);
@@ -235,8 +256,8 @@ class SemanticFusion {
   /// Instance image rendered from the map before the last keyframe's update (the M^ masks).
   const LabelImage& last_rendered_instances() const { return view_.instance_id; }
   /// The label-aware instance images of the map at a pose, as the association renders them.
-  void render_instances(const slam::SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
-                        bool want_color, InstanceImages* out);
+  void render_instances(const slam::SurfelMap& map, const SE3& T_world_cam,
+                        const PinholeIntrinsics& K, bool want_color, InstanceImages* out);
 
  private:
   void merge_into(int keep, int absorb, slam::SurfelMap& map);

@@ -1,7 +1,7 @@
 #include "orpe/semantic/semantic_mapper.h"
 
-#include <chrono>
 #include <fmt/format.h>
+#include <chrono>
 
 namespace orpe {
 
@@ -38,16 +38,18 @@ std::vector<InstanceView> split_instance_views(const InstanceImages& images,
   return out;
 }
 
-SemanticMapper::SemanticMapper(const SegmentationParams& segmentation, const SemanticParams& semantic,
-                               std::vector<int> class_ids)
+SemanticMapper::SemanticMapper(const SegmentationParams& segmentation,
+                               const SemanticParams& semantic, std::vector<int> class_ids)
     : SemanticMapper(make_segmenter(segmentation, std::move(class_ids)), segmentation, semantic) {}
 
 SemanticMapper::SemanticMapper(std::unique_ptr<Segmenter> segmenter,
-                               const SegmentationParams& segmentation, const SemanticParams& semantic)
+                               const SegmentationParams& segmentation,
+                               const SemanticParams& semantic)
     : segmenter_(std::move(segmenter)), keyframe_selector_(segmentation), fusion_(semantic) {}
 
 const SemanticStep& SemanticMapper::process(const RgbdFrame& frame, const SE3& T_world_cam,
-                                            slam::SurfelMap& map, const slam::IndexImage* pixel_surfel) {
+                                            slam::SurfelMap& map,
+                                            const slam::IndexImage* pixel_surfel) {
   ++frames_;
   step_ = SemanticStep{};
   step_.keyframe = keyframe_selector_.is_keyframe(T_world_cam);
@@ -55,7 +57,8 @@ const SemanticStep& SemanticMapper::process(const RgbdFrame& frame, const SE3& T
   ++keyframes_;
   const auto t0 = std::chrono::steady_clock::now();
   step_.detections = segmenter_->detect(frame);
-  segment_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  segment_ms_ +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   detections_ += static_cast<int>(step_.detections.size());
   step_.report = fusion_.integrate(frame, step_.detections, T_world_cam, map, pixel_surfel);
   fuse_ms_ += step_.report.total_ms;
@@ -71,8 +74,8 @@ std::vector<InstanceView> SemanticMapper::render_instance_views(const slam::Surf
   return split_instance_views(images, fusion_.confirmed_instances(), min_area_px);
 }
 
-
-LabelImage SemanticMapper::render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,
+LabelImage SemanticMapper::render_instance_labels(const slam::SurfelMap& map,
+                                                  const SE3& T_world_cam,
                                                   const PinholeIntrinsics& K) {
   InstanceImages images;
   fusion_.render_instances(map, T_world_cam, K, false, &images);

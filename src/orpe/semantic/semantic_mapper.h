@@ -3,8 +3,9 @@
 //   SemanticMapper semantic(config.segmentation, config.semantic, class_ids);
 //   for each frame: slam.process(frame);  // tracking + fusion
 //                   semantic.process(frame, T_world_cam, slam_map);
-//                   auto views = semantic.render_instance_views(slam_map, T_world_cam, K);  // pose stage
-//                   (pass slam.last_pixel_surfel() to process() when the SLAM fused the frame)
+//                   auto views = semantic.render_instance_views(slam_map, T_world_cam, K);  // pose
+//                   stage (pass slam.last_pixel_surfel() to process() when the SLAM fused the
+//                   frame)
 //   semantic.finalize(slam_map);
 //   write_semantic_outputs(out_dir, slam_map, semantic.fusion().instances(), class_names);
 //
@@ -26,13 +27,13 @@ namespace orpe {
 /// DenseFusion the map-rendered mask, depth and colour instead of the camera's).
 struct InstanceView {
   int instance_id = 0;
-  int class_id = 0;               ///< the instance's argmax class
-  double class_probability = 0;   ///< its averaged probability
-  int area_px = 0;                ///< pixels of the projected mask
-  BoxPx box;                      ///< box of the projected mask
-  MaskImage projected_mask;       ///< PM: 1 where the instance's surfels are the visible surface
-  DepthImage projected_depth;     ///< PD: splatted depth (m) inside the mask, 0 outside
-  ColorImage projected_color;     ///< PC: splatted surfel colour inside the mask, black outside
+  int class_id = 0;              ///< the instance's argmax class
+  double class_probability = 0;  ///< its averaged probability
+  int area_px = 0;               ///< pixels of the projected mask
+  BoxPx box;                     ///< box of the projected mask
+  MaskImage projected_mask;      ///< PM: 1 where the instance's surfels are the visible surface
+  DepthImage projected_depth;    ///< PD: splatted depth (m) inside the mask, 0 outside
+  ColorImage projected_color;    ///< PC: splatted surfel colour inside the mask, black outside
 };
 
 /// Splits label-aware instance images (with colour) into per-instance views. Instances with fewer
@@ -52,20 +53,24 @@ class SemanticMapper {
  public:
   SemanticMapper(const SegmentationParams& segmentation, const SemanticParams& semantic,
                  std::vector<int> class_ids = {});
-  /// With a caller-provided back-end (e.g. a network); segmentation params give the keyframe policy.
+  /// With a caller-provided back-end (e.g. a network); segmentation params give the keyframe
+  /// policy.
   SemanticMapper(std::unique_ptr<Segmenter> segmenter, const SegmentationParams& segmentation,
                  const SemanticParams& semantic);
 
-  /// Call once per frame, after tracking and geometric fusion of `frame` into `map`. `pixel_surfel`:
-  /// optional per-pixel surfel the frame was fused into (SlamSystem::last_pixel_surfel()).
+  /// Call once per frame, after tracking and geometric fusion of `frame` into `map`.
+  /// `pixel_surfel`: optional per-pixel surfel the frame was fused into
+  /// (SlamSystem::last_pixel_surfel()).
   const SemanticStep& process(const RgbdFrame& frame, const SE3& T_world_cam, slam::SurfelMap& map,
                               const slam::IndexImage* pixel_surfel = nullptr);
   /// End of the run: removes spurious instances. Returns how many were removed.
   int finalize(slam::SurfelMap& map) { return fusion_.finalize(map); }
 
-  /// PM / PD / PC of every confirmed instance (detected in >= min_confirmed_detections keyframes; the
-  /// tentative ones may still be spurious) seen from a pose, label-aware like the association masks.
-  std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map, const SE3& T_world_cam,
+  /// PM / PD / PC of every confirmed instance (detected in >= min_confirmed_detections keyframes;
+  /// the tentative ones may still be spurious) seen from a pose, label-aware like the association
+  /// masks.
+  std::vector<InstanceView> render_instance_views(const slam::SurfelMap& map,
+                                                  const SE3& T_world_cam,
                                                   const PinholeIntrinsics& K, int min_area_px = 1);
   /// The map's instance image at a pose: the projected masks of the confirmed instances, 0 = none.
   LabelImage render_instance_labels(const slam::SurfelMap& map, const SE3& T_world_cam,

@@ -1,7 +1,7 @@
 #include "orpe/semantic/semantic_output.h"
 
-#include <filesystem>
 #include <fmt/format.h>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <ostream>
 
@@ -28,7 +28,8 @@ void write_semantic_map_ply(const std::string& path, const slam::SurfelMap& map,
     cloud.instance_ids.push_back(id);
     cloud.class_ids.push_back(cls == class_of.end() ? 0 : cls->second);
   }
-  write_point_cloud_ply(path, color_by_instance ? colored_by_labels(cloud, LabelKind::kInstance) : cloud);
+  write_point_cloud_ply(path,
+                        color_by_instance ? colored_by_labels(cloud, LabelKind::kInstance) : cloud);
 }
 
 void write_instances_json(const std::string& path, const slam::SurfelMap& map,
@@ -58,8 +59,10 @@ void write_instances_json(const std::string& path, const slam::SurfelMap& map,
     const auto g = geometry.find(id);
     ji["surfels"] = g == geometry.end() ? 0 : g->second.surfels;
     if (g != geometry.end()) {
-      ji["bbox_min_world_m"] = {g->second.min_world.x(), g->second.min_world.y(), g->second.min_world.z()};
-      ji["bbox_max_world_m"] = {g->second.max_world.x(), g->second.max_world.y(), g->second.max_world.z()};
+      ji["bbox_min_world_m"] = {g->second.min_world.x(), g->second.min_world.y(),
+                                g->second.min_world.z()};
+      ji["bbox_max_world_m"] = {g->second.max_world.x(), g->second.max_world.y(),
+                                g->second.max_world.z()};
     } else {
       ji["bbox_min_world_m"] = nullptr;
       ji["bbox_max_world_m"] = nullptr;
@@ -74,13 +77,15 @@ void write_semantic_outputs(const std::string& dir, const slam::SurfelMap& map,
                             const std::map<int, std::string>& class_names, float min_confidence) {
   const std::filesystem::path d(dir);
   write_semantic_map_ply((d / "semantic_map.ply").string(), map, instances, false, min_confidence);
-  write_semantic_map_ply((d / "semantic_map_instances.ply").string(), map, instances, true, min_confidence);
+  write_semantic_map_ply((d / "semantic_map_instances.ply").string(), map, instances, true,
+                         min_confidence);
   write_instances_json((d / "instances.json").string(), map, instances, class_names);
 }
 
 ColorImage colorize_instances(const LabelImage& labels) {
   ColorImage out(labels.width(), labels.height());
-  for (size_t i = 0; i < labels.size(); ++i) out[i] = labels[i] > 0 ? label_color(labels[i]) : Rgb8{};
+  for (size_t i = 0; i < labels.size(); ++i)
+    out[i] = labels[i] > 0 ? label_color(labels[i]) : Rgb8{};
   return out;
 }
 

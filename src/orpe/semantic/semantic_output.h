@@ -1,10 +1,12 @@
 // Files of the semantic stage. All writers are atomic (temp file + rename) and create folders.
 //
-//  semantic_map.ply            per surfel (io's point-cloud PLY, binary little-endian): x y z (m, world),
+//  semantic_map.ply            per surfel (io's point-cloud PLY, binary little-endian): x y z (m,
+//  world),
 //                              nx ny nz, red green blue (surfel colour), radius (m), confidence,
 //                              instance_id (0 = background), class_id (the instance's argmax class)
-//  semantic_map_instances.ply  the same surfels coloured by instance (io's label_color), for viewing
-//  instances.json              per instance: class distribution, argmax class, detections, surfel
+//  semantic_map_instances.ply  the same surfels coloured by instance (io's label_color), for
+//  viewing instances.json              per instance: class distribution, argmax class, detections,
+//  surfel
 //                              count, world bounding box, first/last frame detected
 #pragma once
 
@@ -22,7 +24,8 @@ void write_semantic_map_ply(const std::string& path, const slam::SurfelMap& map,
                             const std::map<int, InstanceInfo>& instances, bool color_by_instance,
                             float min_confidence = 0.0f);
 
-/// Writes instances.json. `class_names` (class id -> name, e.g. DatasetInfo::class_names) may be empty.
+/// Writes instances.json. `class_names` (class id -> name, e.g. DatasetInfo::class_names) may be
+/// empty.
 void write_instances_json(const std::string& path, const slam::SurfelMap& map,
                           const std::map<int, InstanceInfo>& instances,
                           const std::map<int, std::string>& class_names = {});

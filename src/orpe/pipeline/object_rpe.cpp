@@ -238,9 +238,11 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   K.height = frame.depth.height();
   const PipelineParams& pp = params_.pipeline;
 
-  // The map at the tracked pose. PM / PD / PC of the confirmed instances as the semantic stage
-  // renders them (label-aware: young unlabelled surfels do not punch holes into the masks); around
-  // them, depth and colour of a plain render of every surfel.
+  // The map at the tracked pose. PM / PD / PC of the instances rendered as the semantic stage renders
+  // them (label-aware: young unlabelled surfels do not punch holes into the masks) -- of every
+  // instance, not only the semantic stage's confirmed ones, so that an object gets a projected mask
+  // from its first keyframe on (pipeline.min_instance_detections filters); around them, depth and
+  // colour of a plain render of every surfel.
   auto t0 = Clock::now();
   bool need_projected = false;
   for (const auto& v : variants_)
@@ -248,7 +250,11 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   std::vector<InstanceView> views;
   slam::RenderedView view;
   if (need_projected) {
-    views = semantic_->render_instance_views(slam_->map(), T_world_cam, K, pp.min_pose_mask_px);
+    InstanceImages images;
+    instance_renderer_.render(slam_->map(), T_world_cam, K,
+                              static_cast<float>(params_.semantic.mask_splat_radius_px),
+                              params_.semantic.mask_depth_tolerance_m, true, &images);
+    views = split_instance_views(images, instances, pp.min_pose_mask_px);
     slam::RenderOptions options;
     options.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
     options.want_vertex = options.want_normal = false;

@@ -236,48 +236,53 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   PinholeIntrinsics K = frame.intrinsics;
   K.width = frame.depth.width();
   K.height = frame.depth.height();
-  const int W = K.width, H = K.height;
   const PipelineParams& pp = params_.pipeline;
 
-  // The map at the tracked pose: instance labels, depth and colour of every surfel, one render.
+  // The map at the tracked pose. PM / PD / PC of the instances rendered as the semantic stage renders
+  // them (label-aware: young unlabelled surfels do not punch holes into the masks) -- of every
+  // instance, not only the semantic stage's confirmed ones, so that an object gets a projected mask
+  // from its first keyframe on (pipeline.min_instance_detections filters); around them, depth and
+  // colour of a plain render of every surfel.
   auto t0 = Clock::now();
   bool need_projected = false;
   for (const auto& v : variants_)
     need_projected |= v.config.projected_mask || v.config.projected_depth || v.config.projected_color;
+  std::vector<InstanceView> views;
   slam::RenderedView view;
-  std::map<int, MaskImage> projected_masks;  // instance id -> mask
-  std::map<int, int> projected_area;
   if (need_projected) {
+    InstanceImages images;
+    instance_renderer_.render(slam_->map(), T_world_cam, K,
+                              static_cast<float>(params_.semantic.mask_splat_radius_px),
+                              params_.semantic.mask_depth_tolerance_m, true, &images);
+    views = split_instance_views(images, instances, pp.min_pose_mask_px);
     slam::RenderOptions options;
     options.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
     options.want_vertex = options.want_normal = false;
-    options.want_color = options.want_instance = true;
-    slam::MapRenderer& renderer = slam_->renderer();
-    renderer.render(slam_->map(), T_world_cam, K, options, &view);
-    for (const auto id : view.instance_id)
-      if (id > 0) ++projected_area[id];
-    for (const auto& [id, area] : projected_area) {
-      if (area < pp.min_pose_mask_px || !instances.count(id)) continue;
-      MaskImage m(W, H, 0);
-      for (size_t k = 0; k < m.size(); ++k) m[k] = view.instance_id[k] == id ? 1 : 0;
-      projected_masks.emplace(id, std::move(m));
-    }
+    options.want_color = true;
+    slam_->renderer().render(slam_->map(), T_world_cam, K, options, &view);
+    for (const InstanceView& iv : views)
+      for (size_t k = 0; k < iv.projected_mask.size(); ++k)
+        if (iv.projected_mask[k]) {
+          view.depth[k] = iv.projected_depth[k];
+          view.color[k] = iv.projected_color[k];
+        }
   }
   result.render_ms = ms_since(t0);
 
   // Candidates from the map's instances (projected masks).
   std::vector<Candidate> from_map;
-  for (const auto& [id, mask] : projected_masks) {
-    const InstanceInfo& info = instances.at(id);
+  for (const InstanceView& iv : views) {
+    const auto info = instances.find(iv.instance_id);
+    if (info == instances.end()) continue;
     Candidate c;
-    c.instance_id = id;
-    c.class_id = info.argmax_class();
-    c.class_probability = info.argmax_probability();
-    c.mask = &mask;
-    c.mask_px = projected_area.at(id);
-    c.object_key = id;
-    if (c.class_id <= 0 || info.detections < pp.min_instance_detections ||
-        c.class_probability < pp.min_class_probability)
+    c.instance_id = iv.instance_id;
+    c.class_id = iv.class_id;
+    c.class_probability = iv.class_probability;
+    c.mask = &iv.projected_mask;
+    c.mask_px = iv.area_px;
+    c.object_key = iv.instance_id;
+    if (c.class_id <= 0 || info->second.detections < pp.min_instance_detections ||
+        c.class_probability < pp.min_class_probability || c.mask_px < pp.min_pose_mask_px)
       continue;
     from_map.push_back(c);
   }
@@ -321,7 +326,6 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
     }
   }
 
-  // Union images: projected depth / colour (all surfels) and the camera's.
   const DepthImage& projected_depth = need_projected ? view.depth : frame.depth;
   const ColorImage& projected_color = need_projected ? view.color : frame.color;
 

@@ -18,8 +18,12 @@
 //  - Reported camera-frame pose with the EKF: T_world_cam^-1 * T_world_obj of the instance's filter
 //    after this frame's update (also when this frame's measurement was invalid or gated out, as long as
 //    the filter is initialised); without the EKF: the frame's single-view estimate when valid.
-//  - Projected depth / colour are the map rendered at the tracked pose (every surfel, not only the
-//    instance's), so pixels around the object carry the map's surfaces as the camera's images would.
+//  - Projected mask / depth / colour: the semantic stage's label-aware render of the instances
+//    (InstanceRenderer + split_instance_views, every instance: the semantic stage's own
+//    render_instance_views keeps only confirmed ones, which would leave an object's first keyframe
+//    without a projected mask); around the instances, depth and colour of a
+//    plain render of every surfel, so pixels around the object carry the map's surfaces as the
+//    camera's images would (the registration's free-space test looks there).
 //  - Frames whose tracking is LOST are neither segmented nor evaluated (their pose is a held guess).
 //  - Several input configurations (PoseVariant) can run in one pass sharing SLAM and semantic mapping;
 //    a single-view estimate is computed once per distinct input (the geometry-only estimator ignores
@@ -41,6 +45,7 @@
 #include "orpe/pipeline/pipeline_params.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
+#include "orpe/semantic/instance_render.h"
 #include "orpe/semantic/semantic_mapper.h"
 #include "orpe/slam/slam_system.h"
 
@@ -197,6 +202,7 @@ class ObjectRpePipeline {
   std::unique_ptr<slam::SlamSystem> slam_;
   std::unique_ptr<SemanticMapper> semantic_;
   std::unique_ptr<SingleViewPoseEstimator> estimator_;
+  InstanceRenderer instance_renderer_;
   bool estimator_uses_color_ = false;
   std::vector<VariantState> variants_;
   std::vector<StampedPose> trajectory_;

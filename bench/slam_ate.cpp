@@ -12,6 +12,7 @@
 #include <cstring>
 #include <iostream>
 
+#include "orpe/eval/trajectory_metrics.h"
 #include "orpe/pipeline/config.h"
 #include "slam_bench_common.h"
 
@@ -62,13 +63,32 @@ int main(int argc, char** argv) {
       fz[2] += r.fusion.update_ms;
       fz[3] += r.fusion.clean_ms;
       fz[4] += r.fusion.remove_ms;
-      if (every > 0 && (i % every == 0 || r.status != slam::TrackingStatus::kOk)) std::cout << r.report() << "\n";
+      if (every > 0 && (i % every == 0 || r.status != slam::TrackingStatus::kOk)) {
+        std::cout << r.report();
+        if (f.T_world_cam_gt) {
+          const SE3 e = f.T_world_cam_gt->inverse() * r.T_world_cam;
+          std::cout << fmt::format(" | gt err {:.3f} m {:.2f} deg", e.translation().norm(), e.rotation_angle_deg());
+        }
+        std::cout << std::endl;
+      }
       if (f.T_world_cam_gt) {
         est.push_back(r.T_world_cam.translation());
         gt.push_back(f.T_world_cam_gt->translation());
       }
     }
     const double ate = bench::ate_rmse(est, gt);
+    {
+      const SimilarityAlignment sim = align_umeyama(est, gt, true);
+      double e2 = 0;
+      for (size_t i = 0; i < est.size(); ++i) e2 += (sim.apply(est[i]) - gt[i]).squaredNorm();
+      double len_est = 0, len_gt = 0;
+      for (size_t i = 1; i < est.size(); ++i) {
+        len_est += (est[i] - est[i - 1]).norm();
+        len_gt += (gt[i] - gt[i - 1]).norm();
+      }
+      std::cout << fmt::format("Sim3 alignment: scale {:.4f}, ATE {:.4f} m; path length est {:.3f} m gt {:.3f} m\n", sim.scale,
+                               std::sqrt(e2 / std::max<size_t>(1, est.size())), len_est, len_gt);
+    }
     // Drift without alignment (the first pose is set from ground truth).
     double raw = 0;
     for (size_t i = 0; i < est.size(); ++i) raw += (est[i] - gt[i]).squaredNorm();

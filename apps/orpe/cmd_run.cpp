@@ -18,6 +18,8 @@ struct RunCommand {
   std::string out;
   std::string mode = "full";
   std::vector<std::string> ablations;
+  std::string render_view;
+  double view_back_m = 1.5, view_up_m = 0.6;
 };
 
 CommandRegistrar reg(30, [](CLI::App& root) {
@@ -39,6 +41,13 @@ CommandRegistrar reg(30, [](CLI::App& root) {
                   "repeatable; 'all' = the five in one pass (shared SLAM and semantic mapping), written "
                   "to OUT/ablation/<name>/. Default: the pipeline.use_* switches")
       ->check(CLI::IsMember(choices));
+  app->add_option("--render-view", s->render_view,
+                  "Also render the final map to this PNG (relative to --out), from behind and above the first "
+                  "camera, so a person can look at it");
+  app->add_option("--view-back-m", s->view_back_m, "Render view: distance behind the first camera (m)")
+      ->capture_default_str();
+  app->add_option("--view-up-m", s->view_up_m, "Render view: height above the first camera (m)")
+      ->capture_default_str();
   add_config_options(*app, s->options);
   app->footer(
       "Outputs: OUT/trajectory.txt (TUM), map.ply, summary.json; semantic/full: semantic_map.ply,\n"
@@ -51,6 +60,9 @@ CommandRegistrar reg(30, [](CLI::App& root) {
     ro.dataset_path = s->dataset;
     ro.out_dir = s->out;
     ro.mode = s->mode;
+    ro.render_view = s->render_view;
+    ro.view_back_m = s->view_back_m;
+    ro.view_up_m = s->view_up_m;
     for (const auto& a : s->ablations) {
       if (a == "all") {
         // The full model first: it is the primary configuration written to OUT/ directly.

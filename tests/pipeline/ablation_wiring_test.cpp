@@ -85,7 +85,8 @@ MapView render_map(const ObjectRpePipeline& pipeline, const RgbdFrame& frame) {
   InstanceRenderer instance_renderer;
   InstanceImages images;
   instance_renderer.render(pipeline.slam().map(), pipeline.slam().T_world_cam(), K,
-                           static_cast<float>(sp.mask_splat_radius_px), sp.mask_depth_tolerance_m,
+                           static_cast<float>(sp.mask_splat_radius_px),
+                           static_cast<float>(sp.mask_splat_radius_scale), sp.mask_depth_tolerance_m,
                            true, &images);
   slam::RenderOptions o;
   o.max_splat_radius_px = static_cast<float>(sp.mask_splat_radius_px);

@@ -253,6 +253,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
     InstanceImages images;
     instance_renderer_.render(slam_->map(), T_world_cam, K,
                               static_cast<float>(params_.semantic.mask_splat_radius_px),
+                              static_cast<float>(params_.semantic.mask_splat_radius_scale),
                               params_.semantic.mask_depth_tolerance_m, true, &images);
     views = split_instance_views(images, instances, pp.min_pose_mask_px);
     slam::RenderOptions options;

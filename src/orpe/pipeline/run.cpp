@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 
 #include <chrono>
 #include <filesystem>
@@ -10,11 +11,14 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/bop_results.h"
+#include "orpe/io/image_io.h"
 #include "orpe/io/json_summary.h"
 #include "orpe/io/point_cloud_io.h"
 #include "orpe/io/trajectory_io.h"
 #include "orpe/semantic/semantic_output.h"
+#include "orpe/slam/map_io.h"
 
 namespace orpe {
 namespace {
@@ -34,6 +38,12 @@ nlohmann::json pose_json(const SE3& T) {
   j["t_m"] = {T.translation().x(), T.translation().y(), T.translation().z()};
   j["q_xyzw"] = {q.x(), q.y(), q.z(), q.w()};
   return j;
+}
+
+double peak_rss_mb() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_maxrss / 1024.0;  // kilobytes on Linux
 }
 
 }  // namespace
@@ -116,6 +126,9 @@ std::string RunSummary::report() const {
       "single-view {:.0f} ms, ekf {:.1f} ms; wall {:.1f} s\n",
       read_ms / n, stats.slam_ms / n, stats.semantic_ms / n, stats.render_ms / n,
       stats.single_view_ms / n, stats.ekf_ms / n, wall_ms / 1000);
+  s += fmt::format("frames/s {:.1f}; map {:.1f} MB; peak RSS {:.0f} MB\n", frames / std::max(wall_ms / 1000, 1e-9),
+                   map_bytes / 1048576.0, peak_rss_mb);
+  if (ate_rmse_m) s += fmt::format("camera ATE RMSE {:.4f} m (rigid alignment to the ground truth)\n", *ate_rmse_m);
   s += "outputs in " + out_dir + ":";
   for (const auto& f : files) s += " " + f;
   return s + "\n";
@@ -229,6 +242,22 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
       summary.files.push_back(dir + "objects.json");
     }
   }
+  std::string render_png;
+  if (!options.render_view.empty()) {
+    render_png = fs::path(options.render_view).is_absolute() ? options.render_view : path(options.render_view);
+    PinholeIntrinsics K;  // a fixed 640x480 viewer camera, whatever the dataset's
+    K.width = 640;
+    K.height = 480;
+    K.fx = K.fy = 420.0;
+    K.cx = 319.5;
+    K.cy = 239.5;
+    const auto& traj = pipeline.trajectory();
+    const SE3 view = slam::overview_pose(pipeline.slam().map(), traj.front().T_world_cam, min_conf,
+                                         options.view_back_m, options.view_up_m);
+    slam::MapRenderer viewer;
+    write_color_png(render_png, slam::render_map_image(viewer, pipeline.slam().map(), view, K, min_conf));
+    summary.files.push_back(fs::path(render_png).lexically_relative(out).string());
+  }
   summary.stats = pipeline.stats();
   summary.output_ms = ms_since(t_out);
   summary.wall_ms = ms_since(t_start);
@@ -267,6 +296,17 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("counts.detections", st.detections);
   js.set("counts.instances", summary.instances);
   js.set("counts.surfels", summary.surfels);
+  summary.map_bytes = pipeline.slam().map().bytes();
+  js.set("memory.map_bytes", summary.map_bytes);
+  js.set("memory.peak_rss_mb", peak_rss_mb());
+  const auto gt = reader->ground_truth_trajectory();
+  if (!gt.empty()) {
+    const TrajectoryEvaluation ev = evaluate_trajectory(gt, pipeline.trajectory(), config.eval_trajectory);
+    if (!ev.matches.empty()) {
+      js.set_json("trajectory_eval", ev.to_json());
+      summary.ate_rmse_m = ev.ate.translation_m.rmse;
+    }
+  }
   js.set("counts.single_view_estimates", st.single_view_estimates);
   js.set("counts.single_view_valid", st.single_view_valid);
   js.set("counts.single_view_reused", st.single_view_cache_hits);
@@ -294,6 +334,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   if (st.single_view_estimates)
     js.set("timing_ms.per_single_view_estimate", st.single_view_ms / st.single_view_estimates);
   js.set_json("config", config_to_json(config));
+  summary.peak_rss_mb = peak_rss_mb();
   summary.files.push_back("summary.json");
   js.set("files", summary.files);
   js.write(path("summary.json"));

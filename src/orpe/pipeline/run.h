@@ -2,7 +2,8 @@
 //
 //  OUT/trajectory.txt        TUM trajectory (T_world_cam per frame; timestamps of the dataset)
 //  OUT/map.ply               the surfel map (position, normal, colour, radius, confidence, instance)
-//  OUT/summary.json          timings per stage, counts, the effective configuration
+//  OUT/summary.json          timings per stage, counts, map bytes, peak memory, ATE (when the
+//                            dataset has camera ground truth), the effective configuration
 //  semantic and full modes:
 //  OUT/semantic_map.ply      surfels with instance and class ids (semantic/semantic_output.h)
 //  OUT/semantic_map_instances.ply  the same, coloured by instance
@@ -18,6 +19,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +35,12 @@ struct RunOptions {
   /// Pose configurations (ablation names) to run in one pass; empty = config.pipeline's switches.
   /// The first one is the primary, written to OUT/ directly.
   std::vector<std::string> ablations;
+  /// Also render the final map to this PNG (relative to out_dir unless absolute); empty = no picture.
+  /// The viewpoint is behind (view_back_m along the first camera's -z) and above (view_up_m along its
+  /// -y) the first camera, looking at the centroid of the written surfels.
+  std::string render_view;
+  double view_back_m = 1.5;
+  double view_up_m = 0.6;
   /// Called with each progress line; null = spdlog::info.
   std::function<void(const std::string&)> progress;
 };
@@ -48,6 +56,9 @@ struct RunSummary {
   std::vector<size_t> pose_rows;  ///< per variant
   PipelineStats stats;
   double read_ms = 0, output_ms = 0, wall_ms = 0;
+  double peak_rss_mb = 0;
+  size_t map_bytes = 0;
+  std::optional<double> ate_rmse_m;  ///< when the dataset has camera ground truth
   std::vector<std::string> files;  ///< written, relative to out_dir
   std::string report() const;
 };

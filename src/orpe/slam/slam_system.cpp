@@ -95,6 +95,7 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
   const std::int32_t now = frame_count_;
 
   auto t = std::chrono::steady_clock::now();
+  std::swap(pyramid_, prev_pyramid_);
   preprocessor_.process(frame, &pyramid_);
   res.preprocess_ms = ms_since(t);
 
@@ -103,7 +104,7 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
     t = std::chrono::steady_clock::now();
     RenderOptions opt;
     opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
-    opt.also_seen_since = params_.options.track_recent_unstable ? now - 1 : -1;
+    opt.also_seen_since = (params_.options.track_recent_unstable || now < 15) ? now - 1 : -1;
     opt.active_window_frames = params_.fusion.active_window_frames;
     opt.now = now;
     opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
@@ -114,6 +115,15 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
     predict_renderer_.render(map_, T_world_cam_, K_pred, opt, &prediction_);
     build_model_pyramid(prediction_, K_pred, params_.preprocess.pyramid_levels - pl,
                         static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_, pl);
+    if (params_.options.rgb_against_previous_frame && prev_frame_at_pose_) {
+      // The previous frame was taken at the reference pose: its intensities and vertices are the
+      // photometric reference, in the same (reference camera) frame as the rendered model.
+      for (size_t k = 0; k < model_.levels.size(); ++k) {
+        const FrameLevel& P = prev_pyramid_.levels[k + static_cast<size_t>(pl)];
+        model_.levels[k].intensity = P.intensity;
+        model_.levels[k].color_point = P.vertex;
+      }
+    }
     res.predict_ms = ms_since(t);
 
     t = std::chrono::steady_clock::now();
@@ -158,6 +168,7 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
   res.status = status_;
   res.T_world_cam = T_world_cam_;
 
+  prev_frame_at_pose_ = accept;
   const bool fuse = accept && (status_ == TrackingStatus::kOk ||
                                (status_ == TrackingStatus::kDegraded && params_.options.fuse_degraded));
   if (fuse) {

@@ -44,6 +44,10 @@ struct SlamOptions {
   /// Pyramid level at which the model prediction is rendered: 0 = full resolution (ElasticFusion),
   /// 1 = half (4x fewer pixels to splat; full-resolution frame pixels are aligned against it).
   int prediction_level = 1;
+  /// Photometric term against the previous frame's intensities and depth (as DVO / OpenCV's
+  /// RgbdOdometry) instead of the colours rendered from the map (ElasticFusion). Useful when colour
+  /// and depth are not registered (7-Scenes), which blurs the map's colours.
+  bool rgb_against_previous_frame = false;
 
   template <class V>
   void visit(V&& v) {
@@ -55,6 +59,8 @@ struct SlamOptions {
       "Splat radius scale of the tracking prediction (1 = EF; < 1 trims disc overhang at depth edges)");
     v("prediction_level", prediction_level,
       "Resolution level of the tracking prediction: 0 = full (EF), 1 = half (faster)");
+    v("rgb_against_previous_frame", rgb_against_previous_frame,
+      "Photometric term against the previous frame (intensity + depth) instead of the map's colours (EF)");
   }
   bool IsValid(std::string* why) const;
 };
@@ -118,6 +124,8 @@ class SlamSystem {
   MapRenderer predict_renderer_;
   SurfelMap map_;
   FramePyramid pyramid_;
+  FramePyramid prev_pyramid_;
+  bool prev_frame_at_pose_ = false;  // the previous frame was accepted at T_world_cam_
   RenderedView prediction_;
   ModelPyramid model_;
   IndexImage pixel_surfel_;

@@ -1,0 +1,119 @@
+#include "orpe/slam/map_io.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <ostream>
+#include <sstream>
+
+#include "orpe/core/atomic_file.h"
+
+namespace orpe::slam {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "PLY writer assumes a little-endian host");
+
+template <class T>
+void put(std::string& buf, T v) {
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &v, sizeof(T));
+  buf.append(bytes, sizeof(T));
+}
+
+}  // namespace
+
+size_t write_surfel_ply(const std::string& path, const SurfelMap& map, float min_confidence) {
+  size_t n = 0;
+  for (size_t i = 0; i < map.size(); ++i) n += map.confidence[i] >= min_confidence;
+  std::ostringstream header;
+  header << "ply\nformat binary_little_endian 1.0\ncomment orpe surfel map (world frame, metres)\n"
+         << "element vertex " << n << "\n"
+         << "property float x\nproperty float y\nproperty float z\n"
+         << "property float nx\nproperty float ny\nproperty float nz\n"
+         << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+         << "property float radius\nproperty float confidence\nproperty int instance_id\n"
+         << "end_header\n";
+  write_file_atomic(
+      path,
+      [&](std::ostream& os) {
+        os << header.str();
+        std::string buf;
+        constexpr size_t kRecord = 6 * 4 + 3 + 2 * 4 + 4;
+        buf.reserve(kRecord * 65536);
+        for (size_t i = 0; i < map.size(); ++i) {
+          if (map.confidence[i] < min_confidence) continue;
+          for (int k = 0; k < 3; ++k) put(buf, map.position_world[i][k]);
+          for (int k = 0; k < 3; ++k) put(buf, map.normal_world[i][k]);
+          put(buf, map.color[i].r);
+          put(buf, map.color[i].g);
+          put(buf, map.color[i].b);
+          put(buf, map.radius_m[i]);
+          put(buf, map.confidence[i]);
+          put(buf, map.instance_id[i]);
+          if (buf.size() >= kRecord * 65000) {
+            os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+            buf.clear();
+          }
+        }
+        os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      },
+      /*binary=*/true);
+  return n;
+}
+
+SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& down_world) {
+  Vec3 z = target - eye;
+  if (z.norm() < 1e-9) z = Vec3::UnitZ();
+  z.normalize();
+  Vec3 x = down_world.cross(z);  // camera x (right) = y (down) x z (forward)
+  if (x.norm() < 1e-6) x = z.unitOrthogonal();
+  x.normalize();
+  const Vec3 y = z.cross(x);
+  Mat3 R;
+  R.col(0) = x;
+  R.col(1) = y;
+  R.col(2) = z;
+  return SE3(R, eye);
+}
+
+SE3 overview_pose(const SurfelMap& map, const SE3& T_world_cam, float min_confidence, double back_m,
+                  double up_m) {
+  Vec3 centroid = Vec3::Zero();
+  size_t n = 0;
+  for (size_t i = 0; i < map.size(); ++i) {
+    if (map.confidence[i] < min_confidence) continue;
+    centroid += map.position_world[i].cast<double>();
+    ++n;
+  }
+  const Mat3& R = T_world_cam.rotation();
+  if (n == 0) centroid = T_world_cam * Vec3(0, 0, 2);
+  else centroid /= double(n);
+  const Vec3 eye = T_world_cam.translation() - back_m * R.col(2) - up_m * R.col(1);
+  return look_at(eye, centroid, R.col(1));
+}
+
+ColorImage render_map_image(MapRenderer& renderer, const SurfelMap& map, const SE3& T_world_cam,
+                            const PinholeIntrinsics& K, float min_confidence, Rgb8 background) {
+  RenderOptions opt;
+  opt.min_confidence = min_confidence;
+  opt.far_m = 100.0f;
+  opt.max_splat_radius_px = 24.0f;
+  RenderedView view;
+  renderer.render(map, T_world_cam, K, opt, &view);
+  ColorImage img(K.width, K.height, background);
+  for (size_t k = 0; k < img.size(); ++k) {
+    if (view.surfel_index[k] < 0) continue;
+    // Headlight shading: surfaces facing the camera keep their colour, oblique ones darken a little.
+    const Vec3f& n = view.normal[k];
+    const Vec3f& p = view.vertex[k];
+    const float facing = p.norm() > 0 ? std::fabs(n.dot(p)) / p.norm() : 1.0f;
+    const float shade = 0.55f + 0.45f * facing;
+    const Rgb8 c = view.color[k];
+    auto sh = [&](std::uint8_t x) { return static_cast<std::uint8_t>(std::min(255.0f, x * shade + 0.5f)); };
+    img[k] = Rgb8{sh(c.r), sh(c.g), sh(c.b)};
+  }
+  return img;
+}
+
+}  // namespace orpe::slam

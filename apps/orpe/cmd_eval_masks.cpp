@@ -8,6 +8,7 @@
 #include <iostream>
 #include <memory>
 #include <ostream>
+#include <vector>
 
 #include "command.h"
 #include "orpe/core/atomic_file.h"
@@ -20,7 +21,8 @@ namespace {
 
 struct MasksCommand {
   ConfigOptions options;
-  std::string dataset, run_dir, masks_dir, json_path;
+  std::string dataset, json_path;
+  std::vector<std::string> runs;
   bool class_agnostic = false;
   int min_gt_area_px = -1;
 };
@@ -28,44 +30,40 @@ struct MasksCommand {
 void run_masks(const MasksCommand& c) {
   const OrpeConfig config = resolve_config(c.options);
   namespace fs = std::filesystem;
-  if (c.run_dir.empty() && c.masks_dir.empty())
-    throw ConfigError("eval masks: give --run OUT (or --masks DIR)");
-  const std::string masks_dir =
-      !c.masks_dir.empty() ? c.masks_dir : (fs::path(c.run_dir) / "masks").string();
-  const std::string index_path = (fs::path(masks_dir) / "index.json").string();
-  if (!fs::is_regular_file(index_path))
-    throw IoError(index_path,
-                  "mask index does not exist (run `orpe run --mode semantic --write-masks`)");
-  const MaskRunIndex index = read_mask_run_index(index_path);
-
   MaskMetricsParams params = config.eval_masks;
   if (c.class_agnostic) params.class_agnostic_matching = true;
   if (c.min_gt_area_px >= 0) params.min_gt_area_px = c.min_gt_area_px;
   std::string why;
   if (!params.IsValid(&why)) throw ConfigError("eval masks: " + why);
 
-  // The run's scene unless the configuration names one; the whole sequence (frames are found by
-  // their number).
-  DatasetParams dp = config.dataset;
-  if (dp.format == "auto" && !index.dataset_format.empty()) dp.format = index.dataset_format;
-  if (dp.scene.empty()) dp.scene = index.dataset_scene;
-  dp.first_frame = 0;
-  dp.last_frame = -1;
-  dp.stride = 1;
-  const auto reader = open_dataset(c.dataset, dp);
-
-  std::map<int, int> final_classes;
-  const std::map<int, int>* final_ptr = nullptr;
-  if (!c.run_dir.empty()) {
-    const std::string instances_path = (fs::path(c.run_dir) / "instances.json").string();
-    if (fs::is_regular_file(instances_path)) {
+  MaskRunEvaluator evaluator(params);
+  for (const std::string& run : c.runs) {
+    const std::string masks_dir = (fs::path(run) / "masks").string();
+    const std::string index_path = (fs::path(masks_dir) / "index.json").string();
+    if (!fs::is_regular_file(index_path))
+      throw IoError(index_path,
+                    "mask index does not exist (run `orpe run --mode semantic --write-masks`)");
+    const MaskRunIndex index = read_mask_run_index(index_path);
+    // The run's scene unless the configuration names one; the whole sequence (frames are found by
+    // their number).
+    DatasetParams dp = config.dataset;
+    if (dp.format == "auto" && !index.dataset_format.empty()) dp.format = index.dataset_format;
+    if (dp.scene.empty()) dp.scene = index.dataset_scene;
+    dp.first_frame = 0;
+    dp.last_frame = -1;
+    dp.stride = 1;
+    const auto reader = open_dataset(c.dataset, dp);
+    const std::string instances_path = (fs::path(run) / "instances.json").string();
+    std::map<int, int> final_classes;
+    const bool have_instances = fs::is_regular_file(instances_path);
+    if (have_instances)
       final_classes = read_instance_classes(instances_path);
-      final_ptr = &final_classes;
-    } else {
-      spdlog::warn("{}: no instance table, instance checks skipped", instances_path);
-    }
+    else
+      spdlog::warn("{}: no instance table, instance checks skipped for this run", instances_path);
+    evaluator.add_run(*reader, masks_dir, index, have_instances ? &final_classes : nullptr,
+                      dp.scene.empty() ? run : dp.scene);
   }
-  const MaskRunEvaluation ev = evaluate_mask_run(*reader, masks_dir, index, params, final_ptr);
+  const MaskRunEvaluation ev = evaluator.result();
   std::cout << ev.report();
   if (c.json_path == "-") {
     std::cout << ev.to_json() << "\n";
@@ -85,9 +83,10 @@ CommandRegistrar reg(72, [](CLI::App& root) {
   m->add_option("--dataset", c->dataset,
                 "Dataset folder with ground-truth masks (YCB-Video label.png, BOP mask_visib)")
       ->required();
-  m->add_option("--run", c->run_dir,
-                "Output folder of `orpe run --write-masks` (masks/, instances.json)");
-  m->add_option("--masks", c->masks_dir, "Mask folder (default RUN/masks)");
+  m->add_option("--run", c->runs,
+                "Output folder of `orpe run --write-masks` (masks/, instances.json); repeatable: "
+                "the runs' frames are pooled (e.g. one run per video)")
+      ->required();
   m->add_flag("--class-agnostic", c->class_agnostic,
               "Match masks to objects whatever their classes (mask quality alone); same as --set "
               "eval_masks.class_agnostic_matching=true");
@@ -96,9 +95,9 @@ CommandRegistrar reg(72, [](CLI::App& root) {
   m->add_option("--json", c->json_path, "Also write the figures as JSON to this file ('-' = stdout)");
   add_config_options(*m, c->options);
   m->footer(
-      "The dataset's scene and format default to the run's (masks/index.json); frames are found by\n"
-      "their number. Instance checks (one instance per object, right class, none spurious) need\n"
-      "RUN/instances.json.");
+      "Each run's scene and format come from RUN/masks/index.json (unless --set dataset.scene=...);\n"
+      "frames are found by their number. Instance checks (one instance per object, right class,\n"
+      "none spurious) need RUN/instances.json.");
   m->callback([c] { run_masks(*c); });
 });
 

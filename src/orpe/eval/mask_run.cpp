@@ -213,9 +213,13 @@ MaskInstanceChecks MaskInstanceOwnership::result(
   return r;
 }
 
-MaskRunEvaluation evaluate_mask_run(const DatasetReader& reader, const std::string& masks_dir,
-                                    const MaskRunIndex& index, const MaskMetricsParams& params,
-                                    const std::map<int, int>* final_instance_classes) {
+MaskRunEvaluator::MaskRunEvaluator(const MaskMetricsParams& params)
+    : params_(params), input_(params), projected_(params) {}
+
+void MaskRunEvaluator::add_run(const DatasetReader& reader, const std::string& masks_dir,
+                               const MaskRunIndex& index,
+                               const std::map<int, int>* final_instance_classes,
+                               const std::string& name) {
   namespace fs = std::filesystem;
   const std::string index_path = (fs::path(masks_dir) / "index.json").string();
   if (index.frames.empty()) throw IoError(index_path, "the mask index lists no frame");
@@ -223,7 +227,8 @@ MaskRunEvaluation evaluate_mask_run(const DatasetReader& reader, const std::stri
   std::map<int, size_t> position_of;
   for (size_t i = 0; i < reader.size(); ++i) position_of[reader.read_annotations(i).index] = i;
 
-  MaskEvaluator input_eval(params), projected_eval(params);
+  // Scored into copies first, so that a bad file leaves the evaluator as it was.
+  MaskEvaluator input = input_, projected = projected_;
   MaskInstanceOwnership ownership;
   for (const MaskRunFrame& f : index.frames) {
     const auto pos = position_of.find(f.frame_index);
@@ -243,21 +248,57 @@ MaskRunEvaluation evaluate_mask_run(const DatasetReader& reader, const std::stri
       if (v > 0 && !gt_classes.count(v))
         throw IoError(frame.name, fmt::format("ground-truth label {} names no annotated object", v));
     const int W = frame.labels_gt.width(), H = frame.labels_gt.height();
-    const LabelImage input = read_checked_labels((fs::path(masks_dir) / f.input.file).string(), W,
-                                                 H, f.input.classes, index_path);
-    const LabelImage projected = read_checked_labels(
+    const LabelImage input_labels = read_checked_labels(
+        (fs::path(masks_dir) / f.input.file).string(), W, H, f.input.classes, index_path);
+    const LabelImage projected_labels = read_checked_labels(
         (fs::path(masks_dir) / f.projected.file).string(), W, H, f.projected.classes, index_path);
-    input_eval.add_frame(frame.labels_gt, gt_classes, input, f.input.classes);
-    projected_eval.add_frame(frame.labels_gt, gt_classes, projected, f.projected.classes);
-    ownership.add_frame(frame.labels_gt, gt_objects, gt_classes, projected);
+    input.add_frame(frame.labels_gt, gt_classes, input_labels, f.input.classes);
+    projected.add_frame(frame.labels_gt, gt_classes, projected_labels, f.projected.classes);
+    ownership.add_frame(frame.labels_gt, gt_objects, gt_classes, projected_labels);
   }
+  input_ = std::move(input);
+  projected_ = std::move(projected);
+  for (const auto& [id, n] : reader.info().class_names) class_names_[id] = n;
+  if (final_instance_classes)
+    checks_.emplace_back(name, ownership.result(*final_instance_classes));
+}
+
+MaskRunEvaluation MaskRunEvaluator::result() const {
   MaskRunEvaluation ev;
-  ev.params = params;
-  const auto& names = reader.info().class_names;
-  ev.input = input_eval.summary(names);
-  ev.projected = projected_eval.summary(names);
-  if (final_instance_classes) ev.instances = ownership.result(*final_instance_classes);
+  ev.params = params_;
+  ev.input = input_.summary(class_names_);
+  ev.projected = projected_.summary(class_names_);
+  ev.instances = checks_;
   return ev;
+}
+
+MaskRunEvaluation evaluate_mask_run(const DatasetReader& reader, const std::string& masks_dir,
+                                    const MaskRunIndex& index, const MaskMetricsParams& params,
+                                    const std::map<int, int>* final_instance_classes) {
+  MaskRunEvaluator evaluator(params);
+  evaluator.add_run(reader, masks_dir, index, final_instance_classes);
+  return evaluator.result();
+}
+
+int MaskRunEvaluation::objects() const {
+  int n = 0;
+  for (const auto& [name, c] : instances) n += static_cast<int>(c.objects.size());
+  return n;
+}
+int MaskRunEvaluation::objects_with_exactly_one_instance() const {
+  int n = 0;
+  for (const auto& [name, c] : instances) n += c.objects_with_exactly_one_instance;
+  return n;
+}
+int MaskRunEvaluation::objects_with_correct_class() const {
+  int n = 0;
+  for (const auto& [name, c] : instances) n += c.objects_with_correct_class;
+  return n;
+}
+int MaskRunEvaluation::spurious_instances() const {
+  int n = 0;
+  for (const auto& [name, c] : instances) n += static_cast<int>(c.spurious_instances.size());
+  return n;
 }
 
 std::string MaskRunEvaluation::report() const {
@@ -289,20 +330,24 @@ std::string MaskRunEvaluation::report() const {
       "input {:.3f}, projected {:.3f}\n",
       input.false_positive_instances, projected.false_positive_instances,
       input.mean_class_pixel_iou, projected.mean_class_pixel_iou);
-  if (instances) {
+  if (!instances.empty()) {
+    size_t unseen = 0;
+    for (const auto& [name, c] : instances) unseen += c.unseen_instances.size();
     s += fmt::format(
         "instances: {} of {} objects have exactly one instance, {} with the right class; {} "
         "spurious, {} never projected\n",
-        instances->objects_with_exactly_one_instance, instances->objects.size(),
-        instances->objects_with_correct_class, instances->spurious_instances.size(),
-        instances->unseen_instances.size());
-    for (const auto& o : instances->objects)
-      if (o.instances.size() != 1 || o.argmax_class != o.class_id)
-        s += fmt::format("  object {} (class {}): instances [{}], argmax class {}\n",
-                         o.object_instance_id, o.class_id, fmt::join(o.instances, ", "),
-                         o.argmax_class);
-    if (!instances->spurious_instances.empty())
-      s += fmt::format("  spurious: [{}]\n", fmt::join(instances->spurious_instances, ", "));
+        objects_with_exactly_one_instance(), objects(), objects_with_correct_class(),
+        spurious_instances(), unseen);
+    for (const auto& [name, c] : instances) {
+      const std::string run = name.empty() ? std::string() : name + ": ";
+      for (const auto& o : c.objects)
+        if (o.instances.size() != 1 || o.argmax_class != o.class_id)
+          s += fmt::format("  {}object {} (class {}): instances [{}], argmax class {}\n", run,
+                           o.object_instance_id, o.class_id, fmt::join(o.instances, ", "),
+                           o.argmax_class);
+      if (!c.spurious_instances.empty())
+        s += fmt::format("  {}spurious: [{}]\n", run, fmt::join(c.spurious_instances, ", "));
+    }
   }
   return s;
 }
@@ -314,7 +359,19 @@ std::string MaskRunEvaluation::to_json() const {
                  {"min_gt_area_px", params.min_gt_area_px}};
   j["input"] = nlohmann::json::parse(input.to_json());
   j["projected"] = nlohmann::json::parse(projected.to_json());
-  j["instances"] = instances ? checks_json(*instances) : nlohmann::json(nullptr);
+  j["runs"] = nlohmann::json::array();
+  for (const auto& [name, c] : instances) {
+    nlohmann::json r = checks_json(c);
+    r["run"] = name;
+    j["runs"].push_back(r);
+  }
+  if (instances.empty())
+    j["instances"] = nullptr;
+  else
+    j["instances"] = {{"objects", objects()},
+                      {"objects_with_exactly_one_instance", objects_with_exactly_one_instance()},
+                      {"objects_with_correct_class", objects_with_correct_class()},
+                      {"spurious_instances", spurious_instances()}};
   return j.dump(2);
 }
 

@@ -76,19 +76,44 @@ struct MaskInstanceChecks {
 };
 
 struct MaskRunEvaluation {
-  MaskEvaluation input;      ///< the detections
-  MaskEvaluation projected;  ///< the map's projected masks
-  std::optional<MaskInstanceChecks> instances;
+  MaskEvaluation input;      ///< the detections (all runs pooled)
+  MaskEvaluation projected;  ///< the map's projected masks (all runs pooled)
+  /// Per run with an instance table: (run name, checks). Object ids are per run.
+  std::vector<std::pair<std::string, MaskInstanceChecks>> instances;
   MaskMetricsParams params;
+  /// Totals of `instances` over the runs.
+  int objects() const;
+  int objects_with_exactly_one_instance() const;
+  int objects_with_correct_class() const;
+  int spurious_instances() const;
 
   std::string report() const;
   std::string to_json() const;
 };
 
-/// Scores every frame of `index` (files under `masks_dir`) against `reader`'s ground truth (frames
-/// found by their frame number). `final_instance_classes`: the run's final instances (instance
-/// checks), or nullptr. Throws IoError naming the file for a missing / unreadable / wrong-size
-/// image, a label value without a class, or a frame the dataset does not have or has no labels for.
+/// Pools the frames of one or more runs (e.g. one per video) into one evaluation.
+class MaskRunEvaluator {
+ public:
+  /// Throws ConfigError for invalid params.
+  explicit MaskRunEvaluator(const MaskMetricsParams& params = {});
+  /// Scores every frame of `index` (files under `masks_dir`) against `reader`'s ground truth
+  /// (frames found by their frame number). `final_instance_classes`: the run's final instances
+  /// (instance checks of this run), or nullptr. `name` labels the run in the report. Throws IoError
+  /// naming the file for a missing / unreadable / wrong-size image, a label value without a class,
+  /// or a frame the dataset does not have or has no labels for; nothing is added then.
+  void add_run(const DatasetReader& reader, const std::string& masks_dir, const MaskRunIndex& index,
+               const std::map<int, int>* final_instance_classes = nullptr,
+               const std::string& name = "");
+  MaskRunEvaluation result() const;
+
+ private:
+  MaskMetricsParams params_;
+  MaskEvaluator input_, projected_;
+  std::map<int, std::string> class_names_;
+  std::vector<std::pair<std::string, MaskInstanceChecks>> checks_;
+};
+
+/// One run: MaskRunEvaluator with a single add_run.
 MaskRunEvaluation evaluate_mask_run(const DatasetReader& reader, const std::string& masks_dir,
                                     const MaskRunIndex& index, const MaskMetricsParams& params,
                                     const std::map<int, int>* final_instance_classes = nullptr);

@@ -90,12 +90,15 @@ CommandRegistrar reg(72, [](CLI::App& root) {
   m->add_flag("--class-agnostic", c->class_agnostic,
               "Match masks to objects whatever their classes (mask quality alone); same as --set "
               "eval_masks.class_agnostic_matching=true");
-  m->add_option("--min-gt-area", c->min_gt_area_px,
-                "Do not score objects with fewer visible pixels (default eval_masks.min_gt_area_px)");
-  m->add_option("--json", c->json_path, "Also write the figures as JSON to this file ('-' = stdout)");
+  m->add_option(
+      "--min-gt-area", c->min_gt_area_px,
+      "Do not score objects with fewer visible pixels (default eval_masks.min_gt_area_px)");
+  m->add_option("--json", c->json_path,
+                "Also write the figures as JSON to this file ('-' = stdout)");
   add_config_options(*m, c->options);
   m->footer(
-      "Each run's scene and format come from RUN/masks/index.json (unless --set dataset.scene=...);\n"
+      "Each run's scene and format come from RUN/masks/index.json (unless --set "
+      "dataset.scene=...);\n"
       "frames are found by their number. Instance checks (one instance per object, right class,\n"
       "none spurious) need RUN/instances.json.");
   m->callback([c] { run_masks(*c); });

@@ -149,7 +149,8 @@ TEST(MaskRun, EvaluatesInputAndProjectedMasksAgainstTheGroundTruth) {
   EXPECT_DOUBLE_EQ(ev.projected.all.mean_matched_iou, 0.9);
   EXPECT_EQ(ev.projected.false_positive_instances, 1u);
 
-  // Instance checks: 7 owned by A, 9 lies on background (spurious), 12 never projected; B owns none.
+  // Instance checks: 7 owned by A, 9 lies on background (spurious), 12 never projected; B owns
+  // none.
   ASSERT_EQ(ev.instances.size(), 1u);
   const MaskInstanceChecks& c = ev.instances[0].second;
   ASSERT_EQ(c.objects.size(), 2u);
@@ -180,8 +181,8 @@ TEST(MaskRun, EvaluatesInputAndProjectedMasksAgainstTheGroundTruth) {
 TEST(MaskRun, OwnershipFindsSplitObjectsWrongClassesAndBreaksTiesByObjectId) {
   MaskInstanceOwnership own;
   LabelImage gt(20, 10, 0), proj(20, 10, 0);
-  paint(gt, 0, 0, 10, 10, 1);   // object 5
-  paint(gt, 10, 0, 20, 10, 2);  // object 6
+  paint(gt, 0, 0, 10, 10, 1);    // object 5
+  paint(gt, 10, 0, 20, 10, 2);   // object 6
   paint(proj, 0, 0, 5, 10, 1);   // instance 1: on object 5 (50 px)
   paint(proj, 5, 0, 8, 10, 2);   // instance 2: also on object 5 (30 px; a split object)
   paint(proj, 8, 5, 12, 10, 4);  // instance 4: 10 px on each object: the lower object id owns it

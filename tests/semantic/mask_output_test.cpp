@@ -139,7 +139,9 @@ TEST(MaskOutput, RunWritesMasksAndEvalMasksScoresThem) {
   // Exact detections (objects under the segmenter's 100 px minimum are never detected, so they are
   // not scored): every input mask is its object's ground truth.
   const std::string common = " --dataset " + scene + " --min-gt-area 100 --class-agnostic";
-  ASSERT_EQ(run_cli("eval masks --run " + exact + common + " --json " + exact + "/masks.json > /dev/null"), 0);
+  ASSERT_EQ(run_cli("eval masks --run " + exact + common + " --json " + exact +
+                    "/masks.json > /dev/null"),
+            0);
   const auto je = read_json(exact + "/masks.json");
   EXPECT_GT(je["input"]["all"]["gt_instances"].get<int>(), 20);
   EXPECT_DOUBLE_EQ(je["input"]["all"]["mean_instance_iou"].get<double>(), 1.0);
@@ -158,7 +160,8 @@ TEST(MaskOutput, RunWritesMasksAndEvalMasksScoresThem) {
 
   // A known degradation (boundary shifts, misses, wrong classes) lowers the input IoU; the map
   // keeps the objects: each becomes one instance of the right class.
-  ASSERT_EQ(run_cli("eval masks --run " + degraded + common + " --json " + degraded + "/masks.json > /dev/null"),
+  ASSERT_EQ(run_cli("eval masks --run " + degraded + common + " --json " + degraded +
+                    "/masks.json > /dev/null"),
             0);
   const auto jd = read_json(degraded + "/masks.json");
   EXPECT_LT(jd["input"]["all"]["mean_matched_iou"].get<double>(), 0.97);

@@ -165,7 +165,8 @@ void MaskInstanceOwnership::add_frame(const LabelImage& gt_labels,
     if (id <= 0) continue;
     int object = 0;
     if (gt_labels[i] > 0)
-      if (const auto it = gt_objects.find(gt_labels[i]); it != gt_objects.end()) object = it->second;
+      if (const auto it = gt_objects.find(gt_labels[i]); it != gt_objects.end())
+        object = it->second;
     ++instance_overlap_[id][object];
   }
 }
@@ -246,7 +247,8 @@ void MaskRunEvaluator::add_run(const DatasetReader& reader, const std::string& m
     }
     for (const auto v : frame.labels_gt)
       if (v > 0 && !gt_classes.count(v))
-        throw IoError(frame.name, fmt::format("ground-truth label {} names no annotated object", v));
+        throw IoError(frame.name,
+                      fmt::format("ground-truth label {} names no annotated object", v));
     const int W = frame.labels_gt.width(), H = frame.labels_gt.height();
     const LabelImage input_labels = read_checked_labels(
         (fs::path(masks_dir) / f.input.file).string(), W, H, f.input.classes, index_path);
@@ -259,8 +261,7 @@ void MaskRunEvaluator::add_run(const DatasetReader& reader, const std::string& m
   input_ = std::move(input);
   projected_ = std::move(projected);
   for (const auto& [id, n] : reader.info().class_names) class_names_[id] = n;
-  if (final_instance_classes)
-    checks_.emplace_back(name, ownership.result(*final_instance_classes));
+  if (final_instance_classes) checks_.emplace_back(name, ownership.result(*final_instance_classes));
 }
 
 MaskRunEvaluation MaskRunEvaluator::result() const {
@@ -310,8 +311,8 @@ std::string MaskRunEvaluation::report() const {
   s += fmt::format("{:<28} {:>7} | {:>7} {:>7} {:>7} | {:>7} {:>7} {:>7}\n", "class", "objects",
                    "input", "matched", "missed", "proj.", "matched", "missed");
   auto line = [](const MaskClassSummary& a, const MaskClassSummary& b) {
-    return fmt::format("{:<28} {:>7} | {:>7.3f} {:>7.3f} {:>7} | {:>7.3f} {:>7.3f} {:>7}\n",
-                       a.name, a.gt_instances, a.mean_instance_iou, a.mean_matched_iou,
+    return fmt::format("{:<28} {:>7} | {:>7.3f} {:>7.3f} {:>7} | {:>7.3f} {:>7.3f} {:>7}\n", a.name,
+                       a.gt_instances, a.mean_instance_iou, a.mean_matched_iou,
                        a.gt_instances - a.matched, b.mean_instance_iou, b.mean_matched_iou,
                        b.gt_instances - b.matched);
   };

@@ -1,5 +1,6 @@
-// The per-frame instance masks of a run and their evaluation (`orpe eval masks`): the paper's Fig. 2
-// claim, measured — are the masks projected from the map better than the detections that built it?
+// The per-frame instance masks of a run and their evaluation (`orpe eval masks`): the paper's Fig.
+// 2 claim, measured — are the masks projected from the map better than the detections that built
+// it?
 //
 // Files (written by `orpe run --write-masks`, semantic/mask_output.h), in a folder OUT/masks/:
 //   index.json                 {"format": "orpe-masks-1", "dataset": {"path", "format", "scene"},
@@ -7,7 +8,8 @@
 //                               "input": {"file": "000012_input.png", "classes": {"1": 5, ...}},
 //                               "projected": {"file": "000012_projected.png", "classes": {...}}}]}
 //   NNNNNN_input.png           16-bit label image of the frame's detections (value d + 1 = the d-th
-//                              detection, where its probability >= mask_threshold and is the highest)
+//                              detection, where its probability >= mask_threshold and is the
+//                              highest)
 //   NNNNNN_projected.png       16-bit label image of the map's confirmed instances rendered at the
 //                              frame's tracked pose after the frame was fused (value = instance id)
 // "classes" maps each label value to its class: the detection's class, or the instance's argmax
@@ -17,9 +19,9 @@
 // Evaluation: per frame, both label images against the dataset's ground-truth labels (YCB-Video
 // label.png, BOP mask_visib) with MaskEvaluator (eval/mask_metrics.h), per class and overall.
 // With the run's final instance table (instances.json), also the instance checks: each surviving
-// instance is owned by the ground-truth object it overlaps most in the projected images (summed over
-// frames; background counts as an owner, and an instance owned by background is spurious); every
-// object should own exactly one instance, whose final argmax class is the object's class.
+// instance is owned by the ground-truth object it overlaps most in the projected images (summed
+// over frames; background counts as an owner, and an instance owned by background is spurious);
+// every object should own exactly one instance, whose final argmax class is the object's class.
 #pragma once
 
 #include <map>
@@ -34,7 +36,7 @@ namespace orpe {
 class DatasetReader;
 
 struct MaskRunImage {
-  std::string file;     ///< relative to the masks folder
+  std::string file;      ///< relative to the masks folder
   LabelClasses classes;  ///< label value -> class
 };
 
@@ -68,7 +70,7 @@ struct MaskObjectRow {
 };
 
 struct MaskInstanceChecks {
-  std::vector<MaskObjectRow> objects;  ///< every ground-truth object of the evaluated frames
+  std::vector<MaskObjectRow> objects;   ///< every ground-truth object of the evaluated frames
   std::vector<int> spurious_instances;  ///< surviving instances owned by background
   std::vector<int> unseen_instances;    ///< surviving instances never in a projected image
   int objects_with_exactly_one_instance = 0;

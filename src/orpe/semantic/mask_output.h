@@ -23,9 +23,9 @@ namespace orpe {
 LabelImage detection_label_image(const std::vector<Detection>& detections, int width, int height,
                                  float threshold, LabelClasses* classes = nullptr);
 
-/// The map's confirmed instances at a pose (what SemanticMapper::render_instance_labels gives), with
-/// a caller-owned renderer so a const mapper suffices. `classes` (optional): instance id -> argmax
-/// class of each instance in the image.
+/// The map's confirmed instances at a pose (what SemanticMapper::render_instance_labels gives),
+/// with a caller-owned renderer so a const mapper suffices. `classes` (optional): instance id ->
+/// argmax class of each instance in the image.
 LabelImage render_confirmed_instance_labels(InstanceRenderer& renderer, const slam::SurfelMap& map,
                                             const SemanticFusion& fusion, const SE3& T_world_cam,
                                             const PinholeIntrinsics& K,

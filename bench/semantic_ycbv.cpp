@@ -24,6 +24,7 @@
 #include "orpe/io/point_cloud_io.h"
 #include "orpe/pipeline/config.h"
 #include "orpe/semantic/mask_eval.h"
+#include "orpe/semantic/mask_output.h"
 #include "orpe/semantic/semantic_mapper.h"
 #include "orpe/semantic/semantic_output.h"
 #include "orpe/slam/slam_system.h"
@@ -31,24 +32,6 @@
 namespace {
 
 using namespace orpe;
-
-/// Input detections as an instance label image (the most probable detection above threshold wins).
-LabelImage detection_labels(const std::vector<Detection>& detections, int W, int H, float threshold,
-                            LabelClasses* classes) {
-  LabelImage labels(W, H, 0);
-  ProbabilityImage best(W, H, 0.0f);
-  for (size_t d = 0; d < detections.size(); ++d) {
-    (*classes)[static_cast<int>(d) + 1] = detections[d].class_id;
-    for (size_t k = 0; k < labels.size(); ++k) {
-      const float p = detections[d].probability[k];
-      if (p >= threshold && p > best[k]) {
-        best[k] = p;
-        labels[k] = static_cast<int>(d) + 1;
-      }
-    }
-  }
-  return labels;
-}
 
 struct SceneResult {
   SemanticMaskResult semantic;
@@ -144,8 +127,9 @@ int main(int argc, char** argv) {
         for (size_t k = 0; k < frame.objects_gt.size(); ++k)
           gt_classes[static_cast<int>(k) + 1] = frame.objects_gt[k].class_id;
         const LabelImage det =
-            detection_labels(step.detections, frame.depth.width(), frame.depth.height(),
-                             static_cast<float>(config.segmentation.mask_threshold), &det_classes);
+            detection_label_image(step.detections, frame.depth.width(), frame.depth.height(),
+                                  static_cast<float>(config.segmentation.mask_threshold),
+                                  &det_classes);
         for (const auto id : projected)
           if (id > 0 && !proj_classes.count(id))
             proj_classes[id] = mapper.fusion().instances().at(id).argmax_class();

@@ -20,6 +20,7 @@ struct RunCommand {
   std::vector<std::string> ablations;
   std::string render_view;
   double view_back_m = 1.5, view_up_m = 0.6;
+  bool write_masks = false;
 };
 
 CommandRegistrar reg(30, [](CLI::App& root) {
@@ -48,6 +49,9 @@ CommandRegistrar reg(30, [](CLI::App& root) {
       ->capture_default_str();
   app->add_option("--view-up-m", s->view_up_m, "Render view: height above the first camera (m)")
       ->capture_default_str();
+  app->add_flag("--write-masks", s->write_masks,
+                "semantic/full: also write each keyframe's detections and the map's projected instance "
+                "masks to OUT/masks/ (scored by `orpe eval masks`)");
   add_config_options(*app, s->options);
   app->footer(
       "Outputs: OUT/trajectory.txt (TUM), map.ply, summary.json; semantic/full: semantic_map.ply,\n"
@@ -63,6 +67,7 @@ CommandRegistrar reg(30, [](CLI::App& root) {
     ro.render_view = s->render_view;
     ro.view_back_m = s->view_back_m;
     ro.view_up_m = s->view_up_m;
+    ro.write_masks = s->write_masks;
     for (const auto& a : s->ablations) {
       if (a == "all") {
         // The full model first: it is the primary configuration written to OUT/ directly.

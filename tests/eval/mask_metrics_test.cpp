@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+#include <vector>
 
 #include "orpe/core/error.h"
 
@@ -124,8 +125,106 @@ TEST(MaskMetrics, EvaluatorPoolsFramesPerClass) {
   ASSERT_EQ(s.frame_mean_iou.size(), 2u);
   EXPECT_DOUBLE_EQ(s.frame_mean_iou[0], 0.5);
   EXPECT_DOUBLE_EQ(s.frame_mean_iou[1], 0.5);
+  // Matched-only means: class 1 has one matched instance (0.5), class 2 one (1.0).
+  EXPECT_DOUBLE_EQ(s.classes[0].mean_matched_iou, 0.5);
+  EXPECT_DOUBLE_EQ(s.classes[1].mean_matched_iou, 1.0);
+  EXPECT_EQ(s.all.matched, 2u);
+  EXPECT_DOUBLE_EQ(s.all.mean_matched_iou, 1.5 / 2.0);
   EXPECT_NE(s.report().find("one"), std::string::npos);
   EXPECT_NE(s.to_json().find("\"mean_class_pixel_iou\""), std::string::npos);
+}
+
+TEST(MaskMetrics, PerClassAggregationOverManyFramesMatchesAHandTally) {
+  // Three classes over three frames; each gt instance a 10x10 square, predictions cover a known
+  // number of its rows (IoU = rows / 10) or miss it. The per-class means (misses 0 / matched only)
+  // and the overall ones are tallied by hand from the same table.
+  struct Obs {
+    int frame, cls, rows;  // rows = 0: missed
+  };
+  const std::vector<Obs> table = {{0, 1, 10}, {0, 2, 5}, {0, 3, 0}, {1, 1, 8},
+                                  {1, 2, 0},  {1, 3, 4}, {2, 1, 0}, {2, 3, 6}};
+  MaskEvaluator ev;
+  for (int f = 0; f < 3; ++f) {
+    LabelImage gt(40, 10, 0), pred(40, 10, 0);
+    LabelClasses gt_classes, pred_classes;
+    for (const Obs& o : table) {
+      if (o.frame != f) continue;
+      const int u0 = 10 * (o.cls - 1);
+      paint(gt, u0, 0, u0 + 10, 10, o.cls);
+      gt_classes[o.cls] = o.cls;
+      if (o.rows > 0) {
+        paint(pred, u0, 0, u0 + 10, o.rows, 10 + o.cls);
+        pred_classes[10 + o.cls] = o.cls;
+      }
+    }
+    ev.add_frame(gt, gt_classes, pred, pred_classes);
+  }
+  const MaskEvaluation s = ev.summary();
+  ASSERT_EQ(s.classes.size(), 3u);
+  double all_sum = 0;
+  int all_n = 0, all_matched = 0;
+  for (int c = 1; c <= 3; ++c) {
+    double sum = 0;
+    int n = 0, matched = 0;
+    for (const Obs& o : table)
+      if (o.cls == c) {
+        sum += o.rows / 10.0;
+        ++n;
+        matched += o.rows > 0;
+      }
+    const MaskClassSummary& cs = s.classes[c - 1];
+    EXPECT_EQ(cs.class_id, c);
+    EXPECT_EQ(cs.gt_instances, static_cast<size_t>(n));
+    EXPECT_EQ(cs.matched, static_cast<size_t>(matched));
+    EXPECT_NEAR(cs.mean_instance_iou, sum / n, 1e-12) << c;
+    EXPECT_NEAR(cs.mean_matched_iou, sum / matched, 1e-12) << c;
+    all_sum += sum;
+    all_n += n;
+    all_matched += matched;
+  }
+  EXPECT_NEAR(s.all.mean_instance_iou, all_sum / all_n, 1e-12);
+  EXPECT_NEAR(s.all.mean_matched_iou, all_sum / all_matched, 1e-12);
+  EXPECT_GT(s.all.mean_matched_iou, s.all.mean_instance_iou);  // there are misses
+  // The JSON carries both means.
+  EXPECT_NE(s.to_json().find("\"mean_matched_iou\""), std::string::npos);
+}
+
+TEST(MaskMetrics, ClassAgnosticMatchingScoresTheMaskWhateverItsClass) {
+  LabelImage gt(20, 20, 0), pred(20, 20, 0);
+  paint(gt, 0, 0, 10, 10, 1);   // class 3
+  paint(pred, 0, 0, 10, 5, 7);  // class 4: half the object
+  MaskMetricsParams agnostic;
+  agnostic.class_agnostic_matching = true;
+  const auto same = evaluate_instance_masks(gt, {{1, 3}}, pred, {{7, 4}});
+  const auto any = evaluate_instance_masks(gt, {{1, 3}}, pred, {{7, 4}}, agnostic);
+  EXPECT_EQ(same.instances[0].pred_label, 0);
+  EXPECT_EQ(same.false_positive_instances, 1u);
+  ASSERT_EQ(any.instances.size(), 1u);
+  EXPECT_EQ(any.instances[0].pred_label, 7);
+  EXPECT_EQ(any.instances[0].class_id, 3);  // the row keeps the ground-truth class
+  EXPECT_DOUBLE_EQ(any.instances[0].iou, 0.5);
+  EXPECT_EQ(any.false_positive_instances, 0u);
+  // Pixel IoU stays per class: class 3 has no true positive either way.
+  EXPECT_EQ(any.class_pixels.at(3).true_positive, 0u);
+}
+
+TEST(MaskMetrics, TinyGroundTruthObjectsAreNotScored) {
+  LabelImage gt(30, 10, 0), pred(30, 10, 0);
+  paint(gt, 0, 0, 10, 10, 1);   // 100 px
+  paint(gt, 20, 0, 23, 3, 2);   // 9 px
+  paint(pred, 20, 0, 23, 3, 5);  // a perfect mask of the tiny object
+  MaskMetricsParams p;
+  p.min_gt_area_px = 10;
+  const auto r = evaluate_instance_masks(gt, {{1, 1}, {2, 1}}, pred, {{5, 1}}, p);
+  ASSERT_EQ(r.instances.size(), 1u);  // only the large object, missed
+  EXPECT_EQ(r.instances[0].gt_label, 1);
+  EXPECT_EQ(r.instances[0].iou, 0.0);
+  EXPECT_EQ(r.false_positive_instances, 0u);  // matched to the unscored object: not a false positive
+  const auto all = evaluate_instance_masks(gt, {{1, 1}, {2, 1}}, pred, {{5, 1}});
+  EXPECT_EQ(all.instances.size(), 2u);
+  MaskMetricsParams bad;
+  bad.min_gt_area_px = -1;
+  EXPECT_FALSE(bad.IsValid(nullptr));
 }
 
 }  // namespace

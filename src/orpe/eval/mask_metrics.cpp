@@ -26,6 +26,7 @@ nlohmann::json summary_json(const MaskClassSummary& s) {
           {"gt_instances", s.gt_instances},
           {"matched", s.matched},
           {"mean_instance_iou", s.mean_instance_iou},
+          {"mean_matched_iou", s.mean_matched_iou},
           {"pixel_iou", s.pixel_iou},
           {"true_positive_px", s.pixels.true_positive},
           {"false_positive_px", s.pixels.false_positive},
@@ -37,6 +38,10 @@ nlohmann::json summary_json(const MaskClassSummary& s) {
 bool MaskMetricsParams::IsValid(std::string* why) const {
   if (!(min_match_iou >= 0 && min_match_iou < 1)) {
     if (why) *why = "min_match_iou must be in [0, 1)";
+    return false;
+  }
+  if (min_gt_area_px < 0) {
+    if (why) *why = "min_gt_area_px must be >= 0";
     return false;
   }
   return true;
@@ -93,7 +98,7 @@ MaskFrameResult evaluate_instance_masks(const LabelImage& gt_labels, const Label
   std::vector<Candidate> candidates;
   for (const auto& [gp, count] : overlap) {
     const auto [g, p] = gp;
-    if (gt_classes.at(g) != pred_classes.at(p)) continue;
+    if (!params.class_agnostic_matching && gt_classes.at(g) != pred_classes.at(p)) continue;
     const double iou =
         static_cast<double>(count) / static_cast<double>(gt_area[g] + pred_area[p] - count);
     if (iou > params.min_match_iou) candidates.push_back({iou, g, p});
@@ -110,6 +115,7 @@ MaskFrameResult evaluate_instance_masks(const LabelImage& gt_labels, const Label
   }
   double sum = 0;
   for (const auto& [g, area] : gt_area) {
+    if (area < static_cast<size_t>(params.min_gt_area_px)) continue;
     MaskInstanceIoU inst;
     inst.class_id = gt_classes.at(g);
     inst.gt_label = g;
@@ -121,6 +127,7 @@ MaskFrameResult evaluate_instance_masks(const LabelImage& gt_labels, const Label
     sum += inst.iou;
     result.instances.push_back(inst);
   }
+  // A prediction matched to an unscored (tiny) object is neither scored nor a false positive.
   result.false_positive_instances = pred_area.size() - match_of_gt.size();
   result.mean_iou =
       result.instances.empty() ? 0.0 : sum / static_cast<double>(result.instances.size());
@@ -175,6 +182,7 @@ MaskEvaluation MaskEvaluator::summary(const std::map<int, std::string>& class_na
     const auto it = class_names.find(c);
     s.name = it != class_names.end() ? it->second : fmt::format("class_{}", c);
     s.mean_instance_iou = s.gt_instances ? iou_sum[c] / static_cast<double>(s.gt_instances) : 0.0;
+    s.mean_matched_iou = s.matched ? iou_sum[c] / static_cast<double>(s.matched) : 0.0;
     s.pixel_iou = s.pixels.iou();
     miou_sum += s.pixel_iou;
     ev.classes.push_back(s);
@@ -183,6 +191,8 @@ MaskEvaluation MaskEvaluator::summary(const std::map<int, std::string>& class_na
   ev.all.name = "ALL";
   ev.all.mean_instance_iou =
       ev.all.gt_instances ? all_sum / static_cast<double>(ev.all.gt_instances) : 0.0;
+  ev.all.mean_matched_iou =
+      ev.all.matched ? all_sum / static_cast<double>(ev.all.matched) : 0.0;
   ev.all.pixel_iou = ev.all.pixels.iou();
   ev.mean_class_pixel_iou =
       ev.classes.empty() ? 0.0 : miou_sum / static_cast<double>(ev.classes.size());
@@ -190,11 +200,12 @@ MaskEvaluation MaskEvaluator::summary(const std::map<int, std::string>& class_na
 }
 
 std::string MaskEvaluation::report() const {
-  std::string out = fmt::format("{:<28} {:>9} {:>8} {:>13} {:>10}\n", "class", "instances",
-                                "matched", "instance IoU", "pixel IoU");
+  std::string out = fmt::format("{:<28} {:>9} {:>8} {:>13} {:>12} {:>10}\n", "class",
+                                "instances", "matched", "instance IoU", "matched IoU", "pixel IoU");
   auto line = [&](const MaskClassSummary& s) {
-    return fmt::format("{:<28} {:>9} {:>8} {:>13.4f} {:>10.4f}\n", s.name, s.gt_instances,
-                       s.matched, s.mean_instance_iou, s.pixel_iou);
+    return fmt::format("{:<28} {:>9} {:>8} {:>13.4f} {:>12.4f} {:>10.4f}\n", s.name,
+                       s.gt_instances, s.matched, s.mean_instance_iou, s.mean_matched_iou,
+                       s.pixel_iou);
   };
   for (const auto& c : classes) out += line(c);
   out += line(all);

@@ -4,9 +4,13 @@
 // An image's instances are a label image (0 = no instance, v > 0 = instance v) plus the class of
 // each label value. Per frame, predicted instances are matched one-to-one to ground-truth instances
 // of the same class, greedily by largest IoU (ties by gt label, then predicted label), a match
-// needing IoU > min_match_iou. A ground-truth instance without a match scores IoU 0; a predicted
-// instance without a match is a false positive. Two summaries:
-//  - instance IoU: the mean over ground-truth instances of their matched IoU (per class and all);
+// needing IoU > min_match_iou (with class_agnostic_matching, instances of any class match, and an
+// instance's row keeps its ground-truth class). A ground-truth instance without a match scores IoU
+// 0; a predicted instance without a match is a false positive. Ground-truth instances smaller than
+// min_gt_area_px take part in the matching but are not scored (too little of the object is
+// visible to judge a mask). Two summaries:
+//  - instance IoU: the mean over ground-truth instances of their matched IoU (per class and all),
+//    with misses counted as 0, and the mean over matched instances only;
 //  - pixel (semantic) IoU per class, accumulated over all frames: TP / (TP + FP + FN), where a
 //  pixel
 //    is TP for class c when both images give it class c. "ALL" pools the pixels of every class, and
@@ -25,12 +29,19 @@ namespace orpe {
 
 struct MaskMetricsParams {
   double min_match_iou = 0.0;  ///< a prediction matches a ground-truth instance only above this IoU
+  bool class_agnostic_matching = false;  ///< match instances whatever their classes
+  int min_gt_area_px = 0;  ///< ground-truth instances with fewer pixels are not scored
 
   template <class V>
   void visit(V&& v) {
     v("min_match_iou", min_match_iou,
       "Instance matching: a prediction matches a ground-truth instance of its class only if IoU > "
       "this (0 = any overlap)");
+    v("class_agnostic_matching", class_agnostic_matching,
+      "Instance matching ignores the classes (mask quality alone; rows keep the ground-truth "
+      "class); pixel IoU stays per class");
+    v("min_gt_area_px", min_gt_area_px,
+      "Ground-truth instances with fewer visible pixels than this are not scored (0 = all)");
   }
   bool IsValid(std::string* why) const;
 };
@@ -52,7 +63,7 @@ struct PixelCounts {
 };
 
 struct MaskFrameResult {
-  std::vector<MaskInstanceIoU> instances;  ///< one per ground-truth instance, by gt label
+  std::vector<MaskInstanceIoU> instances;  ///< one per scored ground-truth instance, by gt label
   size_t false_positive_instances = 0;
   std::map<int, PixelCounts> class_pixels;  ///< classes present in either image
   double mean_iou = 0;                      ///< over `instances`; 0 when there are none
@@ -70,7 +81,8 @@ struct MaskClassSummary {
   std::string name;
   size_t gt_instances = 0;
   size_t matched = 0;
-  double mean_instance_iou = 0;
+  double mean_instance_iou = 0;  ///< over gt instances, misses count 0
+  double mean_matched_iou = 0;   ///< over matched gt instances only (0 when none matched)
   PixelCounts pixels;
   double pixel_iou = 0;
 };

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <ostream>
 
@@ -17,6 +18,7 @@
 #include "orpe/io/json_summary.h"
 #include "orpe/io/point_cloud_io.h"
 #include "orpe/io/trajectory_io.h"
+#include "orpe/semantic/mask_output.h"
 #include "orpe/semantic/semantic_output.h"
 #include "orpe/slam/map_io.h"
 
@@ -178,6 +180,13 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
                            ? std::string()
                            : fmt::format(", poses: {}", fmt::join(summary.variants, ", "))));
 
+  std::unique_ptr<MaskRecorder> masks;
+  if (options.write_masks) {
+    if (!pipeline.semantic()) throw ConfigError("run: --write-masks needs --mode semantic or full");
+    masks = std::make_unique<MaskRecorder>(
+        (std::filesystem::path(options.out_dir) / "masks").string(),
+        static_cast<float>(config.segmentation.mask_threshold));
+  }
   FrameStream stream(*reader);
   RgbdFrame frame;
   const int every = config.pipeline.progress_every_n_frames;
@@ -188,6 +197,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     summary.read_ms += ms_since(t_read);
     const PipelineFrameResult& r = pipeline.process(frame);
     ++summary.frames;
+    if (masks && r.keyframe)
+      masks->record(frame, r.slam.T_world_cam, pipeline.slam().map(), *pipeline.semantic());
     if (every > 0 && (summary.frames % every == 0 || summary.frames == static_cast<int>(total)))
       progress(fmt::format("[{:4d}/{}] {}", summary.frames, total, r.report()));
   }
@@ -213,6 +224,15 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     summary.files.insert(summary.files.end(),
                          {"semantic_map.ply", "semantic_map_instances.ply", "instances.json"});
     summary.instances = static_cast<int>(semantic->fusion().instances().size());
+  }
+  if (masks) {
+    const std::string scene =
+        !config.dataset.scene.empty() ? config.dataset.scene
+        : info.format == "bop"        ? fmt::format("{:06d}", info.scene_id)
+        : info.format == "ycbv"       ? fmt::format("{:04d}", info.scene_id)
+                                      : std::string();
+    masks->finish(options.dataset_path, info.format, scene);
+    summary.files.push_back("masks/index.json");
   }
   if (pipeline.num_variants() > 0) {
     // The evaluated frames as a YCB-Video keyframe list (`orpe eval poses --keyframes`), so that

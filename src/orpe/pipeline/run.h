@@ -8,6 +8,8 @@
 //  OUT/semantic_map.ply      surfels with instance and class ids (semantic/semantic_output.h)
 //  OUT/semantic_map_instances.ply  the same, coloured by instance
 //  OUT/instances.json        per instance: class distribution, surfels, box, detections
+//  OUT/masks/                (RunOptions::write_masks) per keyframe the detections' and the map's
+//                            projected instance masks, for `orpe eval masks` (eval/mask_run.h)
 //  full mode:
 //  OUT/poses.csv             BOP results: one row per object per evaluated frame (camera frame)
 //  OUT/poses_final.csv       (EKF) the final fused world poses moved into each evaluated frame
@@ -41,6 +43,8 @@ struct RunOptions {
   std::string render_view;
   double view_back_m = 1.5;
   double view_up_m = 0.6;
+  /// semantic / full: also write per-keyframe input and projected instance masks to OUT/masks/.
+  bool write_masks = false;
   /// Called with each progress line; null = spdlog::info.
   std::function<void(const std::string&)> progress;
 };

@@ -165,11 +165,8 @@ int main(int argc, char** argv) {
       Track& t = tracks[r.instance];
       if (t.cls != r.cls) {
         t.cls = r.cls;
-        const orpe::ObjectModel& model = models.get(r.cls);
-        const bool use = pp.ekf_symmetry == "geometric" ||
-                         (pp.ekf_symmetry == "dataset" && model.symmetric_for_metric);
         t.fusion = std::make_unique<orpe::ObjectPoseFusion>(
-            config.pose_ekf, use ? model.symmetry : orpe::ObjectSymmetry{}, pp.ekf_init_views);
+            config.pose_ekf, models.ekf_symmetry(r.cls, pp.ekf_symmetry), pp.ekf_init_views);
       }
       const double sv_score = std::clamp(r.score, 0.01, 1.0);
       if (r.valid) {

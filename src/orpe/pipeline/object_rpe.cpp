@@ -86,7 +86,8 @@ std::string PipelineFrameResult::report() const {
     line += fmt::format(" poses {:2d}/{:2d}", reported, static_cast<int>(variants.front().size()));
     if (valid != reported) line += fmt::format(" ({} single-view valid)", valid);
   }
-  line += fmt::format(" | slam {:.0f} sem {:.0f}", slam_ms, semantic_ms);
+  line += fmt::format(" | slam {:.0f}", slam_ms);
+  if (semantic_ms > 0) line += fmt::format(" sem {:.0f}", semantic_ms);
   if (evaluated) line += fmt::format(" render {:.0f} pose {:.0f}", render_ms, single_view_ms);
   line += fmt::format(" total {:.0f} ms", total_ms);
   return line;
@@ -374,10 +375,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
           t = Track{};
           t.class_id = c.class_id;
           if (cfg.ekf) {
-            const std::string& mode = pp.ekf_symmetry;
-            const bool use = mode == "geometric" || (mode == "dataset" && model->symmetric_for_metric);
             t.ekf = std::make_unique<ObjectPoseFusion>(
-                params_.pose_ekf, use ? model->symmetry : ObjectSymmetry{}, pp.ekf_init_views);
+                params_.pose_ekf, models_.ekf_symmetry(c.class_id, pp.ekf_symmetry), pp.ekf_init_views);
           }
         }
         track = &t;

@@ -43,6 +43,7 @@ struct Record {
   int frame = 0, instance = 0, cls = 0;
   double class_probability = 0, score = 0, mu = 0;
   bool valid = false;
+  int mask_px = -1;  // -1: not recorded (older single_view.csv)
   orpe::SE3 T_cam_obj, T_world_cam;
 };
 
@@ -61,7 +62,7 @@ std::vector<Record> read_records(const std::string& path) {
     std::string item;
     while (std::getline(ss, item, ',')) f.push_back(item);
     const std::string where = path + ":" + std::to_string(no);
-    if (f.size() != 13) throw orpe::IoError(where, "expected 13 fields");
+    if (f.size() != 13 && f.size() != 14) throw orpe::IoError(where, "expected 13 or 14 fields");
     Record r;
     r.frame = std::stoi(f[0]);
     r.instance = std::stoi(f[1]);
@@ -72,6 +73,7 @@ std::vector<Record> read_records(const std::string& path) {
     r.mu = std::stod(f[6]);
     r.T_cam_obj = parse_pose(f[9], f[10], where);
     r.T_world_cam = parse_pose(f[11], f[12], where);
+    r.mask_px = f.size() > 13 ? std::stoi(f[13]) : -1;
     out.push_back(r);
   }
   return out;
@@ -162,6 +164,12 @@ int main(int argc, char** argv) {
     const auto& pp = config.pipeline;
     for (const Record& r : records) {
       if (r.instance <= 0) continue;
+      // As the pipeline: a mask below min_pose_mask_px has no estimate; its record exists only
+      // when the run reported fused poses for such masks (ekf_report_min_mask_px), and the replay
+      // keeps it only when its own ekf_report_min_mask_px admits it.
+      if (r.mask_px >= 0 && r.mask_px < pp.min_pose_mask_px &&
+          (pp.ekf_report_min_mask_px <= 0 || r.mask_px < pp.ekf_report_min_mask_px))
+        continue;
       Track& t = tracks[r.instance];
       if (t.cls != r.cls) {
         t.cls = r.cls;

@@ -42,15 +42,7 @@ void ObjectPoseFusion::flush() {
 }
 
 void ObjectPoseFusion::initialise_from_buffer() {
-  // Consensus: the buffered measurement the most others pass the gate against; ties (e.g. nobody
-  // agrees because the rotation about a near-symmetry axis scatters) go to the translation medoid
-  // (smallest summed distance to the others' positions), as the translation is the robust part.
-  std::vector<double> spread(buffer_.size(), 0.0);
-  for (size_t i = 0; i < buffer_.size(); ++i) {
-    const Vec3 ti = (buffer_[i].first.T_world_cam * buffer_[i].first.T_cam_obj).translation();
-    for (size_t j = 0; j < buffer_.size(); ++j)
-      spread[i] += (ti - (buffer_[j].first.T_world_cam * buffer_[j].first.T_cam_obj).translation()).norm();
-  }
+  // Consensus: the buffered measurement the most others pass the gate against.
   size_t best = 0;
   int best_support = -1;
   for (size_t i = 0; i < buffer_.size(); ++i) {
@@ -63,7 +55,7 @@ void ObjectPoseFusion::initialise_from_buffer() {
       const PoseEkfStep s = copy.update(buffer_[j].first);
       support += s.accepted && !s.reinitialised;
     }
-    if (support > best_support || (support == best_support && spread[i] < spread[best])) {
+    if (support > best_support) {
       best_support = support;
       best = i;
     }

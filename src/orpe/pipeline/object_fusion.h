@@ -6,8 +6,8 @@
 // measurement would lock the filter; PoseEkf's restart (reinit_after_rejections consecutive, mutually
 // consistent rejections) does not fire when the later measurements scatter about a near-symmetry.
 // With init_views = k > 1 the first k valid measurements are buffered; the filter starts from the one
-// that the most others agree with (PoseEkf's gate; ties to the translation medoid), then takes the
-// others in order (its gate drops the outliers). Until then there is no fused estimate. k = 1 is the paper's behaviour.
+// that the most others agree with (PoseEkf's gate), then takes the others in order (its gate drops
+// the outliers). Until then there is no fused estimate. k = 1 is the paper's behaviour.
 #pragma once
 
 #include <optional>

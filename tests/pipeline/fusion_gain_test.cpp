@@ -1,5 +1,5 @@
 // Multi-view fusion does not lose against single view: `orpe run --mode full` on a tiny synthetic
-// scene (sensor noise, degraded gt detections, a 60-degree camera arc, symmetric boxes and cans),
+// table scene (sensor noise, degraded gt detections, a 60-degree camera arc, boxes and cans),
 // single view (DF-PM-PD-PC) and Object-RPE (the same single-view estimates fused by the EKF)
 // from one pass, both scored by `orpe eval poses` over the same evaluated frames.
 // The long measurement (several seeds, larger scenes) is scripts/synth_fusion.py (docs/RESULTS.md).
@@ -26,7 +26,10 @@ int run_orpe(const std::string& args) {
 }
 
 TEST(FusionGain, FusedPosesAreNotWorseThanSingleViewOnATinyScene) {
-  SynthParams p = test::small_scene_params(320, 240, 20, 3, 11);
+  // Table scene (boxes and cans; the floor scene's pallets defeat the single view in every frame).
+  // Checked with seeds 11-14: fused - single view = +1.3, -0.5, +0.5, +6.9 ADD-S AUC.
+  SynthParams p = test::small_scene_params(320, 240, 20, 4, 11);
+  p.scene = "table";
   p.span_deg = 60;  // 3 degrees per frame: the views differ, tracking stays easy
   const std::string scene = test::synthetic_scene("fusion_gain", p);
   const std::string out = test::scratch_dir("fusion_gain");

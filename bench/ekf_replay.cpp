@@ -18,7 +18,9 @@
 #include <vector>
 
 #include "orpe/core/error.h"
+#include "orpe/eval/pose_metrics.h"
 #include "orpe/io/bop_results.h"
+#include "orpe/io/model_io.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pipeline/config.h"
 #include "orpe/pipeline/object_fusion.h"
@@ -41,6 +43,7 @@ struct Record {
   int frame = 0, instance = 0, cls = 0;
   double class_probability = 0, score = 0, mu = 0;
   bool valid = false;
+  int mask_px = -1;  // -1: not recorded (older single_view.csv)
   orpe::SE3 T_cam_obj, T_world_cam;
 };
 
@@ -59,7 +62,7 @@ std::vector<Record> read_records(const std::string& path) {
     std::string item;
     while (std::getline(ss, item, ',')) f.push_back(item);
     const std::string where = path + ":" + std::to_string(no);
-    if (f.size() != 13) throw orpe::IoError(where, "expected 13 fields");
+    if (f.size() != 13 && f.size() != 14) throw orpe::IoError(where, "expected 13 or 14 fields");
     Record r;
     r.frame = std::stoi(f[0]);
     r.instance = std::stoi(f[1]);
@@ -70,6 +73,7 @@ std::vector<Record> read_records(const std::string& path) {
     r.mu = std::stod(f[6]);
     r.T_cam_obj = parse_pose(f[9], f[10], where);
     r.T_world_cam = parse_pose(f[11], f[12], where);
+    r.mask_px = f.size() > 13 ? std::stoi(f[13]) : -1;
     out.push_back(r);
   }
   return out;
@@ -79,7 +83,7 @@ std::vector<Record> read_records(const std::string& path) {
 
 int main(int argc, char** argv) {
   std::string dataset, single_view, out_rows, out_final;
-  bool gt_measurements = false, gt_cameras = false;
+  bool gt_measurements = false, gt_cameras = false, verbose = false;
   orpe::OrpeConfig config;
   try {
     for (int i = 1; i < argc; ++i) {
@@ -95,6 +99,7 @@ int main(int argc, char** argv) {
       else if (a == "--set") orpe::apply_config_override(config, next());
       else if (a == "--gt-measurements") gt_measurements = true;
       else if (a == "--gt-cameras") gt_cameras = true;
+      else if (a == "--verbose") verbose = true;
       else throw orpe::ConfigError("unknown argument " + a);
     }
     if (dataset.empty() || single_view.empty() || out_rows.empty())
@@ -129,6 +134,21 @@ int main(int argc, char** argv) {
       }
     }
 
+    // --verbose: per-frame ground truth (objects, has-gt flag) and model points by class.
+    std::map<int, std::pair<std::vector<orpe::ObjectGroundTruth>, bool>> gt_frames;
+    std::map<int, std::unique_ptr<orpe::ModelPoints>> points_by_class;
+    if (verbose)
+      for (size_t i = 0; i < reader->size(); ++i) {
+        const orpe::RgbdFrame f = reader->read_annotations(i);
+        gt_frames[f.index] = {f.objects_gt, true};
+      }
+    auto model_points = [&](int cls) -> const orpe::ModelPoints& {
+      auto& p = points_by_class[cls];
+      if (!p)
+        p = std::make_unique<orpe::ModelPoints>(orpe::read_model_points(
+            reader->info().model_points_paths.at(cls), reader->info().model_units_per_m));
+      return *p;
+    };
     struct Track {
       int cls = 0;
       std::unique_ptr<orpe::ObjectPoseFusion> fusion;
@@ -144,14 +164,17 @@ int main(int argc, char** argv) {
     const auto& pp = config.pipeline;
     for (const Record& r : records) {
       if (r.instance <= 0) continue;
+      // As the pipeline: a mask below min_pose_mask_px has no estimate; its record exists only
+      // when the run reported fused poses for such masks (ekf_report_min_mask_px), and the replay
+      // keeps it only when its own ekf_report_min_mask_px admits it.
+      if (r.mask_px >= 0 && r.mask_px < pp.min_pose_mask_px &&
+          (pp.ekf_report_min_mask_px <= 0 || r.mask_px < pp.ekf_report_min_mask_px))
+        continue;
       Track& t = tracks[r.instance];
       if (t.cls != r.cls) {
         t.cls = r.cls;
-        const orpe::ObjectModel& model = models.get(r.cls);
-        const bool use = pp.ekf_symmetry == "geometric" ||
-                         (pp.ekf_symmetry == "dataset" && model.symmetric_for_metric);
         t.fusion = std::make_unique<orpe::ObjectPoseFusion>(
-            config.pose_ekf, use ? model.symmetry : orpe::ObjectSymmetry{}, pp.ekf_init_views);
+            config.pose_ekf, models.ekf_symmetry(r.cls, pp.ekf_symmetry), pp.ekf_init_views);
       }
       const double sv_score = std::clamp(r.score, 0.01, 1.0);
       if (r.valid) {
@@ -160,7 +183,40 @@ int main(int argc, char** argv) {
         m.T_world_cam = r.T_world_cam;
         m.T_cam_obj = r.T_cam_obj;
         m.mu_m = r.mu;
-        t.fusion->add(m, sv_score);
+        const auto o = t.fusion->add(m, sv_score);
+        if (verbose) {
+          // One line per measurement: what the gate did, and (when the frame has ground truth) the
+          // ADD-S of the measurement and of the state after it, and their translation errors.
+          const orpe::SE3 z = r.T_world_cam * r.T_cam_obj;
+          const bool has = t.fusion->has_estimate();
+          const orpe::SE3 T = has ? t.fusion->T_world_obj() : z;
+          // The measurement as the gate saw it (after the symmetry snap) and its Mahalanobis distance.
+          const auto hist = t.fusion->result().history;
+          const bool stepped = !hist.empty() && hist.back().frame_index == r.frame && !o.initialised;
+          const orpe::SE3 zs = stepped ? hist.back().T_world_obj_measured : z;
+          std::printf("frame %4d inst %2d class %2d mu %5.1f mm accepted %d init %d | d2 %7.1f angle(z, state) %6.1f "
+                      "deg (snapped %5.1f), |dt| %6.1f mm",
+                      r.frame, r.instance, r.cls, r.mu * 1e3, o.accepted, o.initialised,
+                      stepped ? hist.back().mahalanobis_sq : 0.0,
+                      orpe::rotation_distance_rad(z.rotation(), T.rotation()) * 180 / M_PI,
+                      orpe::rotation_distance_rad(zs.rotation(), T.rotation()) * 180 / M_PI,
+                      (z.translation() - T.translation()).norm() * 1e3);
+          const auto f = gt_frames.find(r.frame);
+          if (f != gt_frames.end() && f->second.second) {
+            for (const auto& g : f->second.first)
+              if (g.class_id == r.cls) {
+                const orpe::ModelPoints& pts = model_points(r.cls);
+                const orpe::SE3 Tc = r.T_world_cam.inverse() * T;
+                std::printf(" | visib %.2f ADD-S sv %6.1f fused %6.1f mm, t err sv %6.1f fused %6.1f mm",
+                            g.visible_fraction,
+                            orpe::adds_distance(pts, g.T_cam_obj, r.T_cam_obj) * 1e3,
+                            orpe::adds_distance(pts, g.T_cam_obj, Tc) * 1e3,
+                            (g.T_cam_obj.translation() - r.T_cam_obj.translation()).norm() * 1e3,
+                            (g.T_cam_obj.translation() - Tc.translation()).norm() * 1e3);
+              }
+          }
+          std::printf("\n");
+        }
       }
       orpe::PoseResultRow row;
       row.scene_id = reader->info().scene_id;

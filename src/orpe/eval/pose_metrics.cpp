@@ -94,6 +94,8 @@ bool PoseMetricsParams::IsValid(std::string* why) const {
     return fail("auc_max_distance_m must be a positive distance (m)");
   if (!(accuracy_threshold_m > 0) || !std::isfinite(accuracy_threshold_m))
     return fail("accuracy_threshold_m must be a positive distance (m)");
+  if (!(min_visible_fraction >= 0 && min_visible_fraction <= 1))
+    return fail("min_visible_fraction must be in [0, 1]");
   return true;
 }
 
@@ -350,8 +352,11 @@ PoseEvaluation evaluate_pose_results(const std::vector<const DatasetReader*>& re
     for (size_t i = 0; i < reader->size(); ++i) {
       const RgbdFrame frame = reader->read_annotations(i);
       if (only_frames && !only_frames->count({info.scene_id, frame.index})) continue;
-      for (const auto& o : frame.objects_gt)
+      for (const auto& o : frame.objects_gt) {
+        // Synthetic scenes list every instance in every frame, also those outside the view.
+        if (o.visible_fraction >= 0 && o.visible_fraction < params.min_visible_fraction) continue;
         gt.push_back({info.scene_id, frame.index, o.class_id, o.T_cam_obj});
+      }
     }
   }
   std::map<int, ModelPoints> models;

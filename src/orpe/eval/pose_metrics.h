@@ -31,6 +31,7 @@ class DatasetReader;
 struct PoseMetricsParams {
   double auc_max_distance_m = 0.1;     ///< YCB-Video: 0.1
   double accuracy_threshold_m = 0.02;  ///< the "< 2 cm" column
+  double min_visible_fraction = 0.0;   ///< skip ground-truth instances less visible than this
 
   template <class V>
   void visit(V&& v) {
@@ -38,6 +39,9 @@ struct PoseMetricsParams {
       "AUC of the accuracy-threshold curve up to this distance (m); YCB-Video toolbox: 0.1");
     v("accuracy_threshold_m", accuracy_threshold_m,
       "Report the fraction of instances with distance below this (m); YCB-Video: 0.02");
+    v("min_visible_fraction", min_visible_fraction,
+      "Evaluate only ground-truth instances at least this visible (BOP: 0.1; instances of unknown "
+      "visibility are always kept); 0 = all, also objects outside the view");
   }
   bool IsValid(std::string* why) const;
 };

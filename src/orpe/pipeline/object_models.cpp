@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 
 #include "orpe/core/error.h"
@@ -55,6 +58,51 @@ void sample_mesh_surface(const TriangleMesh& mesh, int count, ObjectModel& model
   }
 }
 
+/// The annotated symmetry group of one object in a BOP models_info.json (translations in the
+/// file's units, divided by units_per_m), or nullopt when the file or the entry has none.
+std::optional<ObjectSymmetry> read_bop_symmetry(const std::string& path, int class_id,
+                                                double units_per_m) {
+  if (!std::filesystem::exists(path)) return std::nullopt;
+  std::ifstream is(path);
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(is);
+  } catch (const std::exception& e) {
+    throw IoError(path, std::string("not valid JSON: ") + e.what());
+  }
+  const std::string key = std::to_string(class_id);
+  if (!j.is_object() || !j.contains(key) || !j.at(key).is_object()) return std::nullopt;
+  const nlohmann::json& m = j.at(key);
+  ObjectSymmetry sym;
+  try {
+    if (m.contains("symmetries_discrete"))
+      for (const auto& d : m.at("symmetries_discrete")) {
+        if (!d.is_array() || d.size() != 16) throw IoError(path, "a discrete symmetry needs 16 numbers");
+        Mat3 R;
+        Vec3 t;
+        for (int r = 0; r < 3; ++r) {
+          for (int c = 0; c < 3; ++c) R(r, c) = d.at(4 * r + c).get<double>();
+          t[r] = d.at(4 * r + 3).get<double>() / units_per_m;
+        }
+        sym.discrete.emplace_back(orthonormalize(R), t);
+      }
+    if (m.contains("symmetries_continuous") && !m.at("symmetries_continuous").empty()) {
+      const auto& c = m.at("symmetries_continuous").at(0);
+      for (int k = 0; k < 3; ++k) {
+        sym.axis_obj[k] = c.at("axis").at(k).get<double>();
+        sym.axis_point_obj[k] = c.at("offset").at(k).get<double>() / units_per_m;
+      }
+      if (!(sym.axis_obj.norm() > 1e-9)) throw IoError(path, "zero continuous symmetry axis");
+      sym.axis_obj.normalize();
+      sym.continuous = true;
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw IoError(path, fmt::format("object {}: malformed symmetry: {}", class_id, e.what()));
+  }
+  if (!sym.continuous && sym.discrete.empty()) return std::nullopt;
+  return sym;
+}
+
 }  // namespace
 
 ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int surface_points) {
@@ -102,6 +150,22 @@ const ObjectModel& ObjectModelLibrary::get(int class_id) const {
   if (!slot)
     slot = std::make_unique<ObjectModel>(load_dataset_object_model(info_, class_id, surface_points_));
   return *slot;
+}
+
+ObjectSymmetry ObjectModelLibrary::ekf_symmetry(int class_id, const std::string& mode) const {
+  if (mode == "none") return {};
+  const ObjectModel& model = get(class_id);
+  if (mode == "geometric") return model.symmetry;
+  if (!model.symmetric_for_metric) return {};
+  if (info_.format == "bop") {
+    const auto mesh = info_.model_mesh_paths.find(class_id);
+    if (mesh != info_.model_mesh_paths.end()) {
+      const std::string path =
+          (std::filesystem::path(mesh->second).parent_path() / "models_info.json").string();
+      if (auto annotated = read_bop_symmetry(path, class_id, info_.model_units_per_m)) return *annotated;
+    }
+  }
+  return model.symmetry;
 }
 
 std::string ObjectModelLibrary::class_name(int class_id) const {

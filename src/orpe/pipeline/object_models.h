@@ -7,7 +7,11 @@
 //    `surface_points` points are sampled uniformly on its triangles (area-weighted, fixed seed) with
 //    the face normals; a PLY without faces gives its vertices (normals estimated by PCA).
 // The geometric symmetry is detected from the points (pose stage); `symmetric_for_metric` comes from
-// the dataset's list.
+// the dataset's list. ekf_symmetry() picks the group the pipeline's per-object EKF uses: for BOP
+// datasets (and orpe synth scenes) the annotated `symmetries_discrete` / `symmetries_continuous`
+// of models/models_info.json when the class has them, since detection from sampled points can miss
+// an element (e.g. one of a carton's three 180-degree flips), which leaves two correct measurement
+// modes that the EKF's gate treats as disagreeing.
 #pragma once
 
 #include <map>
@@ -36,6 +40,11 @@ class ObjectModelLibrary {
   const DatasetInfo& info() const { return info_; }
   /// Class name for messages and outputs ("class <id>" when the dataset has none).
   std::string class_name(int class_id) const;
+  /// The symmetry group the EKF uses for the class, by pipeline.ekf_symmetry `mode`: "none" = no
+  /// symmetry; "geometric" = the model's detected group; "dataset" = for the dataset's symmetric
+  /// classes only: the dataset's annotated group (BOP models_info.json) when it has one, else the
+  /// detected group. Throws IoError like get(), and for a malformed models_info.json entry.
+  ObjectSymmetry ekf_symmetry(int class_id, const std::string& mode) const;
 
  private:
   DatasetInfo info_;

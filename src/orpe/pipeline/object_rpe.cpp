@@ -86,7 +86,8 @@ std::string PipelineFrameResult::report() const {
     line += fmt::format(" poses {:2d}/{:2d}", reported, static_cast<int>(variants.front().size()));
     if (valid != reported) line += fmt::format(" ({} single-view valid)", valid);
   }
-  line += fmt::format(" | slam {:.0f} sem {:.0f}", slam_ms, semantic_ms);
+  line += fmt::format(" | slam {:.0f}", slam_ms);
+  if (semantic_ms > 0) line += fmt::format(" sem {:.0f}", semantic_ms);
   if (evaluated) line += fmt::format(" render {:.0f} pose {:.0f}", render_ms, single_view_ms);
   line += fmt::format(" total {:.0f} ms", total_ms);
   return line;
@@ -131,6 +132,7 @@ struct ObjectRpePipeline::Candidate {
   const MaskImage* mask = nullptr;
   int mask_px = 0;
   int object_key = 0;  // detection index (raw masks) or instance id (projected masks)
+  bool report_only = false;  // too small for a single-view estimate: EKF variants report the state
 };
 
 ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const DatasetInfo& dataset)
@@ -255,7 +257,12 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
                               static_cast<float>(params_.semantic.mask_splat_radius_px),
                               static_cast<float>(params_.semantic.mask_splat_radius_scale),
                               params_.semantic.mask_depth_tolerance_m, true, &images);
-    views = split_instance_views(images, instances, pp.min_pose_mask_px);
+    bool any_ekf = false;
+    for (const auto& v : variants_) any_ekf |= v.config.ekf && v.config.projected_mask;
+    const int min_view_px = any_ekf && pp.ekf_report_min_mask_px > 0
+                                ? std::min(pp.min_pose_mask_px, pp.ekf_report_min_mask_px)
+                                : pp.min_pose_mask_px;
+    views = split_instance_views(images, instances, min_view_px);
     slam::RenderOptions options;
     options.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
     options.want_vertex = options.want_normal = false;
@@ -283,8 +290,12 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
     c.mask_px = iv.area_px;
     c.object_key = iv.instance_id;
     if (c.class_id <= 0 || info->second.detections < pp.min_instance_detections ||
-        c.class_probability < pp.min_class_probability || c.mask_px < pp.min_pose_mask_px)
+        c.class_probability < pp.min_class_probability)
       continue;
+    if (c.mask_px < pp.min_pose_mask_px) {
+      if (pp.ekf_report_min_mask_px <= 0 || c.mask_px < pp.ekf_report_min_mask_px) continue;
+      c.report_only = true;
+    }
     from_map.push_back(c);
   }
   // Candidates from this keyframe's detections (raw masks); the instance each joined is the majority
@@ -341,6 +352,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
     const std::vector<Candidate>& candidates = cfg.projected_mask ? from_map : from_detections;
     auto& out = result.variants[vi];
     for (const Candidate& c : candidates) {
+      if (c.report_only && !cfg.ekf) continue;
       ObjectFrameEstimate est;
       est.instance_id = c.instance_id;
       est.class_id = c.class_id;
@@ -374,10 +386,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
           t = Track{};
           t.class_id = c.class_id;
           if (cfg.ekf) {
-            const std::string& mode = pp.ekf_symmetry;
-            const bool use = mode == "geometric" || (mode == "dataset" && model->symmetric_for_metric);
             t.ekf = std::make_unique<ObjectPoseFusion>(
-                params_.pose_ekf, use ? model->symmetry : ObjectSymmetry{}, pp.ekf_init_views);
+                params_.pose_ekf, models_.ekf_symmetry(c.class_id, pp.ekf_symmetry), pp.ekf_init_views);
           }
         }
         track = &t;
@@ -389,7 +399,10 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
                                        estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
                                        use_prior ? static_cast<int>(vi) : -1);
       auto cached = cache.find(key);
-      if (cached != cache.end()) {
+      if (c.report_only) {
+        est.single_view = SingleViewPose{};
+        est.single_view.reason = "mask too small for a single-view estimate";
+      } else if (cached != cache.end()) {
         est.single_view = cached->second;
         ++stats_.single_view_cache_hits;
       } else {
@@ -409,7 +422,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         cache.emplace(key, est.single_view);
       }
       const SingleViewPose& sv = est.single_view;
-      vs.records.push_back({frame.index, c.instance_id, c.class_id, c.class_probability, sv, T_world_cam});
+      vs.records.push_back(
+          {frame.index, c.instance_id, c.class_id, c.class_probability, sv, T_world_cam, c.mask_px});
       const double sv_score = std::clamp(sv.score, 0.01, 1.0);
       if (cfg.ekf) {
         if (track && track->ekf) {

@@ -185,6 +185,7 @@ class ObjectRpePipeline {
     double class_probability = 0;
     SingleViewPose estimate;
     SE3 T_world_cam;
+    int mask_px = 0;  ///< pixels of the mask the estimate ran on (or was skipped for)
   };
   const std::vector<SingleViewRecord>& single_view_records(size_t variant) const;
   /// Per map instance that got a pose (after finalize(): surviving instances only), sorted by id.

@@ -28,6 +28,7 @@ bool PipelineParams::IsValid(std::string* why) const {
   };
   if (pose_every_n_keyframes < 1) return fail("pose_every_n_keyframes must be >= 1");
   if (min_pose_mask_px < 1) return fail("min_pose_mask_px must be >= 1");
+  if (ekf_report_min_mask_px < 0) return fail("ekf_report_min_mask_px must be >= 0");
   if (min_instance_detections < 0) return fail("min_instance_detections must be >= 0");
   if (!(min_class_probability >= 0 && min_class_probability <= 1))
     return fail("min_class_probability must be in [0, 1]");

@@ -31,14 +31,20 @@ struct PipelineParams {
   /// which frames are keyframes); these are the "evaluated frames" of poses.csv.
   int pose_every_n_keyframes = 1;
   int min_pose_mask_px = 200;  ///< instances / detections with a smaller mask get no pose estimate
+  /// EKF, projected masks: a map instance whose projected mask has at least this many pixels, but
+  /// fewer than min_pose_mask_px, gets no single-view estimate, yet its fused pose is reported (the
+  /// map knows where the object is, the estimator cannot work on so few pixels); 50 = the semantic
+  /// stage's visibility threshold (semantic.min_visible_area_px). 0 = off.
+  int ekf_report_min_mask_px = 50;
   /// Projected-mask modes: only instances detected in at least this many keyframes get a pose.
   int min_instance_detections = 1;
   /// Only instances (projected modes) or detections (raw masks) whose class probability reaches this.
   double min_class_probability = 0.0;
   /// Symmetry group each object's EKF uses to compare a measurement with its state:
-  /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = the same, but only for
-  /// the dataset's symmetric classes (those scored with ADD-S), "none" = no symmetry (the paper).
-  std::string ekf_symmetry = "none";
+  /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = only for the
+  /// dataset's symmetric classes (those scored with ADD-S): the dataset's annotated group (BOP
+  /// models_info.json) when it has one, else the detected one; "none" = no symmetry (the paper).
+  std::string ekf_symmetry = "dataset";
   /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
   /// object_fusion.h); 1 = from the first measurement (the paper).
   int ekf_init_views = 5;
@@ -65,13 +71,16 @@ struct PipelineParams {
     v("pose_every_n_keyframes", pose_every_n_keyframes,
       "Estimate poses on every n-th segmentation keyframe (the evaluated frames)");
     v("min_pose_mask_px", min_pose_mask_px, "Masks with fewer pixels get no pose estimate");
+    v("ekf_report_min_mask_px", ekf_report_min_mask_px,
+      "EKF with projected masks: report the fused pose of instances whose projected mask has at "
+      "least this many pixels but too few for a single-view estimate (0 = off)");
     v("min_instance_detections", min_instance_detections,
       "Projected masks: only instances detected in at least this many keyframes get a pose");
     v("min_class_probability", min_class_probability,
       "Only instances / detections whose class probability reaches this get a pose, in [0, 1]");
     v("ekf_symmetry", ekf_symmetry,
       "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the dataset's "
-      "symmetric classes) | none");
+      "symmetric classes; their annotated group when the dataset has one) | none");
     v("ekf_init_views", ekf_init_views,
       "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,

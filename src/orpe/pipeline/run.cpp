@@ -54,7 +54,7 @@ void write_single_view_csv(const std::string& path,
                            const std::vector<ObjectRpePipeline::SingleViewRecord>& records) {
   write_file_atomic(path, [&](std::ostream& os) {
     os << "frame,instance,class,class_probability,valid,score,mu_m,inlier_fraction,num_points,"
-          "R_cam_obj,t_cam_obj_m,R_world_cam,t_world_cam_m\n";
+          "R_cam_obj,t_cam_obj_m,R_world_cam,t_world_cam_m,mask_px\n";
     auto pose = [](const SE3& T) {
       const Mat3& R = T.rotation();
       return fmt::format("{:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f},{:.9f} {:.9f} {:.9f}",
@@ -62,10 +62,11 @@ void write_single_view_csv(const std::string& path,
                          R(2, 2), T.translation().x(), T.translation().y(), T.translation().z());
     };
     for (const auto& r : records)
-      os << fmt::format("{},{},{},{:.6f},{},{:.6f},{:.6g},{:.4f},{},{},{}\n", r.frame_index,
+      os << fmt::format("{},{},{},{:.6f},{},{:.6f},{:.6g},{:.4f},{},{},{},{}\n", r.frame_index,
                         r.instance_id, r.class_id, r.class_probability, r.estimate.valid ? 1 : 0,
                         r.estimate.score, r.estimate.mu_m, r.estimate.inlier_fraction,
-                        r.estimate.num_points, pose(r.estimate.T_cam_obj), pose(r.T_world_cam));
+                        r.estimate.num_points, pose(r.estimate.T_cam_obj), pose(r.T_world_cam),
+                        r.mask_px);
   });
 }
 

@@ -74,7 +74,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options);
 
 /// single_view.csv: every single-view estimate of a variant, one line each:
 /// frame,instance,class,class_probability,valid,score,mu_m,inlier_fraction,num_points,
-/// R_cam_obj (9 values row-major, spaces),t_cam_obj_m (3),R_world_cam (9),t_world_cam_m (3)
+/// R_cam_obj (9 values row-major, spaces),t_cam_obj_m (3),R_world_cam (9),t_world_cam_m (3),mask_px
 void write_single_view_csv(const std::string& path,
                            const std::vector<ObjectRpePipeline::SingleViewRecord>& records);
 

@@ -2,7 +2,7 @@
 // runs SlamSystem over the frames, prints per-frame reports, then ATE RMSE against the frames'
 // ground-truth poses (rigid fit, no scale) and mean stage timings.
 //
-//   build/bin/orpe_bench_slam_ate [--frames N] [--every K] [--set section.key=value ...] [--dir D]
+//   build/bin/orpe_bench_slam_ate [--frames N] [--every K] [--preset NAME] [--set section.key=value ...] [--dir D]
 //                                 [--gt-reset]
 // --gt-reset (diagnostic): each frame is tracked from the previous frame's ground-truth pose, so the
 // errors printed are one-step tracking errors against the map, without accumulated drift.
@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
     else if (a == "--dir" && i + 1 < argc) dir = argv[++i];
     else if (a == "--gt-reset") gt_reset = true;
     else if (a == "--set" && i + 1 < argc) apply_config_override(config, argv[++i]);
+    else if (a == "--preset" && i + 1 < argc) apply_config_preset(config, argv[++i]);
     else {
       std::cerr << "unknown argument " << a << "\n";
       return 2;

@@ -1,7 +1,7 @@
 // Speed of the dense SLAM (tracking + fusion per frame) against OpenCV's cv::rgbd::RgbdICPOdometry
 // chained frame to frame, on the same 640x480 7-Scenes frames (preloaded: no file I/O is timed).
 //
-//   build/bin/orpe_bench_slam_speed [--frames N] [--threads T] [--skip-opencv] [--set section.key=value ...]
+//   build/bin/orpe_bench_slam_speed [--frames N] [--threads T] [--skip-opencv] [--preset NAME] [--set section.key=value ...]
 //
 // Prints wall-clock frames/s, CPU time per frame, both ATEs and the speed ratio.
 #include <fmt/format.h>
@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (a == "--skip-opencv") skip_opencv = true;
     else if (a == "--set" && i + 1 < argc) apply_config_override(config, argv[++i]);
+    else if (a == "--preset" && i + 1 < argc) apply_config_preset(config, argv[++i]);
     else {
       std::cerr << "unknown argument " << a << "\n";
       return 2;

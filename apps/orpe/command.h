@@ -21,11 +21,12 @@ std::vector<std::pair<int, CommandSetup>>& command_registry();
 
 /// --config FILE and --set section.key=value, shared by every command that runs a stage.
 struct ConfigOptions {
+  std::string preset;
   std::string config_file;
   std::vector<std::string> overrides;
 };
 void add_config_options(CLI::App& app, ConfigOptions& options);
-/// Defaults, then the file, then the overrides; validated. Throws ConfigError / IoError.
+/// Defaults, then the preset, then the file, then the overrides; validated. Throws ConfigError / IoError.
 OrpeConfig resolve_config(const ConfigOptions& options);
 
 }  // namespace orpe::cli

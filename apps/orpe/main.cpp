@@ -20,6 +20,9 @@ CommandRegistrar::CommandRegistrar(int order, CommandSetup setup) {
 }
 
 void add_config_options(CLI::App& app, ConfigOptions& options) {
+  app.add_option("--preset", options.preset,
+                 "Named parameter preset applied first: default, realtime (SLAM >= 15 frames/s; docs/SLAM.md)")
+      ->check(CLI::IsMember(config_preset_names()));
   app.add_option("--config", options.config_file, "JSON config file ({\"section\": {\"key\": value}})")
       ->check(CLI::ExistingFile);
   app.add_option("--set", options.overrides,
@@ -28,6 +31,7 @@ void add_config_options(CLI::App& app, ConfigOptions& options) {
 
 OrpeConfig resolve_config(const ConfigOptions& options) {
   OrpeConfig config;
+  if (!options.preset.empty()) apply_config_preset(config, options.preset);
   if (!options.config_file.empty()) load_config_file(config, options.config_file);
   for (const auto& o : options.overrides) apply_config_override(config, o);
   std::string why;

@@ -70,5 +70,23 @@ TEST(Config, DescribeListsEveryKeyWithDocs) {
   for (const auto& d : docs) EXPECT_FALSE(d.doc.empty()) << d.key;
 }
 
+TEST(Config, PresetsAreValidAndOverridable) {
+  for (const auto& name : config_preset_names()) {
+    OrpeConfig c;
+    apply_config_preset(c, name);
+    std::string why;
+    EXPECT_TRUE(c.IsValid(&why)) << name << ": " << why;
+  }
+  OrpeConfig c;
+  apply_config_preset(c, "realtime");
+  EXPECT_EQ(c.slam_tracking.level0_pixel_step, 2);
+  EXPECT_EQ(c.slam_fusion.fusion_level, 1);
+  apply_config_override(c, "slam_fusion.fusion_level=0");  // overrides come after the preset
+  EXPECT_EQ(c.slam_fusion.fusion_level, 0);
+  apply_config_preset(c, "default");
+  EXPECT_EQ(c.slam_tracking.level0_pixel_step, OrpeConfig().slam_tracking.level0_pixel_step);
+  EXPECT_THROW(apply_config_preset(c, "turbo"), ConfigError);
+}
+
 }  // namespace
 }  // namespace orpe

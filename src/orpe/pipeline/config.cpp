@@ -78,3 +78,21 @@ std::string config_to_json(const OrpeConfig& config) {
 }
 
 }  // namespace orpe
+
+namespace orpe {
+
+std::vector<std::string> config_preset_names() { return {"default", "realtime"}; }
+
+void apply_config_preset(OrpeConfig& config, const std::string& name) {
+  if (name == "default") {
+    config = OrpeConfig();
+  } else if (name == "realtime") {
+    config.slam_tracking.level0_pixel_step = 2;
+    config.slam_tracking.iterations_level0 = 5;
+    config.slam_fusion.fusion_level = 1;
+  } else {
+    throw ConfigError("unknown preset '" + name + "' (known: default, realtime)");
+  }
+}
+
+}  // namespace orpe

@@ -65,6 +65,15 @@ struct OrpeConfig {
 void load_config_file(OrpeConfig& config, const std::string& path);
 /// Applies one "section.key=value" override. Throws ConfigError for unknown keys or bad values.
 void apply_config_override(OrpeConfig& config, const std::string& assignment);
+/// Named presets (applied before a config file and overrides):
+///  - "default": the documented defaults (ElasticFusion's constants where they apply).
+///  - "realtime": SLAM at >= 15 frames/s at 640x480 on two CPU cores -- level-0 tracking on every 2nd
+///    row and column (slam_tracking.level0_pixel_step=2), 5 instead of 10 level-0 iterations, and
+///    fusion at half resolution (slam_fusion.fusion_level=1: a 4x sparser map). Measured on 7-Scenes:
+///    same ATE, 2.3x faster (docs/BENCHMARKS.md).
+std::vector<std::string> config_preset_names();
+/// Applies the preset `name` to `config`. Throws ConfigError for an unknown name.
+void apply_config_preset(OrpeConfig& config, const std::string& name);
 /// Every parameter with its current value and documentation.
 std::vector<ParamDoc> describe_config(const OrpeConfig& config);
 /// The configuration as pretty-printed JSON.

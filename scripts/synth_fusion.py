@@ -18,9 +18,11 @@ Python 3 standard library only.
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import ablation  # noqa: E402  (its run() helper)
 
 CONFIGS = ["DF", "DF-PM", "DF-PM-PD-PC", "Object-RPE"]
 EKF_ONLY = "Object-RPE, estimated objects only"
@@ -29,13 +31,8 @@ BASE = "DF-PM-PD-PC"
 
 
 def run(cmd, quiet=True):
-    print("+ " + " ".join(cmd), file=sys.stderr, flush=True)
-    res = subprocess.run(cmd, stdout=subprocess.PIPE if quiet else sys.stderr,
-                         stderr=subprocess.STDOUT if quiet else None, text=True)
-    if res.returncode != 0:
-        if quiet and res.stdout:
-            sys.stderr.write(res.stdout)
-        sys.exit(f"command failed ({res.returncode}): {' '.join(cmd)}")
+    """ablation.run, quiet by default: the command's output is shown only when it fails."""
+    ablation.run(cmd, quiet=quiet)
 
 
 def main():

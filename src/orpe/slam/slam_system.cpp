@@ -81,7 +81,13 @@ SlamSystem::SlamSystem(const SlamParams& params)
   map_.reserve(static_cast<size_t>(params_.options.reserve_surfels));
 }
 
-SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
+SlamFrameResult SlamSystem::process(const RgbdFrame& frame) { return process_impl(frame, nullptr); }
+
+SlamFrameResult SlamSystem::process_at_known_pose(const RgbdFrame& frame, const SE3& T_world_cam) {
+  return process_impl(frame, &T_world_cam);
+}
+
+SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* known_T_world_cam) {
   const auto t_start = std::chrono::steady_clock::now();
   SlamFrameResult res;
   res.frame_index = frame.index;
@@ -93,6 +99,7 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
     throw ConfigError("frame '" + frame.name + "': intrinsics or image size changed within the sequence");
   }
   const std::int32_t now = frame_count_;
+  const SE3 T_world_cam_before = T_world_cam_;
 
   auto t = std::chrono::steady_clock::now();
   std::swap(pyramid_, prev_pyramid_);
@@ -156,6 +163,12 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
       bad_frames_ = 0;
       status_ = TrackingStatus::kOk;
     }
+    res.tracked_T_world_cam = T_world_cam_ * a.T_ref_cam;
+    if (known_T_world_cam) {
+      // Mapping with known poses: the alignment is only reported; the frame is fused at the given pose.
+      accept = true;
+      if (status_ == TrackingStatus::kLost) status_ = TrackingStatus::kDegraded;
+    }
     if (accept) {
       T_world_cam_ = T_world_cam_ * a.T_ref_cam;
       last_motion_ = a.T_ref_cam;
@@ -164,6 +177,13 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
     }
   } else {
     status_ = TrackingStatus::kOk;
+  }
+  if (known_T_world_cam) {
+    T_world_cam_ = *known_T_world_cam;
+    last_motion_ = T_world_cam_before.inverse() * T_world_cam_;
+    if (map_.empty()) res.tracked_T_world_cam = T_world_cam_;
+  } else if (map_.empty()) {
+    res.tracked_T_world_cam = T_world_cam_;
   }
   res.status = status_;
   res.T_world_cam = T_world_cam_;

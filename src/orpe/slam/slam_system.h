@@ -78,6 +78,9 @@ struct SlamFrameResult {
   int frame_index = 0;  ///< RgbdFrame::index
   TrackingStatus status = TrackingStatus::kOk;
   SE3 T_world_cam;      ///< the pose after this frame (held pose when LOST)
+  /// What the alignment of this frame gave (also when it was not accepted); with
+  /// process_at_known_pose() the tracking estimate to compare with the known pose.
+  SE3 tracked_T_world_cam;
   bool fused = false;
   std::string reason;   ///< why DEGRADED / LOST
   int icp_inliers = 0;
@@ -99,6 +102,11 @@ class SlamSystem {
   void set_initial_pose(const SE3& T_world_cam0) { T_world_cam_ = T_world_cam0; }
   /// Tracks and fuses one frame. Throws ConfigError when the frame's size or intrinsics change.
   SlamFrameResult process(const RgbdFrame& frame);
+  /// Mapping with known poses (motion capture, a ground-truth trajectory): tracks the frame as
+  /// process() does, from the previous pose, and reports that alignment in tracked_T_world_cam, but
+  /// fuses the frame at `T_world_cam` and continues from it. The status still reports the alignment's
+  /// quality (never LOST: the pose is known).
+  SlamFrameResult process_at_known_pose(const RgbdFrame& frame, const SE3& T_world_cam);
 
   const SE3& T_world_cam() const { return T_world_cam_; }
   SurfelMap& map() { return map_; }
@@ -116,6 +124,8 @@ class SlamSystem {
   TrackingStatus status() const { return status_; }
 
  private:
+  SlamFrameResult process_impl(const RgbdFrame& frame, const SE3* known_T_world_cam);
+
   SlamParams params_;
   FramePreprocessor preprocessor_;
   Tracker tracker_;

@@ -7,7 +7,9 @@
 // consistent rejections) does not fire when the later measurements scatter about a near-symmetry.
 // With init_views = k > 1 the first k valid measurements are buffered; the filter starts from the one
 // that the most others agree with (PoseEkf's gate), then takes the others in order (its gate drops
-// the outliers). Until then there is no fused estimate. k = 1 is the paper's behaviour.
+// the outliers). Ties in support go to the smallest summed (gate-truncated) Mahalanobis distance to
+// the others. If no two of the first k agree, the buffer grows (up to 2k) until some pair does.
+// Until then there is no fused estimate. k = 1 is the paper's behaviour.
 #pragma once
 
 #include <optional>
@@ -43,7 +45,7 @@ class ObjectPoseFusion {
   int rejected() const { return rejected_; }
 
  private:
-  void initialise_from_buffer();
+  bool initialise_from_buffer(bool need_support = false);
 
   PoseEkfParams params_;
   ObjectSymmetry symmetry_;

@@ -144,7 +144,12 @@ PoseEkfStep PoseEkf::update(const PoseMeasurement& m) {
     if (params_.gate_chi2 <= 0 || d2 <= params_.gate_chi2) {
       fuse(z, R);
       step.accepted = true;
-      pending_.clear();
+      // Interleaved restart: a consistent run of rejections survives accepted measurements while it
+      // is not outnumbered by them, so a competing mode seen in most recent views (a near-symmetric
+      // object flipping between two poses) can still restart the filter.
+      ++accepted_since_pending_;
+      if (!params_.reinit_interleaved || accepted_since_pending_ > static_cast<int>(pending_.size()))
+        pending_.clear();
     } else {
       ++num_rejected_;
       if (params_.reinit_after_rejections > 0) {
@@ -159,11 +164,14 @@ PoseEkfStep PoseEkf::update(const PoseMeasurement& m) {
             const Vec6 nu = (first.z.inverse() * z).log();
             d2p = nu.dot(S2_inv * nu);
           }
-          if (params_.gate_chi2 > 0 && d2p > params_.gate_chi2)
+          if (params_.gate_chi2 > 0 && d2p > params_.gate_chi2) {
             pending_.clear();
+            accepted_since_pending_ = 0;
+          }
           else
             z = aligned;
         }
+        if (pending_.empty()) accepted_since_pending_ = 0;
         pending_.push_back({z, R});
         if (static_cast<int>(pending_.size()) >= params_.reinit_after_rejections) {
           initialise(pending_[0].z, pending_[0].R);

@@ -34,6 +34,7 @@ struct PoseEkfParams {
   double gate_chi2 = 22.46;
   int reinit_after_rejections = 5;
   bool use_symmetry = true;
+  bool reinit_interleaved = false;
 
   template <class V>
   void visit(V&& v) {
@@ -54,6 +55,9 @@ struct PoseEkfParams {
     v("reinit_after_rejections", reinit_after_rejections,
       "Restart the filter from this many consecutive rejected but mutually consistent "
       "measurements; 0 = never");
+    v("reinit_interleaved", reinit_interleaved,
+      "Restart count survives accepted measurements while they do not outnumber the consistent "
+      "rejections (false, default: only consecutive rejections restart)");
     v("use_symmetry", use_symmetry,
       "Replace each measurement by its symmetry-equivalent closest to the state before the update");
   }
@@ -134,7 +138,8 @@ class PoseEkf {
   int num_fused_ = 0;
   int num_rejected_ = 0;
   int num_reinit_ = 0;
-  std::vector<Pending> pending_;  ///< consecutive rejected, mutually consistent measurements
+  std::vector<Pending> pending_;  ///< rejected, mutually consistent measurements (see reinit_interleaved)
+  int accepted_since_pending_ = 0;
   std::vector<PoseEkfStep> history_;
 };
 

@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
   try {
     slam::SlamSystem system(config.slam_params());
     std::vector<Vec3> est, gt;
+    std::vector<Mat3> gt_rot;
     double sum_total = 0, sum_pre = 0, sum_pred = 0, sum_track = 0, sum_fuse = 0;
     double fz[5] = {0, 0, 0, 0, 0};
     int counts[3] = {0, 0, 0};
@@ -98,9 +99,38 @@ int main(int argc, char** argv) {
       if (f.T_world_cam_gt) {
         est.push_back(r.T_world_cam.translation());
         gt.push_back(f.T_world_cam_gt->translation());
+        gt_rot.push_back(f.T_world_cam_gt->rotation());
       }
     }
     const double ate = bench::ate_rmse(est, gt);
+    {
+      // Diagnostic: could the ground truth be the pose of another point on the rig (a lever arm t_X in the
+      // camera frame)? Alternate a rigid fit est -> gt - R_gt t_X with the linear solve of
+      // p_gt - R_A p_est = t_A + R_gt t_X for (t_A, t_X).
+      Vec3 t_X = Vec3::Zero();
+      double rms = 0;
+      for (int iter = 0; iter < 20 && !est.empty(); ++iter) {
+        std::vector<Vec3> gt_c(gt.size());
+        for (size_t i = 0; i < gt.size(); ++i) gt_c[i] = gt[i] - gt_rot[i] * t_X;
+        const SimilarityAlignment rig = align_umeyama(est, gt_c, false);
+        Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+        Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+        for (size_t i = 0; i < gt.size(); ++i) {
+          Eigen::Matrix<double, 3, 6> J;
+          J << Mat3::Identity(), gt_rot[i];
+          A += J.transpose() * J;
+          b += J.transpose() * (gt[i] - rig.R * est[i]);
+        }
+        const Eigen::Matrix<double, 6, 1> x = A.ldlt().solve(b);
+        t_X = x.tail<3>();
+        double e2 = 0;
+        for (size_t i = 0; i < gt.size(); ++i)
+          e2 += (rig.R * est[i] + x.head<3>() + gt_rot[i] * t_X - gt[i]).squaredNorm();
+        rms = std::sqrt(e2 / double(gt.size()));
+      }
+      std::cout << fmt::format("lever-arm fit (diagnostic): t_X = ({:.4f}, {:.4f}, {:.4f}) m, ATE {:.4f} m\n",
+                               t_X.x(), t_X.y(), t_X.z(), rms);
+    }
     {
       const SimilarityAlignment sim = align_umeyama(est, gt, true);
       double e2 = 0;

@@ -11,6 +11,7 @@
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/image_io.h"
+#include "support/in_memory_reader.h"
 #include "support/test_data.h"
 
 namespace orpe {
@@ -21,22 +22,14 @@ void paint(LabelImage& img, int u0, int v0, int u1, int v1, std::int32_t value) 
     for (int u = u0; u < u1; ++u) img.at(u, v) = value;
 }
 
-/// Frames with ground-truth labels only (numbered 10, 11, ...).
-class FakeReader final : public DatasetReader {
- public:
-  explicit FakeReader(std::vector<RgbdFrame> frames) : frames_(std::move(frames)) {
-    info_.format = "fake";
-    info_.root = "fake-dataset";
-    info_.class_names = {{1, "one"}, {2, "two"}};
-  }
-  const DatasetInfo& info() const override { return info_; }
-  size_t size() const override { return frames_.size(); }
-  RgbdFrame read(size_t i) const override { return frames_.at(i); }
-
- private:
-  DatasetInfo info_;
-  std::vector<RgbdFrame> frames_;
-};
+/// Frames with ground-truth labels only (numbered 10, 11, ...), classes "one" and "two".
+test::InMemoryReader labelled_reader(std::vector<RgbdFrame> frames) {
+  DatasetInfo info;
+  info.format = "fake";
+  info.root = "fake-dataset";
+  info.class_names = {{1, "one"}, {2, "two"}};
+  return test::InMemoryReader(std::move(info), std::move(frames));
+}
 
 /// Two frames of 30x20: object A (instance 100, class 1) at [0,10)x[0,10), object B (instance 200,
 /// class 2) at [15,25)x[0,10) in frame 10 only.
@@ -128,7 +121,7 @@ TEST(MaskRun, IndexRoundTripsAndBadIndexNamesTheFile) {
 TEST(MaskRun, EvaluatesInputAndProjectedMasksAgainstTheGroundTruth) {
   const std::string dir = test::scratch_dir("mask_run_eval");
   const MaskRunIndex index = write_run(dir);
-  const FakeReader reader(two_frames());
+  const test::InMemoryReader reader = labelled_reader(two_frames());
   const std::map<int, int> final_classes = {{7, 1}, {9, 2}, {12, 1}};
   const MaskRunEvaluation ev = evaluate_mask_run(reader, dir, index, {}, &final_classes);
 
@@ -201,7 +194,7 @@ TEST(MaskRun, OwnershipFindsSplitObjectsWrongClassesAndBreaksTiesByObjectId) {
 TEST(MaskRun, BadFilesGiveIoErrorsNamingThem) {
   const std::string dir = test::scratch_dir("mask_run_bad");
   MaskRunIndex index = write_run(dir);
-  const FakeReader reader(two_frames());
+  const test::InMemoryReader reader = labelled_reader(two_frames());
   auto expect_error_on = [&](const MaskRunIndex& idx, const std::string& path_part) {
     try {
       evaluate_mask_run(reader, dir, idx, {});

@@ -12,6 +12,7 @@
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/model_io.h"
+#include "support/in_memory_reader.h"
 #include "support/test_data.h"
 
 namespace orpe {
@@ -304,18 +305,7 @@ TEST(PoseResults, NoResultsMeansAllMissesAndNoInstancesIsEmpty) {
 
 // ---- Through the DatasetReader interface ----
 
-class FakeReader : public DatasetReader {
- public:
-  FakeReader(DatasetInfo info, std::vector<RgbdFrame> frames)
-      : info_(std::move(info)), frames_(std::move(frames)) {}
-  const DatasetInfo& info() const override { return info_; }
-  size_t size() const override { return frames_.size(); }
-  RgbdFrame read(size_t i) const override { return frames_.at(i); }
-
- private:
-  DatasetInfo info_;
-  std::vector<RgbdFrame> frames_;
-};
+using FakeReader = test::InMemoryReader;
 
 TEST(PoseResults, ReadsGroundTruthAndModelsFromTheDataset) {
   const std::string dir = test::scratch_dir("ds");

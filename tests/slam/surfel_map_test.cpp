@@ -3,6 +3,8 @@
 
 #include <random>
 
+#include "orpe/io/point_cloud_io.h"
+#include "orpe/slam/map_io.h"
 #include "orpe/slam/map_renderer.h"
 #include "orpe/slam/surfel_map.h"
 
@@ -34,6 +36,28 @@ TEST(SurfelMap, PushGetSetKeepArraysInStep) {
   EXPECT_FLOAT_EQ(map.p_object[1], 0.7f);
   EXPECT_EQ(map.boundary_counter[1], 4);
   EXPECT_EQ(map.bytes(), 5 * SurfelMap::kBytesPerSurfel);
+}
+
+TEST(SurfelMapPly, WritesTheSurfelsAboveTheConfidenceAndReadsBack) {
+  SurfelMap map;
+  for (int i = 1; i <= 4; ++i) map.push_back(make_surfel(0.1f * i, 0.2f, 1.0f + i, i));
+  const std::string path = ::testing::TempDir() + "orpe_surfel_map_test.ply";
+  EXPECT_EQ(write_surfel_ply(path, map, 2.5f), 2u);  // confidences 3 and 4
+  const PointCloudData cloud = read_point_cloud_ply(path);
+  ASSERT_EQ(cloud.size(), 2u);
+  ASSERT_EQ(cloud.instance_ids.size(), 2u);
+  ASSERT_EQ(cloud.radii_m.size(), 2u);
+  ASSERT_EQ(cloud.confidences.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    const Surfel s = map.get(k + 2);
+    EXPECT_TRUE(cloud.positions_m[k].isApprox(s.position_world));
+    EXPECT_TRUE(cloud.normals[k].isApprox(s.normal_world));
+    EXPECT_EQ(cloud.colors[k].r, s.color.r);
+    EXPECT_FLOAT_EQ(cloud.radii_m[k], s.radius_m);
+    EXPECT_FLOAT_EQ(cloud.confidences[k], s.confidence);
+    EXPECT_EQ(cloud.instance_ids[k], s.instance_id);
+  }
+  EXPECT_TRUE(cloud.class_ids.empty());
 }
 
 TEST(SurfelMap, RemoveKeepsSurvivorsAndReportsMoves) {

@@ -558,18 +558,4 @@ std::vector<ObjectWorldPose> ObjectRpePipeline::object_poses(size_t vi) const {
   return out;
 }
 
-PointCloudData surfel_map_cloud(const slam::SurfelMap& map, float min_confidence) {
-  PointCloudData cloud;
-  for (size_t i = 0; i < map.size(); ++i) {
-    if (map.confidence[i] < min_confidence) continue;
-    cloud.positions_m.push_back(map.position_world[i]);
-    cloud.normals.push_back(map.normal_world[i]);
-    cloud.colors.push_back(map.color[i]);
-    cloud.radii_m.push_back(map.radius_m[i]);
-    cloud.confidences.push_back(map.confidence[i]);
-    cloud.instance_ids.push_back(map.instance_id[i]);
-  }
-  return cloud;
-}
-
 }  // namespace orpe

@@ -39,7 +39,6 @@
 #include "orpe/core/frame.h"
 #include "orpe/io/bop_results.h"
 #include "orpe/io/dataset.h"
-#include "orpe/io/point_cloud_io.h"
 #include "orpe/pipeline/config.h"
 #include "orpe/pipeline/object_models.h"
 #include "orpe/pipeline/pipeline_params.h"
@@ -214,8 +213,5 @@ class ObjectRpePipeline {
   bool first_frame_ = true;
 };
 
-/// The SLAM map as a point cloud (positions, normals, colours, radii, confidences, instance ids) with
-/// confidence >= min_confidence, for map.ply.
-PointCloudData surfel_map_cloud(const slam::SurfelMap& map, float min_confidence = 0.0f);
 
 }  // namespace orpe

@@ -16,7 +16,6 @@
 #include "orpe/io/bop_results.h"
 #include "orpe/io/image_io.h"
 #include "orpe/io/json_summary.h"
-#include "orpe/io/point_cloud_io.h"
 #include "orpe/io/trajectory_io.h"
 #include "orpe/semantic/mask_output.h"
 #include "orpe/semantic/semantic_output.h"
@@ -216,7 +215,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   write_tum_trajectory(path("trajectory.txt"), pipeline.trajectory());
   summary.files.push_back("trajectory.txt");
   const float min_conf = static_cast<float>(config.pipeline.output_min_confidence);
-  write_point_cloud_ply(path("map.ply"), surfel_map_cloud(pipeline.slam().map(), min_conf));
+  slam::write_surfel_ply(path("map.ply"), pipeline.slam().map(), min_conf);
   summary.files.push_back("map.ply");
   summary.surfels = pipeline.slam().map().size();
   if (const SemanticMapper* semantic = pipeline.semantic()) {

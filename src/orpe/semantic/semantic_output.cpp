@@ -7,6 +7,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/io/point_cloud_io.h"
+#include "orpe/slam/map_io.h"
 
 namespace orpe {
 
@@ -15,17 +16,10 @@ void write_semantic_map_ply(const std::string& path, const slam::SurfelMap& map,
                             float min_confidence) {
   std::map<int, int> class_of;
   for (const auto& [id, info] : instances) class_of[id] = info.argmax_class();
-  PointCloudData cloud;
-  for (size_t i = 0; i < map.size(); ++i) {
-    if (map.confidence[i] < min_confidence) continue;
-    cloud.positions_m.push_back(map.position_world[i]);
-    cloud.normals.push_back(map.normal_world[i]);
-    cloud.colors.push_back(map.color[i]);
-    cloud.radii_m.push_back(map.radius_m[i]);
-    cloud.confidences.push_back(map.confidence[i]);
-    const int id = map.instance_id[i];
+  PointCloudData cloud = slam::surfel_map_cloud(map, min_confidence);
+  cloud.class_ids.reserve(cloud.size());
+  for (const std::int32_t id : cloud.instance_ids) {
     const auto cls = class_of.find(id);
-    cloud.instance_ids.push_back(id);
     cloud.class_ids.push_back(cls == class_of.end() ? 0 : cls->second);
   }
   write_point_cloud_ply(path,

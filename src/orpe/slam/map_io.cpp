@@ -1,65 +1,28 @@
 #include "orpe/slam/map_io.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
-#include <cstring>
-#include <ostream>
-#include <sstream>
-
-#include "orpe/core/atomic_file.h"
 
 namespace orpe::slam {
-namespace {
 
-static_assert(std::endian::native == std::endian::little, "PLY writer assumes a little-endian host");
-
-template <class T>
-void put(std::string& buf, T v) {
-  char bytes[sizeof(T)];
-  std::memcpy(bytes, &v, sizeof(T));
-  buf.append(bytes, sizeof(T));
+PointCloudData surfel_map_cloud(const SurfelMap& map, float min_confidence) {
+  PointCloudData cloud;
+  for (size_t i = 0; i < map.size(); ++i) {
+    if (map.confidence[i] < min_confidence) continue;
+    cloud.positions_m.push_back(map.position_world[i]);
+    cloud.normals.push_back(map.normal_world[i]);
+    cloud.colors.push_back(map.color[i]);
+    cloud.radii_m.push_back(map.radius_m[i]);
+    cloud.confidences.push_back(map.confidence[i]);
+    cloud.instance_ids.push_back(map.instance_id[i]);
+  }
+  return cloud;
 }
 
-}  // namespace
-
 size_t write_surfel_ply(const std::string& path, const SurfelMap& map, float min_confidence) {
-  size_t n = 0;
-  for (size_t i = 0; i < map.size(); ++i) n += map.confidence[i] >= min_confidence;
-  std::ostringstream header;
-  header << "ply\nformat binary_little_endian 1.0\ncomment orpe surfel map (world frame, metres)\n"
-         << "element vertex " << n << "\n"
-         << "property float x\nproperty float y\nproperty float z\n"
-         << "property float nx\nproperty float ny\nproperty float nz\n"
-         << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-         << "property float radius\nproperty float confidence\nproperty int instance_id\n"
-         << "end_header\n";
-  write_file_atomic(
-      path,
-      [&](std::ostream& os) {
-        os << header.str();
-        std::string buf;
-        constexpr size_t kRecord = 6 * 4 + 3 + 2 * 4 + 4;
-        buf.reserve(kRecord * 65536);
-        for (size_t i = 0; i < map.size(); ++i) {
-          if (map.confidence[i] < min_confidence) continue;
-          for (int k = 0; k < 3; ++k) put(buf, map.position_world[i][k]);
-          for (int k = 0; k < 3; ++k) put(buf, map.normal_world[i][k]);
-          put(buf, map.color[i].r);
-          put(buf, map.color[i].g);
-          put(buf, map.color[i].b);
-          put(buf, map.radius_m[i]);
-          put(buf, map.confidence[i]);
-          put(buf, map.instance_id[i]);
-          if (buf.size() >= kRecord * 65000) {
-            os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-            buf.clear();
-          }
-        }
-        os.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-      },
-      /*binary=*/true);
-  return n;
+  const PointCloudData cloud = surfel_map_cloud(map, min_confidence);
+  write_point_cloud_ply(path, cloud);
+  return cloud.size();
 }
 
 SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& down_world) {

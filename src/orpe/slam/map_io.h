@@ -1,25 +1,22 @@
-// Surfel map output: binary PLY (little endian) with one vertex per surfel.
-//
-//   element vertex N
-//   property float x y z            (world frame, m)
-//   property float nx ny nz         (unit normal, world frame)
-//   property uchar red green blue
-//   property float radius           (m)
-//   property float confidence
-//   property int instance_id        (0 = none)
-//
-// Written atomically (temporary file + rename): a crash never leaves a half-written map.
+// Surfel map output: the map as a point cloud (io/point_cloud_io.h), written as binary PLY with one
+// vertex per surfel -- x y z (world, m), nx ny nz, red green blue, radius (m), confidence,
+// instance_id (0 = none) -- atomically (temporary file + rename): a crash never leaves a half map.
 #pragma once
 
 #include <string>
 
 #include "orpe/core/se3.h"
+#include "orpe/io/point_cloud_io.h"
 #include "orpe/slam/map_renderer.h"
 #include "orpe/slam/surfel_map.h"
 
 namespace orpe::slam {
 
-/// Writes the surfels with confidence >= min_confidence (0: all). Returns the number written.
+/// The surfels with confidence >= min_confidence (0: all) as a point cloud: positions, normals,
+/// colours, radii, confidences and instance ids (class ids left empty).
+PointCloudData surfel_map_cloud(const SurfelMap& map, float min_confidence = 0.0f);
+
+/// Writes surfel_map_cloud(map, min_confidence) to `path`. Returns the number of surfels written.
 /// Throws IoError naming `path` on failure.
 size_t write_surfel_ply(const std::string& path, const SurfelMap& map, float min_confidence = 0.0f);
 

@@ -49,6 +49,18 @@ class Image {
   std::vector<T> data_;
 };
 
+/// Makes `img` w x h: reallocates it, filled with zeros (T::Zero() for Eigen types, else T{}), unless
+/// it already has that size, in which case its pixels are left as they are (for scratch images that
+/// the caller overwrites every frame).
+template <class T>
+void ensure_size(Image<T>& img, int w, int h) {
+  if (img.width() == w && img.height() == h) return;
+  if constexpr (requires { T::Zero(); })
+    img = Image<T>(w, h, T::Zero());
+  else
+    img = Image<T>(w, h, T{});
+}
+
 /// Depth along the optical axis (z, not ray length) in metres. 0 marks an invalid pixel; NaN, inf and
 /// negative values never appear in a DepthImage (readers map them to 0 and count them).
 using DepthImage = Image<float>;

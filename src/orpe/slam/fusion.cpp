@@ -55,7 +55,7 @@ SurfelFusion::SurfelFusion(const FusionParams& params) : params_(params) {
 void downsample_color(const ColorImage& in, int level, ColorImage* out) {
   const int f = 1 << level;
   const int w = in.width() / f, h = in.height() / f;
-  if (out->width() != w || out->height() != h) *out = ColorImage(w, h);
+  ensure_size(*out, w, h);
   const int inv_n = f * f;
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < h; ++v)

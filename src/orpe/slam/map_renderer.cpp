@@ -59,14 +59,6 @@ struct SurfelFilter {
   }
 };
 
-template <class T>
-void ensure_size(Image<T>& img, int w, int h) {
-  if (img.width() != w || img.height() != h) img = Image<T>(w, h, T{});
-}
-void ensure_size(Image<Vec3f>& img, int w, int h) {
-  if (img.width() != w || img.height() != h) img = Image<Vec3f>(w, h, Vec3f::Zero());
-}
-
 }  // namespace
 
 void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,

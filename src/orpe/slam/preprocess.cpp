@@ -8,14 +8,6 @@
 namespace orpe::slam {
 namespace {
 
-template <class T>
-void ensure_size(Image<T>& img, int w, int h) {
-  if (img.width() != w || img.height() != h) img = Image<T>(w, h, T{});
-}
-void ensure_size(Image<Vec3f>& img, int w, int h) {
-  if (img.width() != w || img.height() != h) img = Image<Vec3f>(w, h, Vec3f::Zero());
-}
-
 constexpr int kRangeLutMm = 1000;  // range weights tabulated per millimetre up to this difference
 
 }  // namespace

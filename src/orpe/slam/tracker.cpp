@@ -11,14 +11,6 @@
 namespace orpe::slam {
 namespace {
 
-template <class T>
-void ensure_size(Image<T>& img, int w, int h) {
-  if (img.width() != w || img.height() != h) img = Image<T>(w, h, T{});
-}
-void ensure_size(Image<Vec3f>& img, int w, int h) {
-  if (img.width() != w || img.height() != h) img = Image<Vec3f>(w, h, Vec3f::Zero());
-}
-
 // Per-row partial sums, reduced in row order afterwards so results do not depend on threads.
 struct RowSums {
   double a[21];

@@ -18,6 +18,15 @@ struct RowSums {
   double ss;
   int count;
   int overlap;
+  /// Stores one row's single-precision accumulators.
+  void set(const float (&row_a)[21], const float (&row_b)[6], float row_ss, int row_count,
+           int row_overlap) {
+    for (int k = 0; k < 21; ++k) a[k] = row_a[k];
+    for (int k = 0; k < 6; ++k) b[k] = row_b[k];
+    ss = row_ss;
+    count = row_count;
+    overlap = row_overlap;
+  }
 };
 
 inline void accumulate(float (&a)[21], float (&b)[6], const float (&J)[6], float r, float w) {
@@ -85,17 +94,20 @@ bool TrackerParams::IsValid(std::string* why) const {
   if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0)
     return fail("iterations must be >= 0");
   if (!(icp_max_dist_m > 0)) return fail("icp_max_dist_m must be positive");
-  if (!(icp_max_angle_deg > 0 && icp_max_angle_deg <= 180)) return fail("icp_max_angle_deg must be in (0, 180]");
+  if (!(icp_max_angle_deg > 0 && icp_max_angle_deg <= 180))
+    return fail("icp_max_angle_deg must be in (0, 180]");
   if (!use_icp && !use_rgb) return fail("at least one of use_icp, use_rgb must be on");
   if (!(icp_weight > 0)) return fail("icp_weight must be positive");
   if (!(rgb_max_depth_diff_m > 0)) return fail("rgb_max_depth_diff_m must be positive");
   if (rgb_min_gradient_level0 < 0 || rgb_min_gradient_level1 < 0 || rgb_min_gradient_level2 < 0)
     return fail("rgb_min_gradient_* must be >= 0");
-  if (level0_pixel_step < 1 || level0_pixel_step > 4) return fail("level0_pixel_step must be in 1..4");
+  if (level0_pixel_step < 1 || level0_pixel_step > 4)
+    return fail("level0_pixel_step must be in 1..4");
   if (!(max_translation_update_m > 0 && max_rotation_update_deg > 0))
     return fail("max_translation_update_m and max_rotation_update_deg must be positive");
   if (min_inliers < 0) return fail("min_inliers must be >= 0");
-  if (!(min_inlier_fraction >= 0 && min_inlier_fraction <= good_inlier_fraction && good_inlier_fraction <= 1))
+  if (!(min_inlier_fraction >= 0 && min_inlier_fraction <= good_inlier_fraction &&
+        good_inlier_fraction <= 1))
     return fail("need 0 <= min_inlier_fraction <= good_inlier_fraction <= 1");
   if (!(good_icp_rms_m > 0 && good_icp_rms_m <= max_icp_rms_m))
     return fail("need 0 < good_icp_rms_m <= max_icp_rms_m");
@@ -210,12 +222,7 @@ NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& mode
       ss += r * r;
       ++count;
     }
-    RowSums& s = sums[static_cast<size_t>(ri)];
-    for (int k = 0; k < 21; ++k) s.a[k] = a[k];
-    for (int k = 0; k < 6; ++k) s.b[k] = b[k];
-    s.ss = ss;
-    s.count = count;
-    s.overlap = overlap;
+    sums[static_cast<size_t>(ri)].set(a, b, ss, count, overlap);
   }
   return reduce(sums);
 }
@@ -250,14 +257,16 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
       if (p.z() <= 0.0f) continue;
       const float iz = 1.0f / p.z();
       const float u = fx * p.x() * iz + cx, v = fy * p.y() * iz + cy;
-      if (!(u >= 0.0f && v >= 0.0f && u < static_cast<float>(W - 1) && v < static_cast<float>(H - 1)))
+      if (!(u >= 0.0f && v >= 0.0f && u < static_cast<float>(W - 1) &&
+            v < static_cast<float>(H - 1)))
         continue;
       const int ui = static_cast<int>(u + 0.5f), vi = static_cast<int>(v + 0.5f);
       const float dl = live.depth.at(ui, vi);
       if (dl <= 0.0f || std::fabs(dl - p.z()) > max_dz) continue;
       // Gradients at the same sub-pixel point as the (bilinear) residual. With the nearest pixel's
       // gradients the Jacobian no longer matches the residual, and Gauss-Newton converges to where
-      // J~^T r = 0 instead of the least-squares minimum: a bias of ~1 cm on the 160x120 test sequence.
+      // J~^T r = 0 instead of the least-squares minimum: a bias of ~1 cm on the 160x120 test
+      // sequence.
       const float gu = bilinear(live.grad_u, u, v), gv = bilinear(live.grad_v, u, v);
       if (gu * gu + gv * gv < min_g2) continue;
       const float r = bilinear(live.intensity, u, v) - irow[x];
@@ -270,12 +279,7 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
       ss += r * r;
       ++count;
     }
-    RowSums& s = sums[static_cast<size_t>(ri)];
-    for (int k = 0; k < 21; ++k) s.a[k] = a[k];
-    for (int k = 0; k < 6; ++k) s.b[k] = b[k];
-    s.ss = ss;
-    s.count = count;
-    s.overlap = 0;
+    sums[static_cast<size_t>(ri)].set(a, b, ss, count, 0);
   }
   return reduce(sums);
 }
@@ -284,8 +288,8 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
                                const SE3& T_ref_cam_init) const {
   AlignmentResult res;
   SE3 T = T_ref_cam_init;
-  const int levels =
-      static_cast<int>(std::min(live.levels.size(), model.levels.size() + static_cast<size_t>(model.first_level)));
+  const int levels = static_cast<int>(
+      std::min(live.levels.size(), model.levels.size() + static_cast<size_t>(model.first_level)));
   const double w2 = params_.icp_weight * params_.icp_weight;
   bool numerically_failed = false;
   NormalEquations last_icp, last_rgb;
@@ -349,7 +353,8 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
     res.icp_overlap = last_icp.overlap;
     res.icp_rms_m = last_icp.count > 0 ? std::sqrt(last_icp.sum_sq / last_icp.count) : 0.0;
     if (last_icp.count > 0) {
-      const Eigen::SelfAdjointEigenSolver<Mat6> es(last_icp.A / last_icp.count, Eigen::EigenvaluesOnly);
+      const Eigen::SelfAdjointEigenSolver<Mat6> es(last_icp.A / last_icp.count,
+                                                   Eigen::EigenvaluesOnly);
       res.min_eigenvalue = es.eigenvalues()(0);
     }
   }
@@ -363,15 +368,18 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
   const PinholeIntrinsics& K0 = live.levels[0].K;
   const int step0 = params_.level0_pixel_step;
   const double area = static_cast<double>(K0.width) * K0.height / (640.0 * 480.0) / (step0 * step0);
-  const double inlier_fraction = res.icp_overlap > 0 ? double(res.icp_inliers) / res.icp_overlap : 0.0;
+  const double inlier_fraction =
+      res.icp_overlap > 0 ? double(res.icp_inliers) / res.icp_overlap : 0.0;
   if (numerically_failed) {
     res.failed = true;
   } else if (motion.translation().norm() > params_.max_translation_update_m) {
     res.failed = true;
-    res.reason = "translation update " + std::to_string(motion.translation().norm()) + " m too large";
+    res.reason =
+        "translation update " + std::to_string(motion.translation().norm()) + " m too large";
   } else if (motion.rotation_angle_deg() > params_.max_rotation_update_deg) {
     res.failed = true;
-    res.reason = "rotation update " + std::to_string(motion.rotation_angle_deg()) + " deg too large";
+    res.reason =
+        "rotation update " + std::to_string(motion.rotation_angle_deg()) + " deg too large";
   } else if (params_.use_icp && res.icp_inliers < params_.min_inliers * area) {
     res.failed = true;
     res.reason = "too few ICP inliers (" + std::to_string(res.icp_inliers) + ")";

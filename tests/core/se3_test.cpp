@@ -112,5 +112,28 @@ TEST(Se3, OrthonormalizeFixesDrift) {
   EXPECT_LT((Q - R).norm(), 1e-3);
 }
 
+TEST(LookAt, TargetOnTheOpticalAxisAndImageYDownTheWorld) {
+  const Vec3 eye(1.0, -2.0, 1.5), target(0.2, 0.3, 0.4);
+  const SE3 T = look_at(eye, target);
+  EXPECT_LT((T.rotation().transpose() * T.rotation() - Mat3::Identity()).norm(), 1e-12);
+  EXPECT_NEAR(T.rotation().determinant(), 1.0, 1e-12);
+  const Vec3 p = T.inverse() * target;  // the target in the camera frame
+  EXPECT_NEAR(p.x(), 0.0, 1e-12);
+  EXPECT_NEAR(p.y(), 0.0, 1e-12);
+  EXPECT_NEAR(p.z(), (target - eye).norm(), 1e-12);
+  EXPECT_LT(T.rotation().col(1).dot(Vec3::UnitZ()), 0.0);  // camera y points down the world
+  EXPECT_NEAR(T.rotation().col(0).z(), 0.0, 1e-12);          // no roll: camera x is horizontal
+  // Another up vector: camera y opposes it.
+  const Vec3 up(0, -1, 0);
+  EXPECT_LT(look_at(eye, target, up).rotation().col(1).dot(up), 0.0);
+}
+
+TEST(LookAt, DegenerateViewsStayRotations) {
+  for (const SE3& T : {look_at(Vec3(0, 0, 2), Vec3(0, 0, 0)), look_at(Vec3(1, 1, 1), Vec3(1, 1, 1))}) {
+    EXPECT_TRUE(T.rotation().allFinite());
+    EXPECT_NEAR(T.rotation().determinant(), 1.0, 1e-12);
+  }
+}
+
 }  // namespace
 }  // namespace orpe

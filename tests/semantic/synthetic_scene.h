@@ -135,19 +135,6 @@ struct SyntheticScene {
   }
 };
 
-/// Camera at `eye` looking at `target`, world z up (camera x right, y down, z forward).
-inline SE3 look_at(const Vec3& eye, const Vec3& target) {
-  const Vec3 f = (target - eye).normalized();
-  const Vec3 up(0, 0, 1);
-  const Vec3 down = -(up - up.dot(f) * f).normalized();
-  const Vec3 right = down.cross(f);
-  Mat3 R;
-  R.col(0) = right;
-  R.col(1) = down;
-  R.col(2) = f;
-  return SE3(R, eye);
-}
-
 /// Poses on a circular arc around the table centre.
 inline std::vector<SE3> orbit(int frames, double radius_m, double height_m, double arc_deg,
                               double start_deg = 0) {

@@ -111,4 +111,17 @@ double rotation_distance_rad(const Mat3& Ra, const Mat3& Rb) {
   return so3_log(Ra.transpose() * Rb).norm();
 }
 
+SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& up_world) {
+  Vec3 z = target - eye;
+  if (z.norm() < 1e-12) z = Vec3::UnitZ();
+  z.normalize();
+  Vec3 x = z.cross(up_world);                    // right = forward x up
+  if (x.norm() < 1e-9) x = z.unitOrthogonal();  // looking straight up/down
+  x.normalize();
+  const Vec3 y = z.cross(x);
+  Mat3 R;
+  R.col(0) = x, R.col(1) = y, R.col(2) = z;
+  return SE3(R, eye);
+}
+
 }  // namespace orpe

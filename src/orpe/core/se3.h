@@ -78,4 +78,9 @@ class SE3 {
 /// Rotation angle (rad) between two rotations: |log(Ra^T Rb)|.
 double rotation_distance_rad(const Mat3& Ra, const Mat3& Rb);
 
+/// Camera-to-world pose (T_world_cam, OpenCV camera axes: x right, y down, z forward) of a camera at
+/// `eye` looking at `target`, its y axis as close to -up_world as the view direction allows. Looking
+/// along up_world, x is any unit vector orthogonal to z; eye == target looks along world +z.
+SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& up_world = Vec3::UnitZ());
+
 }  // namespace orpe

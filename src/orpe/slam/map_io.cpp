@@ -25,21 +25,6 @@ size_t write_surfel_ply(const std::string& path, const SurfelMap& map, float min
   return cloud.size();
 }
 
-SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& down_world) {
-  Vec3 z = target - eye;
-  if (z.norm() < 1e-9) z = Vec3::UnitZ();
-  z.normalize();
-  Vec3 x = down_world.cross(z);  // camera x (right) = y (down) x z (forward)
-  if (x.norm() < 1e-6) x = z.unitOrthogonal();
-  x.normalize();
-  const Vec3 y = z.cross(x);
-  Mat3 R;
-  R.col(0) = x;
-  R.col(1) = y;
-  R.col(2) = z;
-  return SE3(R, eye);
-}
-
 SE3 overview_pose(const SurfelMap& map, const SE3& T_world_cam, float min_confidence, double back_m,
                   double up_m) {
   Vec3 centroid = Vec3::Zero();
@@ -53,7 +38,7 @@ SE3 overview_pose(const SurfelMap& map, const SE3& T_world_cam, float min_confid
   if (n == 0) centroid = T_world_cam * Vec3(0, 0, 2);
   else centroid /= double(n);
   const Vec3 eye = T_world_cam.translation() - back_m * R.col(2) - up_m * R.col(1);
-  return look_at(eye, centroid, R.col(1));
+  return look_at(eye, centroid, -R.col(1));  // the first camera's up
 }
 
 ColorImage render_map_image(MapRenderer& renderer, const SurfelMap& map, const SE3& T_world_cam,

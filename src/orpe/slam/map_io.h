@@ -20,9 +20,6 @@ PointCloudData surfel_map_cloud(const SurfelMap& map, float min_confidence = 0.0
 /// Throws IoError naming `path` on failure.
 size_t write_surfel_ply(const std::string& path, const SurfelMap& map, float min_confidence = 0.0f);
 
-/// A camera pose at `eye` looking at `target` (camera y axis as close to `down_world` as possible).
-SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& down_world);
-
 /// An overview viewpoint of the map for pictures: behind and above the given camera pose, looking
 /// at the centroid of the stable surfels. `back_m` / `up_m` move along that camera's -z / -y axes.
 SE3 overview_pose(const SurfelMap& map, const SE3& T_world_cam, float min_confidence, double back_m,

@@ -31,17 +31,6 @@ struct SmoothNoise {
 
 }  // namespace
 
-SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& up_world) {
-  const Vec3 z = (target - eye).normalized();
-  Vec3 x = z.cross(up_world);
-  if (x.norm() < 1e-9) x = z.unitOrthogonal();  // looking straight up/down
-  x.normalize();
-  const Vec3 y = z.cross(x);
-  Mat3 R;
-  R.col(0) = x, R.col(1) = y, R.col(2) = z;
-  return SE3(R, eye);
-}
-
 std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3& target,
                                           std::mt19937_64& rng) {
   if (p.frames < 1 || !(p.fps > 0) || !(p.distance_m > 0))

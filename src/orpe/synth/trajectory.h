@@ -29,9 +29,6 @@ struct TrajectoryParams {
 std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& params, const Vec3& target_world,
                                           std::mt19937_64& rng);
 
-/// Camera-to-world pose at `eye` looking at `target` with world z up (camera y points down).
-SE3 look_at(const Vec3& eye, const Vec3& target, const Vec3& up_world = Vec3::UnitZ());
-
 /// Largest distance between two camera centres of a trajectory (m).
 double trajectory_extent_m(const std::vector<SE3>& T_world_cam);
 

@@ -318,7 +318,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("counts.surfels", summary.surfels);
   summary.map_bytes = pipeline.slam().map().bytes();
   js.set("memory.map_bytes", summary.map_bytes);
-  js.set("memory.peak_rss_mb", peak_rss_mb());
+  summary.peak_rss_mb = peak_rss_mb();
+  js.set("memory.peak_rss_mb", summary.peak_rss_mb);
   const auto gt = reader->ground_truth_trajectory();
   if (!gt.empty()) {
     const TrajectoryEvaluation ev = evaluate_trajectory(gt, pipeline.trajectory(), config.eval_trajectory);
@@ -354,7 +355,6 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   if (st.single_view_estimates)
     js.set("timing_ms.per_single_view_estimate", st.single_view_ms / st.single_view_estimates);
   js.set_json("config", config_to_json(config));
-  summary.peak_rss_mb = peak_rss_mb();
   summary.files.push_back("summary.json");
   js.set("files", summary.files);
   js.write(path("summary.json"));

@@ -1,8 +1,9 @@
 // Shared helpers of the SLAM benchmarks: reading the 7-Scenes frames directly (native layout,
-// frame-NNNNNN.{color.jpg,depth.png,pose.txt}) and the ATE (rigid Horn/Umeyama fit, no scale, RMSE).
+// frame-NNNNNN.{color.jpg,depth.png,pose.txt}) and the ATE (rigid Umeyama fit, no scale, RMSE).
 #pragma once
 
-#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -10,6 +11,7 @@
 
 #include "orpe/core/error.h"
 #include "orpe/core/frame.h"
+#include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/image_io.h"
 
 namespace orpe::bench {
@@ -46,27 +48,16 @@ inline RgbdFrame load_7scenes_frame(const std::string& dir, int i) {
   return f;
 }
 
-/// Rigid (no scale) least-squares fit est -> gt, then the RMSE of the translation residuals.
-inline double ate_rmse(const std::vector<Vec3>& est, const std::vector<Vec3>& gt, SE3* T_gt_est = nullptr) {
+/// Rigid (no scale) least-squares fit est -> gt (the library's Umeyama alignment), then the RMSE of
+/// the translation residuals over the first min(est, gt) positions.
+inline double ate_rmse(std::vector<Vec3> est, std::vector<Vec3> gt) {
   const size_t n = std::min(est.size(), gt.size());
   if (n == 0) return 0.0;
-  Vec3 me = Vec3::Zero(), mg = Vec3::Zero();
-  for (size_t i = 0; i < n; ++i) {
-    me += est[i];
-    mg += gt[i];
-  }
-  me /= double(n);
-  mg /= double(n);
-  Mat3 S = Mat3::Zero();
-  for (size_t i = 0; i < n; ++i) S += (gt[i] - mg) * (est[i] - me).transpose();
-  Eigen::JacobiSVD<Mat3> svd(S, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3 D = Mat3::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) D(2, 2) = -1;
-  const Mat3 R = svd.matrixU() * D * svd.matrixV().transpose();
-  const Vec3 t = mg - R * me;
+  est.resize(n);
+  gt.resize(n);
+  const SimilarityAlignment fit = align_umeyama(est, gt, /*with_scale=*/false);
   double sum = 0;
-  for (size_t i = 0; i < n; ++i) sum += (R * est[i] + t - gt[i]).squaredNorm();
-  if (T_gt_est) *T_gt_est = SE3(R, t);
+  for (size_t i = 0; i < n; ++i) sum += (fit.apply(est[i]) - gt[i]).squaredNorm();
   return std::sqrt(sum / double(n));
 }
 

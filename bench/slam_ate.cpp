@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
       RgbdFrame f = bench::load_7scenes_frame(dir, i);
       if (gt_offset != 0) {
         const int j = std::clamp(i + gt_offset, 0, frames - 1);
-        f.T_world_cam_gt = bench::load_7scenes_frame(dir, j).T_world_cam_gt;
+        f.T_world_cam_gt = bench::load_7scenes_pose(dir, j);
       }
       if (first && f.T_world_cam_gt) system.set_initial_pose(*f.T_world_cam_gt);
       first = false;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,20 @@ namespace orpe::bench {
 inline std::string seven_scenes_dir() {
   if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env) return std::string(env) + "/7scenes-seq";
   return "/work/shared/data/7scenes-seq";
+}
+
+/// Ground-truth camera-to-world pose of frame i (frame-NNNNNN.pose.txt), none when the file is absent.
+inline std::optional<SE3> load_7scenes_pose(const std::string& dir, int i) {
+  char stem[64];
+  std::snprintf(stem, sizeof stem, "/frame-%06d", i);
+  const std::string pose_path = dir + stem + ".pose.txt";
+  std::ifstream is(pose_path);
+  if (!is) return std::nullopt;
+  Mat4 M;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) is >> M(r, c);
+  if (!is) throw IoError(pose_path, "expected a 4x4 matrix");
+  return SE3(orthonormalize(M.topLeftCorner<3, 3>()), M.topRightCorner<3, 1>());
 }
 
 /// Frame i of the 7-Scenes sequence: depth in mm (1000 units/m), fx = fy = 585, cx 320, cy 240.
@@ -36,15 +51,7 @@ inline RgbdFrame load_7scenes_frame(const std::string& dir, int i) {
   f.intrinsics.fx = f.intrinsics.fy = 585.0;
   f.intrinsics.cx = 320.0;
   f.intrinsics.cy = 240.0;
-  const std::string pose_path = dir + stem + ".pose.txt";
-  std::ifstream is(pose_path);
-  if (is) {
-    Mat4 M;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) is >> M(r, c);
-    if (!is) throw IoError(pose_path, "expected a 4x4 matrix");
-    f.T_world_cam_gt = SE3(orthonormalize(M.topLeftCorner<3, 3>()), M.topRightCorner<3, 1>());
-  }
+  f.T_world_cam_gt = load_7scenes_pose(dir, i);
   return f;
 }
 

@@ -2,26 +2,34 @@
 // runs SlamSystem over the frames, prints per-frame reports, then ATE RMSE against the frames'
 // ground-truth poses (rigid fit, no scale) and mean stage timings.
 //
-//   build/bin/orpe_bench_slam_ate [--frames N] [--every K] [--preset NAME] [--set section.key=value ...] [--dir D]
-//                                 [--gt-reset]
-// --gt-reset (diagnostic): each frame is tracked from the previous frame's ground-truth pose, so the
-// errors printed are one-step tracking errors against the map, without accumulated drift.
-// --gt-map (diagnostic): every frame is fused at its ground-truth pose (SlamSystem::process_at_known_pose)
-// and the tracking estimate from the previous ground-truth pose is what is scored: the one-step error of
-// the tracker against a map without drift. --gt-offset K: frame i gets the ground truth of frame i + K
-// (a test for a time offset between the depth images and the ground truth).
+//   build/bin/orpe_bench_slam_ate [--frames N] [--every K] [--preset NAME] [--dir D]
+//       [--set section.key=value ...] [--gt-reset] [--gt-map] [--gt-offset K] [--trajectory FILE]
+//       [--depth-units U] [--color-camera f,tx,ty,du,dv]
+// --trajectory FILE writes the estimated poses (TUM; scripts/diagnostics/rpe_axes.py reads it).
+// --depth-units U reads the depth at U units per metre instead of 1000 (a depth scale check);
+// --color-camera resamples each colour image onto the depth pixels as seen by a colour camera with
+// that focal length (px), baseline (m) and principal-point shift (px) (an unregistered-colour
+// check; scripts/diagnostics/color_depth_edges.py estimates these from the images).
+// --gt-reset (diagnostic): each frame is tracked from the previous frame's ground-truth pose, so
+// the errors printed are one-step tracking errors against the map, without accumulated drift.
+// --gt-map (diagnostic): every frame is fused at its ground-truth pose
+// (SlamSystem::process_at_known_pose) and the tracking estimate from the previous ground-truth pose
+// is what is scored: the one-step error of the tracker against a map without drift. --gt-offset K:
+// frame i gets the ground truth of frame i + K (a test for a time offset between the depth images
+// and the ground truth).
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <algorithm>
 #include <iostream>
 #include <optional>
 
 #include "orpe/eval/trajectory_metrics.h"
+#include "orpe/io/trajectory_io.h"
 #include "orpe/pipeline/config.h"
 #include "slam_bench_common.h"
 
@@ -31,18 +39,50 @@ int main(int argc, char** argv) {
   std::string dir = bench::seven_scenes_dir();
   OrpeConfig config;
   bool gt_reset = false, gt_map = false;
-  int gt_offset = 0;  // diagnostic: frame i takes the ground truth of frame i + gt_offset
+  int gt_offset = 0;
+  std::string trajectory_path;        // --trajectory FILE: the estimated poses, TUM format
+  double depth_units_per_m = 1000.0;  // --depth-units U (diagnostic: a depth scale error)
+  std::optional<bench::ColorCameraGuess>
+      color_camera;  // --color-camera f,tx,ty,du,dv (diagnostic)  //
+                     // diagnostic: frame i takes the ground truth of frame i + gt_offset
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--frames" && i + 1 < argc) frames = std::atoi(argv[++i]);
-    else if (a == "--every" && i + 1 < argc) every = std::atoi(argv[++i]);
-    else if (a == "--dir" && i + 1 < argc) dir = argv[++i];
-    else if (a == "--gt-reset") gt_reset = true;
-    else if (a == "--gt-map") gt_map = true;
-    else if (a == "--gt-offset" && i + 1 < argc) gt_offset = std::atoi(argv[++i]);
-    else if (a == "--set" && i + 1 < argc) apply_config_override(config, argv[++i]);
-    else if (a == "--preset" && i + 1 < argc) apply_config_preset(config, argv[++i]);
-    else {
+    if (a == "--frames" && i + 1 < argc)
+      frames = std::atoi(argv[++i]);
+    else if (a == "--every" && i + 1 < argc)
+      every = std::atoi(argv[++i]);
+    else if (a == "--dir" && i + 1 < argc)
+      dir = argv[++i];
+    else if (a == "--gt-reset")
+      gt_reset = true;
+    else if (a == "--gt-map")
+      gt_map = true;
+    else if (a == "--depth-units" && i + 1 < argc)
+      depth_units_per_m = std::atof(argv[++i]);
+    else if (a == "--color-camera" && i + 1 < argc) {
+      bench::ColorCameraGuess c;
+      if (std::sscanf(argv[++i], "%lf,%lf,%lf,%lf,%lf", &c.f_px, &c.tx_m, &c.ty_m, &c.du_px,
+                      &c.dv_px) != 5 ||
+          !(c.f_px > 0)) {
+        std::cerr << "--color-camera wants f,tx,ty,du,dv (px, m, m, px, px)\n";
+        return 2;
+      }
+      color_camera = c;
+    } else if (a == "--trajectory" && i + 1 < argc)
+      trajectory_path = argv[++i];
+    else if (a == "--gt-offset" && i + 1 < argc)
+      gt_offset = std::atoi(argv[++i]);
+    else if ((a == "--set" || a == "--preset") && i + 1 < argc) {
+      try {
+        if (a == "--set")
+          apply_config_override(config, argv[++i]);
+        else
+          apply_config_preset(config, argv[++i]);
+      } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        return 2;
+      }
+    } else {
       std::cerr << "unknown argument " << a << "\n";
       return 2;
     }
@@ -51,6 +91,7 @@ int main(int argc, char** argv) {
     slam::SlamSystem system(config.slam_params());
     std::vector<Vec3> est, gt;
     std::vector<Mat3> gt_rot;
+    std::vector<StampedPose> trajectory;
     double sum_total = 0, sum_pre = 0, sum_pred = 0, sum_track = 0, sum_fuse = 0;
     double fz[5] = {0, 0, 0, 0, 0};
     int counts[3] = {0, 0, 0};
@@ -63,7 +104,8 @@ int main(int argc, char** argv) {
       return ts.tv_sec + 1e-9 * ts.tv_nsec;
     };
     for (int i = 0; i < frames; ++i) {
-      RgbdFrame f = bench::load_7scenes_frame(dir, i);
+      RgbdFrame f = bench::load_7scenes_frame(dir, i, depth_units_per_m);
+      if (color_camera) bench::register_color_to_depth(f, *color_camera);
       if (gt_offset != 0) {
         const int j = std::clamp(i + gt_offset, 0, frames - 1);
         f.T_world_cam_gt = bench::load_7scenes_pose(dir, j);
@@ -73,8 +115,9 @@ int main(int argc, char** argv) {
       if (gt_reset && previous_gt) system.set_initial_pose(*previous_gt);
       previous_gt = f.T_world_cam_gt;
       const double c0 = cpu_now();
-      slam::SlamFrameResult r = gt_map && f.T_world_cam_gt ? system.process_at_known_pose(f, *f.T_world_cam_gt)
-                                                           : system.process(f);
+      slam::SlamFrameResult r = gt_map && f.T_world_cam_gt
+                                    ? system.process_at_known_pose(f, *f.T_world_cam_gt)
+                                    : system.process(f);
       if (gt_map) r.T_world_cam = r.tracked_T_world_cam;  // score the tracker, not the given pose
       cpu_s += cpu_now() - c0;
       ++counts[static_cast<int>(r.status)];
@@ -92,20 +135,23 @@ int main(int argc, char** argv) {
         std::cout << r.report();
         if (f.T_world_cam_gt) {
           const SE3 e = f.T_world_cam_gt->inverse() * r.T_world_cam;
-          std::cout << fmt::format(" | gt err {:.3f} m {:.2f} deg", e.translation().norm(), e.rotation_angle_deg());
+          std::cout << fmt::format(" | gt err {:.3f} m {:.2f} deg", e.translation().norm(),
+                                   e.rotation_angle_deg());
         }
         std::cout << std::endl;
       }
+      trajectory.push_back({f.timestamp_s, r.T_world_cam});
       if (f.T_world_cam_gt) {
         est.push_back(r.T_world_cam.translation());
         gt.push_back(f.T_world_cam_gt->translation());
         gt_rot.push_back(f.T_world_cam_gt->rotation());
       }
     }
+    if (!trajectory_path.empty()) write_tum_trajectory(trajectory_path, trajectory);
     const double ate = bench::ate_rmse(est, gt);
     {
-      // Diagnostic: could the ground truth be the pose of another point on the rig (a lever arm t_X in the
-      // camera frame)? Alternate a rigid fit est -> gt - R_gt t_X with the linear solve of
+      // Diagnostic: could the ground truth be the pose of another point on the rig (a lever arm t_X
+      // in the camera frame)? Alternate a rigid fit est -> gt - R_gt t_X with the linear solve of
       // p_gt - R_A p_est = t_A + R_gt t_X for (t_A, t_X).
       Vec3 t_X = Vec3::Zero();
       double rms = 0;
@@ -128,8 +174,9 @@ int main(int argc, char** argv) {
           e2 += (rig.R * est[i] + x.head<3>() + gt_rot[i] * t_X - gt[i]).squaredNorm();
         rms = std::sqrt(e2 / double(gt.size()));
       }
-      std::cout << fmt::format("lever-arm fit (diagnostic): t_X = ({:.4f}, {:.4f}, {:.4f}) m, ATE {:.4f} m\n",
-                               t_X.x(), t_X.y(), t_X.z(), rms);
+      std::cout << fmt::format(
+          "lever-arm fit (diagnostic): t_X = ({:.4f}, {:.4f}, {:.4f}) m, ATE {:.4f} m\n", t_X.x(),
+          t_X.y(), t_X.z(), rms);
     }
     {
       const SimilarityAlignment sim = align_umeyama(est, gt, true);
@@ -140,22 +187,28 @@ int main(int argc, char** argv) {
         len_est += (est[i] - est[i - 1]).norm();
         len_gt += (gt[i] - gt[i - 1]).norm();
       }
-      std::cout << fmt::format("Sim3 alignment: scale {:.4f}, ATE {:.4f} m; path length est {:.3f} m gt {:.3f} m\n", sim.scale,
-                               std::sqrt(e2 / std::max<size_t>(1, est.size())), len_est, len_gt);
+      std::cout << fmt::format(
+          "Sim3 alignment: scale {:.4f}, ATE {:.4f} m; path length est {:.3f} m gt {:.3f} m\n",
+          sim.scale, std::sqrt(e2 / std::max<size_t>(1, est.size())), len_est, len_gt);
     }
     // Drift without alignment (the first pose is set from ground truth).
     double raw = 0;
     for (size_t i = 0; i < est.size(); ++i) raw += (est[i] - gt[i]).squaredNorm();
     raw = est.empty() ? 0 : std::sqrt(raw / est.size());
     std::cout << fmt::format(
-        "frames {} | OK {} DEGRADED {} LOST {} | ATE RMSE {:.4f} m (unaligned {:.4f} m) | surfels {} ({:.1f} MB)\n"
-        "mean ms/frame: total {:.1f} (preprocess {:.1f}, predict {:.1f}, track {:.1f}, fuse {:.1f}) = {:.1f} "
+        "frames {} | OK {} DEGRADED {} LOST {} | ATE RMSE {:.4f} m (unaligned {:.4f} m) | surfels "
+        "{} ({:.1f} MB)\n"
+        "mean ms/frame: total {:.1f} (preprocess {:.1f}, predict {:.1f}, track {:.1f}, fuse "
+        "{:.1f}) = {:.1f} "
         "frames/s; CPU time {:.1f} ms/frame\n",
         frames, counts[0], counts[1], counts[2], ate, raw, system.map().size(),
         system.map().bytes() / 1048576.0, sum_total / frames, sum_pre / frames, sum_pred / frames,
-        sum_track / frames, sum_fuse / frames, 1000.0 * frames / sum_total, 1000.0 * cpu_s / frames);
-    std::cout << fmt::format("fusion phases ms: index {:.1f} associate {:.1f} update {:.1f} clean {:.1f} remove {:.1f}\n",
-                             fz[0] / frames, fz[1] / frames, fz[2] / frames, fz[3] / frames, fz[4] / frames);
+        sum_track / frames, sum_fuse / frames, 1000.0 * frames / sum_total,
+        1000.0 * cpu_s / frames);
+    std::cout << fmt::format(
+        "fusion phases ms: index {:.1f} associate {:.1f} update {:.1f} clean {:.1f} remove "
+        "{:.1f}\n",
+        fz[0] / frames, fz[1] / frames, fz[2] / frames, fz[3] / frames, fz[4] / frames);
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 1;

@@ -18,11 +18,13 @@
 namespace orpe::bench {
 
 inline std::string seven_scenes_dir() {
-  if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env) return std::string(env) + "/7scenes-seq";
+  if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env)
+    return std::string(env) + "/7scenes-seq";
   return "/work/shared/data/7scenes-seq";
 }
 
-/// Ground-truth camera-to-world pose of frame i (frame-NNNNNN.pose.txt), none when the file is absent.
+/// Ground-truth camera-to-world pose of frame i (frame-NNNNNN.pose.txt), none when the file is
+/// absent.
 inline std::optional<SE3> load_7scenes_pose(const std::string& dir, int i) {
   char stem[64];
   std::snprintf(stem, sizeof stem, "/frame-%06d", i);
@@ -36,8 +38,10 @@ inline std::optional<SE3> load_7scenes_pose(const std::string& dir, int i) {
   return SE3(orthonormalize(M.topLeftCorner<3, 3>()), M.topRightCorner<3, 1>());
 }
 
-/// Frame i of the 7-Scenes sequence: depth in mm (1000 units/m), fx = fy = 585, cx 320, cy 240.
-inline RgbdFrame load_7scenes_frame(const std::string& dir, int i) {
+/// Frame i of the 7-Scenes sequence: depth in mm (1000 units/m unless `depth_units_per_m` says
+/// otherwise), fx = fy = 585, cx 320, cy 240.
+inline RgbdFrame load_7scenes_frame(const std::string& dir, int i,
+                                    double depth_units_per_m = 1000.0) {
   char stem[64];
   std::snprintf(stem, sizeof stem, "/frame-%06d", i);
   RgbdFrame f;
@@ -45,7 +49,7 @@ inline RgbdFrame load_7scenes_frame(const std::string& dir, int i) {
   f.timestamp_s = i / 30.0;
   f.name = dir + stem + ".color.jpg";
   f.color = read_color_image(dir + stem + ".color.jpg");
-  f.depth = read_depth_image(dir + stem + ".depth.png", 1000.0);
+  f.depth = read_depth_image(dir + stem + ".depth.png", depth_units_per_m);
   f.intrinsics.width = f.depth.width();
   f.intrinsics.height = f.depth.height();
   f.intrinsics.fx = f.intrinsics.fy = 585.0;
@@ -53,6 +57,36 @@ inline RgbdFrame load_7scenes_frame(const std::string& dir, int i) {
   f.intrinsics.cy = 240.0;
   f.T_world_cam_gt = load_7scenes_pose(dir, i);
   return f;
+}
+
+/// A guess of an unregistered colour camera relative to the depth camera (diagnostic): pinhole with
+/// focal `f_px`, principal point (cx + du_px, cy + dv_px) of the depth camera shifted, and the
+/// depth camera's origin at `t_color_depth_m` in the colour camera's frame (no rotation).
+struct ColorCameraGuess {
+  double f_px = 0, tx_m = 0, ty_m = 0, du_px = 0, dv_px = 0;
+};
+
+/// Resamples `f.color` onto the depth pixels (nearest colour pixel): each depth pixel with depth is
+/// moved into the colour camera and projected; pixels without depth use the direction only.
+inline void register_color_to_depth(RgbdFrame& f, const ColorCameraGuess& c) {
+  const ColorImage src = f.color;
+  const PinholeIntrinsics& K = f.intrinsics;
+  const int W = src.width(), H = src.height();
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const double z = f.depth.at(u, v);
+      double x = (u - K.cx) / K.fx, y = (v - K.cy) / K.fy, zc = 1.0;
+      if (z > 0) {
+        x = x * z + c.tx_m;
+        y = y * z + c.ty_m;
+        zc = z;
+      }
+      const int uc =
+          std::clamp(static_cast<int>(std::lround(c.f_px * x / zc + K.cx + c.du_px)), 0, W - 1);
+      const int vc =
+          std::clamp(static_cast<int>(std::lround(c.f_px * y / zc + K.cy + c.dv_px)), 0, H - 1);
+      f.color.at(u, v) = src.at(uc, vc);
+    }
 }
 
 /// Rigid (no scale) least-squares fit est -> gt (the library's Umeyama alignment), then the RMSE of

@@ -1,7 +1,8 @@
 // Speed of the dense SLAM (tracking + fusion per frame) against OpenCV's cv::rgbd::RgbdICPOdometry
 // chained frame to frame, on the same 640x480 7-Scenes frames (preloaded: no file I/O is timed).
 //
-//   build/bin/orpe_bench_slam_speed [--frames N] [--threads T] [--skip-opencv] [--preset NAME] [--set section.key=value ...]
+//   build/bin/orpe_bench_slam_speed [--frames N] [--threads T] [--skip-opencv] [--preset NAME]
+//   [--set section.key=value ...]
 //
 // Prints wall-clock frames/s, CPU time per frame, both ATEs and the speed ratio.
 #include <fmt/format.h>
@@ -38,7 +39,8 @@ cv::Mat gray_of(const orpe::ColorImage& c) {
   for (int v = 0; v < c.height(); ++v)
     for (int u = 0; u < c.width(); ++u) {
       const orpe::Rgb8 p = c.at(u, v);
-      g.at<std::uint8_t>(v, u) = static_cast<std::uint8_t>(0.299 * p.r + 0.587 * p.g + 0.114 * p.b + 0.5);
+      g.at<std::uint8_t>(v, u) =
+          static_cast<std::uint8_t>(0.299 * p.r + 0.587 * p.g + 0.114 * p.b + 0.5);
     }
   return g;
 }
@@ -61,12 +63,23 @@ int main(int argc, char** argv) {
   OrpeConfig config;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--frames" && i + 1 < argc) frames = std::atoi(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
-    else if (a == "--skip-opencv") skip_opencv = true;
-    else if (a == "--set" && i + 1 < argc) apply_config_override(config, argv[++i]);
-    else if (a == "--preset" && i + 1 < argc) apply_config_preset(config, argv[++i]);
-    else {
+    if (a == "--frames" && i + 1 < argc)
+      frames = std::atoi(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc)
+      threads = std::atoi(argv[++i]);
+    else if (a == "--skip-opencv")
+      skip_opencv = true;
+    else if ((a == "--set" || a == "--preset") && i + 1 < argc) {
+      try {
+        if (a == "--set")
+          apply_config_override(config, argv[++i]);
+        else
+          apply_config_preset(config, argv[++i]);
+      } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        return 2;
+      }
+    } else {
       std::cerr << "unknown argument " << a << "\n";
       return 2;
     }
@@ -76,8 +89,9 @@ int main(int argc, char** argv) {
     const std::string dir = bench::seven_scenes_dir();
     std::vector<RgbdFrame> seq;
     for (int i = 0; i < frames; ++i) seq.push_back(bench::load_7scenes_frame(dir, i));
-    std::cout << fmt::format("{} frames of {} ({}x{}), OpenMP threads {}\n", frames, dir, seq[0].intrinsics.width,
-                             seq[0].intrinsics.height, omp_get_max_threads());
+    std::cout << fmt::format("{} frames of {} ({}x{}), OpenMP threads {}\n", frames, dir,
+                             seq[0].intrinsics.width, seq[0].intrinsics.height,
+                             omp_get_max_threads());
 
     // ---- orpe SLAM ----
     Timing ours;
@@ -94,9 +108,11 @@ int main(int argc, char** argv) {
       ours.wall_s = wall_seconds() - w0;
       ours.cpu_s = cpu_seconds() - c0;
       ours.ate_m = bench::ate_rmse(est, gt);
-      std::cout << fmt::format("orpe SlamSystem:          {:6.1f} frames/s  ({:5.1f} ms/frame wall, {:5.1f} ms CPU)  ATE {:.4f} m  surfels {}\n",
-                               frames / ours.wall_s, 1e3 * ours.wall_s / frames, 1e3 * ours.cpu_s / frames,
-                               ours.ate_m, system.map().size());
+      std::cout << fmt::format(
+          "orpe SlamSystem:          {:6.1f} frames/s  ({:5.1f} ms/frame wall, {:5.1f} ms CPU)  "
+          "ATE {:.4f} m  surfels {}\n",
+          frames / ours.wall_s, 1e3 * ours.wall_s / frames, 1e3 * ours.cpu_s / frames, ours.ate_m,
+          system.map().size());
     }
 
     // ---- OpenCV RgbdICPOdometry, frame to frame ----
@@ -115,12 +131,14 @@ int main(int argc, char** argv) {
       const double w0 = wall_seconds(), c0 = cpu_seconds();
       for (int i = 1; i < frames; ++i) {
         cv::Mat Rt;
-        const bool ok = odom.compute(gray[i - 1], depth[i - 1], cv::Mat(), gray[i], depth[i], cv::Mat(), Rt);
+        const bool ok =
+            odom.compute(gray[i - 1], depth[i - 1], cv::Mat(), gray[i], depth[i], cv::Mat(), Rt);
         if (ok) {
           Mat4 M;
           for (int r = 0; r < 4; ++r)
             for (int c = 0; c < 4; ++c) M(r, c) = Rt.at<double>(r, c);
-          T = T * SE3::from_matrix(M).inverse();  // Rt maps the source (i-1) into the destination (i)
+          T = T *
+              SE3::from_matrix(M).inverse();  // Rt maps the source (i-1) into the destination (i)
         }
         est.push_back(T.translation());
         gt.push_back(seq[i].T_world_cam_gt->translation());
@@ -128,9 +146,11 @@ int main(int argc, char** argv) {
       cvt.wall_s = wall_seconds() - w0;
       cvt.cpu_s = cpu_seconds() - c0;
       cvt.ate_m = bench::ate_rmse(est, gt);
-      std::cout << fmt::format("OpenCV RgbdICPOdometry:   {:6.1f} frames/s  ({:5.1f} ms/frame wall, {:5.1f} ms CPU)  ATE {:.4f} m\n",
-                               (frames - 1) / cvt.wall_s, 1e3 * cvt.wall_s / (frames - 1),
-                               1e3 * cvt.cpu_s / (frames - 1), cvt.ate_m);
+      std::cout << fmt::format(
+          "OpenCV RgbdICPOdometry:   {:6.1f} frames/s  ({:5.1f} ms/frame wall, {:5.1f} ms CPU)  "
+          "ATE {:.4f} m\n",
+          (frames - 1) / cvt.wall_s, 1e3 * cvt.wall_s / (frames - 1),
+          1e3 * cvt.cpu_s / (frames - 1), cvt.ate_m);
       std::cout << fmt::format("speed ratio orpe / OpenCV: {:.2f} (wall), {:.2f} (CPU)\n",
                                (frames / ours.wall_s) / ((frames - 1) / cvt.wall_s),
                                (cvt.cpu_s / (frames - 1)) / (ours.cpu_s / frames));

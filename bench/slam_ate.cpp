@@ -73,15 +73,7 @@ int main(int argc, char** argv) {
     else if (a == "--gt-offset" && i + 1 < argc)
       gt_offset = std::atoi(argv[++i]);
     else if ((a == "--set" || a == "--preset") && i + 1 < argc) {
-      try {
-        if (a == "--set")
-          apply_config_override(config, argv[++i]);
-        else
-          apply_config_preset(config, argv[++i]);
-      } catch (const std::exception& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        return 2;
-      }
+      if (!bench::apply_config_flag(config, a, argv[++i])) return 2;
     } else {
       std::cerr << "unknown argument " << a << "\n";
       return 2;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iostream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "orpe/core/frame.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/image_io.h"
+#include "orpe/pipeline/config.h"
 
 namespace orpe::bench {
 
@@ -21,6 +23,22 @@ inline std::string seven_scenes_dir() {
   if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env)
     return std::string(env) + "/7scenes-seq";
   return "/work/shared/data/7scenes-seq";
+}
+
+/// Applies `--set section.key=value` or `--preset NAME` to `config`; prints the error and returns
+/// false when the value is not valid.
+inline bool apply_config_flag(OrpeConfig& config, const std::string& flag,
+                              const std::string& value) {
+  try {
+    if (flag == "--set")
+      apply_config_override(config, value);
+    else
+      apply_config_preset(config, value);
+    return true;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << flag << " " << value << ": " << e.what() << "\n";
+    return false;
+  }
 }
 
 /// Ground-truth camera-to-world pose of frame i (frame-NNNNNN.pose.txt), none when the file is

@@ -215,6 +215,11 @@ int main(int argc, char** argv) {
                             (g.T_cam_obj.translation() - Tc.translation()).norm() * 1e3);
               }
           }
+          if (config.pose_ekf.hypotheses > 1) {
+            std::printf(" | hyp");
+            for (const auto& h : t.fusion->filter().hypotheses())
+              std::printf(" %s%.2f/%d", h.reported ? "*" : "", h.evidence, h.views);
+          }
           std::printf("\n");
         }
       }

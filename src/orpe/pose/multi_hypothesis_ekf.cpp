@@ -70,7 +70,7 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
     const PoseEkfStep s = h.ekf.update(m);
     if (!s.accepted) continue;  // cannot happen (same gate), but never count a rejected view
     joined_any = true;
-    h.evidence += 1.0;
+    h.evidence += params_.hypothesis_evidence == "kernel" ? 1.0 - d2[i] / params_.gate_chi2 : 1.0;
     h.score_sum += score;
     ++h.views;
     if (static_cast<int>(i) == reported_) {

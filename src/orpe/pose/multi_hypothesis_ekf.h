@@ -10,8 +10,10 @@
 // when M exist). Hypotheses whose states pass each other's gate are merged (the one with more
 // evidence stays), so one mode is one hypothesis.
 //
-// Evidence of a hypothesis: the number of views that passed its gate, each view first multiplying
-// every hypothesis's evidence by `hypothesis_evidence_decay` (1 = plain count). The reported state
+// Evidence of a hypothesis: the views that passed its gate, each weighted (`kernel`, default) by
+// 1 - d2 / gate_chi2 of its Mahalanobis distance d2 (an Epanechnikov kernel: a tight cluster of
+// views is a mode, views scattered to the edge of the gate are weak support), or 1 each (`count`);
+// each view first multiplies every hypothesis's evidence by `hypothesis_evidence_decay`. The reported state
 // is the hypothesis with the most evidence, but the report moves only when another hypothesis leads
 // the reported one by more than `hypothesis_switch_margin` views: with two modes supported equally
 // (alternating views) the lead is below one view at any decay (1 / (1 + decay)), so a margin >= 1

@@ -25,6 +25,8 @@ bool PoseEkfParams::IsValid(std::string* why) const {
   if (hypotheses < 1 || hypotheses > 16) return fail("hypotheses must be in [1, 16]");
   if (hypotheses > 1 && !(gate_chi2 > 0))
     return fail("hypotheses > 1 needs a gate (gate_chi2 > 0) to tell the hypotheses apart");
+  if (hypothesis_evidence != "count" && hypothesis_evidence != "kernel")
+    return fail("hypothesis_evidence must be count or kernel, not '" + hypothesis_evidence + "'");
   if (!(hypothesis_evidence_decay > 0) || hypothesis_evidence_decay > 1)
     return fail("hypothesis_evidence_decay must be in (0, 1]");
   if (!(hypothesis_switch_margin >= 0) || !std::isfinite(hypothesis_switch_margin))

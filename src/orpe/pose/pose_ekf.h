@@ -37,6 +37,7 @@ struct PoseEkfParams {
   bool reinit_interleaved = false;
   // Multi-hypothesis fusion (MultiHypothesisPoseEkf); 1 = the single filter above.
   int hypotheses = 1;
+  std::string hypothesis_evidence = "kernel";
   double hypothesis_evidence_decay = 1.0;
   double hypothesis_switch_margin = 1.0;
 
@@ -68,9 +69,12 @@ struct PoseEkfParams {
       "Competing filters per object (MultiHypothesisPoseEkf): a measurement that passes no "
       "hypothesis's gate starts a new one instead of being dropped; 1 = one filter with the "
       "restart above");
+    v("hypothesis_evidence", hypothesis_evidence,
+      "What a view that passes a hypothesis's gate adds to its evidence: `count` 1, `kernel` "
+      "1 - d2 / gate_chi2 (Epanechnikov weight of its Mahalanobis distance d2: a view at the "
+      "edge of the gate adds almost nothing)");
     v("hypothesis_evidence_decay", hypothesis_evidence_decay,
-      "Evidence of a hypothesis = decayed count of the views that passed its gate: every view "
-      "multiplies all evidence by this factor first (1 = plain count)");
+      "Every view first multiplies all hypotheses' evidence by this factor (1 = no forgetting)");
     v("hypothesis_switch_margin", hypothesis_switch_margin,
       "The reported hypothesis changes only when another one's evidence exceeds its own by more "
       "than this (views; hysteresis against flipping between equally supported modes)");

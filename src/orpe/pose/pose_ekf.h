@@ -38,7 +38,7 @@ struct PoseEkfParams {
   // Multi-hypothesis fusion (MultiHypothesisPoseEkf); 1 = the single filter above.
   int hypotheses = 1;
   std::string hypothesis_evidence = "kernel";
-  double hypothesis_evidence_decay = 1.0;
+  double hypothesis_evidence_decay = 0.95;
   double hypothesis_switch_margin = 1.0;
 
   template <class V>

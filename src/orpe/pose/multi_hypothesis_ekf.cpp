@@ -106,8 +106,8 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
   int best = reported_;
   for (int i = 0; i < static_cast<int>(hypotheses_.size()); ++i)
     if (hypotheses_[i].evidence > hypotheses_[best].evidence) best = i;
-  if (best != reported_ &&
-      hypotheses_[best].evidence > hypotheses_[reported_].evidence + params_.hypothesis_switch_margin) {
+  if (best != reported_ && hypotheses_[best].evidence >
+                               hypotheses_[reported_].evidence + params_.hypothesis_switch_margin) {
     reported_ = best;
     ++num_switches_;
     step.reinitialised = true;

@@ -13,11 +13,11 @@
 // Evidence of a hypothesis: the views that passed its gate, each weighted (`kernel`, default) by
 // 1 - d2 / gate_chi2 of its Mahalanobis distance d2 (an Epanechnikov kernel: a tight cluster of
 // views is a mode, views scattered to the edge of the gate are weak support), or 1 each (`count`);
-// each view first multiplies every hypothesis's evidence by `hypothesis_evidence_decay`. The reported state
-// is the hypothesis with the most evidence, but the report moves only when another hypothesis leads
-// the reported one by more than `hypothesis_switch_margin` views: with two modes supported equally
-// (alternating views) the lead is below one view at any decay (1 / (1 + decay)), so a margin >= 1
-// keeps the report where it is instead of flipping each frame.
+// each view first multiplies every hypothesis's evidence by `hypothesis_evidence_decay`. The
+// reported state is the hypothesis with the most evidence, but the report moves only when another
+// hypothesis leads the reported one by more than `hypothesis_switch_margin` views: with two modes
+// supported equally (alternating views) the lead is below one view at any decay (1 / (1 + decay)),
+// so a margin >= 1 keeps the report where it is instead of flipping each frame.
 //
 // hypotheses = 1 is exactly PoseEkf (with its restart).
 #pragma once
@@ -76,7 +76,8 @@ class MultiHypothesisPoseEkf {
   void merge_duplicates();
 
   PoseEkfParams params_;
-  PoseEkfParams hypothesis_params_;  ///< params_ without the restart (M > 1: a new hypothesis instead)
+  PoseEkfParams
+      hypothesis_params_;  ///< params_ without the restart (M > 1: a new hypothesis instead)
   ObjectSymmetry symmetry_;
   std::vector<Hypothesis> hypotheses_;
   int reported_ = -1;

@@ -7,6 +7,8 @@
 //       --out-rows rows.csv [--out-final final.csv] [--set pose_ekf.r_rotation_scale=10]
 //       [--set pipeline.ekf_init_views=3] [--set dataset.scene=0002]
 //       [--gt-measurements] [--gt-cameras]
+// --verbose: one line per measurement (gate decision, errors; with pose_ekf.hypotheses > 1 the live
+// hypotheses as evidence/views, the reported one starred).
 // --gt-measurements replaces every single-view estimate by the frame's ground-truth T_cam_obj and
 // --gt-cameras the tracked camera poses by the ground-truth ones: the error floors of the fusion.
 // then: build/bin/orpe eval poses --dataset DIR --result rows.csv --keyframes OUT/evaluated_frames.txt

@@ -25,7 +25,7 @@ void MultiHypothesisPoseEkf::predict() {
 
 PoseEkfStep MultiHypothesisPoseEkf::update_single(const PoseMeasurement& m, double score) {
   if (hypotheses_.empty()) {
-    hypotheses_.push_back({PoseEkf(hypothesis_params_, symmetry_), 0, 0, 0});
+    hypotheses_.push_back({PoseEkf(hypothesis_params_, symmetry_), 0, 0, 0, 0});
     reported_ = 0;
   }
   Hypothesis& h = hypotheses_.front();
@@ -60,7 +60,6 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
   // Gate against every hypothesis first (an update must not change another's decision).
   std::vector<double> d2(hypotheses_.size());
   for (size_t i = 0; i < hypotheses_.size(); ++i) d2[i] = hypotheses_[i].ekf.gate_distance_sq(m);
-  bool in_reported = false;
   bool joined_any = false;
   double best_d2 = std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < hypotheses_.size(); ++i) {
@@ -73,16 +72,14 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
     h.evidence += params_.hypothesis_evidence == "kernel" ? 1.0 - d2[i] / params_.gate_chi2 : 1.0;
     h.score_sum += score;
     ++h.views;
-    if (static_cast<int>(i) == reported_) {
-      in_reported = true;
-      step.T_world_obj_measured = s.T_world_obj_measured;
-    }
+    h.last_measurement = num_measurements_;
+    if (static_cast<int>(i) == reported_) step.T_world_obj_measured = s.T_world_obj_measured;
   }
   step.mahalanobis_sq = hypotheses_.empty() ? 0.0 : best_d2;
 
   if (!joined_any) {
     // A mode no hypothesis explains: a new hypothesis, in place of the weakest one when full.
-    Hypothesis fresh{PoseEkf(hypothesis_params_, symmetry_), 1.0, score, 1};
+    Hypothesis fresh{PoseEkf(hypothesis_params_, symmetry_), 1.0, score, 1, num_measurements_};
     fresh.ekf.update(m);
     if (static_cast<int>(hypotheses_.size()) < params_.hypotheses) {
       hypotheses_.push_back(std::move(fresh));
@@ -96,7 +93,6 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
     }
     if (reported_ < 0) {
       reported_ = 0;
-      in_reported = true;
       step.initialised = true;
     }
   }
@@ -111,10 +107,8 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
     reported_ = best;
     ++num_switches_;
     step.reinitialised = true;
-    // The measurement is "accepted" if it is in the newly reported hypothesis (it gave the lead).
-    in_reported = hypotheses_[best].ekf.gate_distance_sq(m) <= params_.gate_chi2;
   }
-  step.accepted = in_reported;
+  step.accepted = reported().last_measurement == num_measurements_;
   step.T_cam_obj_fused = T_cam_obj(m.T_world_cam);
   history_.push_back(step);
   return step;
@@ -131,6 +125,8 @@ void MultiHypothesisPoseEkf::merge_duplicates() {
       }
       const bool keep_j = hypotheses_[j].evidence > hypotheses_[i].evidence;
       if (keep_j) std::swap(hypotheses_[i], hypotheses_[j]);
+      hypotheses_[i].last_measurement =
+          std::max(hypotheses_[i].last_measurement, hypotheses_[j].last_measurement);
       // The reported index follows its mode: if either was reported, the survivor (i) is.
       if (reported_ == static_cast<int>(i) || reported_ == static_cast<int>(j))
         reported_ = static_cast<int>(i);

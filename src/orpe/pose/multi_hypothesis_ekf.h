@@ -70,6 +70,7 @@ class MultiHypothesisPoseEkf {
     double evidence = 0;
     double score_sum = 0;
     int views = 0;
+    int last_measurement = 0;  ///< number of the last measurement that joined it (1-based)
   };
   const Hypothesis& reported() const { return hypotheses_[static_cast<size_t>(reported_)]; }
   PoseEkfStep update_single(const PoseMeasurement& measurement, double score);

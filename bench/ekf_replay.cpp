@@ -7,6 +7,8 @@
 //       --out-rows rows.csv [--out-final final.csv] [--set pose_ekf.r_rotation_scale=10]
 //       [--set pipeline.ekf_init_views=3] [--set dataset.scene=0002]
 //       [--gt-measurements] [--gt-cameras]
+// --verbose: one line per measurement (gate decision, errors; with pose_ekf.hypotheses > 1 the live
+// hypotheses as evidence/views, the reported one starred).
 // --gt-measurements replaces every single-view estimate by the frame's ground-truth T_cam_obj and
 // --gt-cameras the tracked camera poses by the ground-truth ones: the error floors of the fusion.
 // then: build/bin/orpe eval poses --dataset DIR --result rows.csv --keyframes OUT/evaluated_frames.txt
@@ -214,6 +216,11 @@ int main(int argc, char** argv) {
                             (g.T_cam_obj.translation() - r.T_cam_obj.translation()).norm() * 1e3,
                             (g.T_cam_obj.translation() - Tc.translation()).norm() * 1e3);
               }
+          }
+          if (config.pose_ekf.hypotheses > 1) {
+            std::printf(" | hyp");
+            for (const auto& h : t.fusion->filter().hypotheses())
+              std::printf(" %s%.2f/%d", h.reported ? "*" : "", h.evidence, h.views);
           }
           std::printf("\n");
         }

@@ -1,4 +1,5 @@
-// ObjectPoseFusion: consensus initialisation against a wrong first measurement.
+// ObjectPoseFusion: consensus initialisation against a wrong first measurement; with several
+// hypotheses, recovery from a wrong consensus (the YCB mug's pattern).
 #include <gtest/gtest.h>
 
 #include <random>
@@ -85,6 +86,44 @@ TEST(ObjectFusion, NoEstimateWhileCollectingInitialViews) {
   ASSERT_TRUE(few.has_estimate());
   EXPECT_NEAR((few.T_world_obj().translation() - truth.translation()).norm(), 0, 1e-9);
   EXPECT_EQ(few.accepted(), 2);
+}
+
+TEST(ObjectFusion, HypothesesRecoverFromAWrongConsensusStart) {
+  // All of the first 5 views in a wrong mode (turned 75 degrees about the axis), then the right
+  // mode in 3 of every 5 views, interleaved: the consensus starts wrong and one filter stays wrong;
+  // with 3 hypotheses the report moves to the right mode once it leads, and the score and counts
+  // are those of the reported hypothesis.
+  const SE3 truth(so3_exp(Vec3(0.3, -0.2, 0.1)), Vec3(0.2, 0.1, 0.9));
+  const SE3 wrong = truth * SE3(so3_exp(Vec3(0, 0, 75 * M_PI / 180)), Vec3::Zero());
+  auto run_with = [&](int hypotheses) {
+    PoseEkfParams p;
+    p.hypotheses = hypotheses;
+    p.hypothesis_evidence_decay = 0.95;
+    ObjectPoseFusion fusion(p, ObjectSymmetry{}, 5);
+    std::mt19937 rng(9);
+    std::normal_distribution<double> n(0, 1);
+    for (int f = 0; f < 25; ++f) {
+      const SE3 cam(so3_exp(Vec3(0, 0.01 * f, 0)), Vec3(0.005 * f, 0, 0));
+      Vec6 noise;
+      for (int i = 0; i < 3; ++i) noise[i] = 0.002 * n(rng);
+      for (int i = 3; i < 6; ++i) noise[i] = 0.01 * n(rng);
+      const bool right = f >= 5 && f % 5 != 1 && f % 5 != 3;
+      fusion.add(measure(f, right ? truth : wrong, cam, noise), right ? 0.9 : 0.6);
+    }
+    return rotation_distance_rad(fusion.T_world_obj().rotation(), truth.rotation());
+  };
+  EXPECT_GT(run_with(1), 1.0) << "one filter keeps the wrong consensus";
+  EXPECT_LT(run_with(3), 0.03);
+
+  PoseEkfParams p;
+  p.hypotheses = 3;
+  ObjectPoseFusion fusion(p, ObjectSymmetry{}, 1);
+  for (int f = 0; f < 3; ++f) fusion.add(measure(f, wrong, SE3(), Vec6::Zero()), 0.2);
+  for (int f = 3; f < 9; ++f) fusion.add(measure(f, truth, SE3(), Vec6::Zero()), 0.8);
+  EXPECT_LT(rotation_distance_rad(fusion.T_world_obj().rotation(), truth.rotation()), 1e-6);
+  EXPECT_EQ(fusion.accepted(), 6);
+  EXPECT_NEAR(fusion.score(), 0.8, 1e-12);
+  EXPECT_EQ(fusion.result().num_reinitialisations, 1);
 }
 
 }  // namespace

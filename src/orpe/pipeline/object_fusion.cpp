@@ -16,18 +16,9 @@ ObjectPoseFusion::Outcome ObjectPoseFusion::add(const PoseMeasurement& m, double
   Outcome out;
   if (ekf_.initialised()) {
     ekf_.predict();
-    const PoseEkfStep step = ekf_.update(m);
+    const PoseEkfStep step = ekf_.update(m, score);
     out.accepted = step.accepted;
-    if (step.reinitialised) {  // the state restarted from the pending measurements
-      score_sum_ = 0;
-      accepted_ = 0;
-    }
-    if (step.accepted) {
-      score_sum_ += score;
-      ++accepted_;
-    } else {
-      ++rejected_;
-    }
+    if (!step.accepted) ++rejected_;
     return out;
   }
   buffer_.emplace_back(m, score);
@@ -74,19 +65,12 @@ bool ObjectPoseFusion::initialise_from_buffer(bool need_support) {
   // axis by more than the tight rotation gate): any start would be arbitrary, so keep buffering,
   // up to 2 init_views measurements, until some pair agrees.
   if (need_support && best_support == 0) return false;
-  ekf_.update(buffer_[best].first);
-  score_sum_ = buffer_[best].second;
-  accepted_ = 1;
+  ekf_.update(buffer_[best].first, buffer_[best].second);
   for (size_t j = 0; j < buffer_.size(); ++j) {
     if (j == best) continue;
     ekf_.predict();
-    const PoseEkfStep s = ekf_.update(buffer_[j].first);
-    if (s.accepted) {
-      score_sum_ += buffer_[j].second;
-      ++accepted_;
-    } else {
-      ++rejected_;
-    }
+    const PoseEkfStep s = ekf_.update(buffer_[j].first, buffer_[j].second);
+    if (!s.accepted) ++rejected_;
   }
   buffer_.clear();
   return true;

@@ -10,11 +10,15 @@
 // the outliers). Ties in support go to the smallest summed (gate-truncated) Mahalanobis distance to
 // the others. If no two of the first k agree, the buffer grows (up to 2k) until some pair does.
 // Until then there is no fused estimate. k = 1 is the paper's behaviour.
+// The filter is a MultiHypothesisPoseEkf: with pose_ekf.hypotheses > 1 the consensus start's
+// outliers (and later views no hypothesis explains) start competing hypotheses instead of being
+// dropped, and the reported state is the best-supported one (docs/PIPELINE.md).
 #pragma once
 
 #include <optional>
 #include <vector>
 
+#include "orpe/pose/multi_hypothesis_ekf.h"
 #include "orpe/pose/pose_ekf.h"
 
 namespace orpe {
@@ -39,9 +43,11 @@ class ObjectPoseFusion {
   SE3 T_cam_obj(const SE3& T_world_cam) const { return ekf_.T_cam_obj(T_world_cam); }
   /// The filter's result; num_rejected also counts the initialisation's outliers.
   FusedObjectPose result() const;
-  /// Mean score of the measurements in the current state (0 before the first).
-  double score() const { return accepted_ ? score_sum_ / accepted_ : 0.0; }
-  int accepted() const { return accepted_; }
+  /// Mean score of the measurements in the current (reported) state (0 before the first).
+  double score() const { return ekf_.mean_score(); }
+  /// Measurements in the current (reported) state.
+  int accepted() const { return ekf_.num_fused(); }
+  const MultiHypothesisPoseEkf& filter() const { return ekf_; }
   int rejected() const { return rejected_; }
 
  private:
@@ -50,10 +56,8 @@ class ObjectPoseFusion {
   PoseEkfParams params_;
   ObjectSymmetry symmetry_;
   int init_views_;
-  PoseEkf ekf_;
+  MultiHypothesisPoseEkf ekf_;
   std::vector<std::pair<PoseMeasurement, double>> buffer_;
-  double score_sum_ = 0;
-  int accepted_ = 0;
   int rejected_ = 0;
 };
 

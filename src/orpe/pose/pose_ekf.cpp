@@ -22,6 +22,15 @@ bool PoseEkfParams::IsValid(std::string* why) const {
     return fail("process noise must be >= 0");
   if (reinit_after_rejections < 0) return fail("reinit_after_rejections must be >= 0");
   if (!std::isfinite(gate_chi2)) return fail("gate_chi2 must be finite");
+  if (hypotheses < 1 || hypotheses > 16) return fail("hypotheses must be in [1, 16]");
+  if (hypotheses > 1 && !(gate_chi2 > 0))
+    return fail("hypotheses > 1 needs a gate (gate_chi2 > 0) to tell the hypotheses apart");
+  if (hypothesis_evidence != "count" && hypothesis_evidence != "kernel")
+    return fail("hypothesis_evidence must be count or kernel, not '" + hypothesis_evidence + "'");
+  if (!(hypothesis_evidence_decay > 0) || hypothesis_evidence_decay > 1)
+    return fail("hypothesis_evidence_decay must be in (0, 1]");
+  if (!(hypothesis_switch_margin >= 0) || !std::isfinite(hypothesis_switch_margin))
+    return fail("hypothesis_switch_margin must be finite and >= 0");
   return true;
 }
 
@@ -58,6 +67,32 @@ Mat6 PoseEkf::measurement_covariance(double mu_m) const {
 
 Vec6 PoseEkf::innovation(const SE3& z) const {
   return (T_world_obj_.inverse() * z).log();
+}
+
+double PoseEkf::gate_distance_sq(const PoseMeasurement& m) const {
+  if (!initialised_) return 0;
+  const Mat6 R = measurement_covariance(m.mu_m);
+  const SE3 z = m.T_world_cam * m.T_cam_obj;
+  const Mat6 S_inv = (P_ + R).inverse();
+  if (params_.use_symmetry) {
+    double d2 = 0;
+    closest_equivalent_to(T_world_obj_, S_inv, z, symmetry_, &d2);
+    return d2;
+  }
+  const Vec6 nu = innovation(z);
+  return nu.dot(S_inv * nu);
+}
+
+double PoseEkf::state_distance_sq(const PoseEkf& other) const {
+  if (!initialised_ || !other.initialised_) return std::numeric_limits<double>::infinity();
+  const Mat6 S_inv = (P_ + other.P_).inverse();
+  if (params_.use_symmetry) {
+    double d2 = 0;
+    closest_equivalent_to(T_world_obj_, S_inv, other.T_world_obj_, symmetry_, &d2);
+    return d2;
+  }
+  const Vec6 nu = innovation(other.T_world_obj_);
+  return nu.dot(S_inv * nu);
 }
 
 void PoseEkf::predict() {

@@ -35,6 +35,11 @@ struct PoseEkfParams {
   int reinit_after_rejections = 5;
   bool use_symmetry = true;
   bool reinit_interleaved = false;
+  // Multi-hypothesis fusion (MultiHypothesisPoseEkf); 1 = the single filter above.
+  int hypotheses = 1;
+  std::string hypothesis_evidence = "kernel";
+  double hypothesis_evidence_decay = 0.95;
+  double hypothesis_switch_margin = 1.0;
 
   template <class V>
   void visit(V&& v) {
@@ -60,6 +65,19 @@ struct PoseEkfParams {
       "rejections (false, default: only consecutive rejections restart)");
     v("use_symmetry", use_symmetry,
       "Replace each measurement by its symmetry-equivalent closest to the state before the update");
+    v("hypotheses", hypotheses,
+      "Competing filters per object (MultiHypothesisPoseEkf): a measurement that passes no "
+      "hypothesis's gate starts a new one instead of being dropped; 1 = one filter with the "
+      "restart above");
+    v("hypothesis_evidence", hypothesis_evidence,
+      "What a view that passes a hypothesis's gate adds to its evidence: `count` 1, `kernel` "
+      "1 - d2 / gate_chi2 (Epanechnikov weight of its Mahalanobis distance d2: a view at the "
+      "edge of the gate adds almost nothing)");
+    v("hypothesis_evidence_decay", hypothesis_evidence_decay,
+      "Every view first multiplies all hypotheses' evidence by this factor (1 = no forgetting)");
+    v("hypothesis_switch_margin", hypothesis_switch_margin,
+      "The reported hypothesis changes only when another one's evidence exceeds its own by more "
+      "than this (views; hysteresis against flipping between equally supported modes)");
   }
   bool IsValid(std::string* why) const;
 };
@@ -113,6 +131,14 @@ class PoseEkf {
   SE3 closest_equivalent(const SE3& T_world_obj_z, const Mat6& R) const;
   /// Innovation Log(T_world_obj^-1 z) in [rho; phi].
   Vec6 innovation(const SE3& T_world_obj_z) const;
+  /// The squared Mahalanobis distance the gate of update() would see for this measurement (after
+  /// the symmetry snap); 0 before initialisation.
+  double gate_distance_sq(const PoseMeasurement& measurement) const;
+  /// Squared Mahalanobis distance between two initialised filters' states (covariance P1 + P2,
+  /// after the symmetry snap of the other's state).
+  double state_distance_sq(const PoseEkf& other) const;
+  int num_fused() const { return initialised_ ? num_fused_ : 0; }
+  int num_reinitialisations() const { return num_reinit_; }
 
   const SE3& T_world_obj() const { return T_world_obj_; }
   const Mat6& covariance() const { return P_; }

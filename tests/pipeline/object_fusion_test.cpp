@@ -23,9 +23,11 @@ struct Outcome {
   int accepted, rejected;
 };
 
-Outcome run(int init_views, bool flipped_first) {
+Outcome run(int init_views, bool flipped_first, int hypotheses = PoseEkfParams{}.hypotheses) {
   const SE3 truth(so3_exp(Vec3(0.3, -0.2, 0.1)), Vec3(0.2, 0.1, 0.9));
-  ObjectPoseFusion fusion(PoseEkfParams{}, ObjectSymmetry{}, init_views);
+  PoseEkfParams params;
+  params.hypotheses = hypotheses;
+  ObjectPoseFusion fusion(params, ObjectSymmetry{}, init_views);
   std::mt19937 rng(4);
   std::normal_distribution<double> n(0, 1);
   for (int f = 0; f < 12; ++f) {
@@ -45,8 +47,11 @@ Outcome run(int init_views, bool flipped_first) {
 }
 
 TEST(ObjectFusion, ConsensusInitialisationIgnoresAWrongFirstMeasurement) {
-  const Outcome first = run(1, true);
-  EXPECT_GT(first.rotation_error_rad, 2.0) << "started from the flip, the filter keeps it";
+  const Outcome first = run(1, true, /*hypotheses=*/1);
+  EXPECT_GT(first.rotation_error_rad, 2.0) << "started from the flip, one filter keeps it";
+  const Outcome first_default = run(1, true);
+  EXPECT_LT(first_default.rotation_error_rad, 0.05)
+      << "started from the flip, the default's competing hypotheses move to the right mode";
   const Outcome consensus = run(3, true);
   EXPECT_LT(consensus.rotation_error_rad, 0.05);
   EXPECT_LT(consensus.translation_error_m, 0.01);

@@ -130,6 +130,7 @@ TEST(MultiHypothesisEkf, DuplicateHypothesesOfOneModeMerge) {
 TEST(MultiHypothesisEkf, OneHypothesisIsThePoseEkf) {
   // M = 1: the same states, steps and restarts as PoseEkf (restart after 4 consistent rejections).
   PoseEkfParams p;
+  p.hypotheses = 1;
   p.reinit_after_rejections = 4;
   PoseEkf ekf(p);
   MultiHypothesisPoseEkf mh(p);

@@ -59,6 +59,7 @@ TEST(PoseEkf, ScalarGainRotationAndScaledR) {
   PoseEkfParams p;
   p.r_rotation_scale = 4.0;
   p.gate_chi2 = 0;  // no gating: this checks the algebra only
+  p.hypotheses = 1;  // a single filter (several need the gate)
   PoseEkf ekf(p);
   ekf.update(meas(rot_z(10), 0.01));
   EXPECT_NEAR(ekf.covariance()(5, 5), 0.04, 1e-15);
@@ -112,6 +113,7 @@ TEST(PoseEkf, GatingRejectsAnOutlierAndKeepsTheState) {
   // Without the gate the same outlier drags the state.
   PoseEkfParams open = p;
   open.gate_chi2 = 0;
+  open.hypotheses = 1;
   PoseEkf ungated(open);
   for (int i = 0; i < 5; ++i) ungated.update(meas(truth, 0.002, i));
   ungated.update(meas(truth * SE3(so3_exp(Vec3(1.2, 0, 0)), Vec3::Zero()), 0.002, 5));

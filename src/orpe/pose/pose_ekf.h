@@ -35,8 +35,9 @@ struct PoseEkfParams {
   int reinit_after_rejections = 5;
   bool use_symmetry = true;
   bool reinit_interleaved = false;
-  // Multi-hypothesis fusion (MultiHypothesisPoseEkf); 1 = the single filter above.
-  int hypotheses = 1;
+  // Multi-hypothesis fusion (MultiHypothesisPoseEkf); 1 = the single filter above. Default 3:
+  // docs/RESULTS.md, "Several hypotheses per object", has the measurements behind it.
+  int hypotheses = 3;
   std::string hypothesis_evidence = "kernel";
   double hypothesis_evidence_decay = 0.95;
   double hypothesis_switch_margin = 1.0;

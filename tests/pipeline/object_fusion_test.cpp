@@ -9,13 +9,24 @@
 namespace orpe {
 namespace {
 
-PoseMeasurement measure(int frame, const SE3& T_world_obj, const SE3& T_world_cam, const Vec6& noise) {
+PoseMeasurement measure(int frame, const SE3& T_world_obj, const SE3& T_world_cam,
+                        const Vec6& noise) {
   PoseMeasurement m;
   m.frame_index = frame;
   m.T_world_cam = T_world_cam;
   m.T_cam_obj = T_world_cam.inverse() * T_world_obj * SE3::exp(noise);
   m.mu_m = 0.003;
   return m;
+}
+
+/// Gaussian se(3) noise: translation sigma (m) in the first three entries, rotation sigma (rad) in
+/// the rest.
+Vec6 pose_noise(std::mt19937& rng, double translation_sigma_m, double rotation_sigma_rad) {
+  std::normal_distribution<double> n(0, 1);
+  Vec6 noise;
+  for (int i = 0; i < 3; ++i) noise[i] = translation_sigma_m * n(rng);
+  for (int i = 3; i < 6; ++i) noise[i] = rotation_sigma_rad * n(rng);
+  return noise;
 }
 
 struct Outcome {
@@ -29,12 +40,9 @@ Outcome run(int init_views, bool flipped_first, int hypotheses = PoseEkfParams{}
   params.hypotheses = hypotheses;
   ObjectPoseFusion fusion(params, ObjectSymmetry{}, init_views);
   std::mt19937 rng(4);
-  std::normal_distribution<double> n(0, 1);
   for (int f = 0; f < 12; ++f) {
     const SE3 cam(so3_exp(Vec3(0, 0.02 * f, 0)), Vec3(0.01 * f, 0, 0));
-    Vec6 noise;
-    for (int i = 0; i < 3; ++i) noise[i] = 0.004 * n(rng);
-    for (int i = 3; i < 6; ++i) noise[i] = 0.02 * n(rng);
+    Vec6 noise = pose_noise(rng, 0.004, 0.02);
     if (f == 0 && flipped_first) noise.tail<3>() = Vec3(M_PI, 0, 0);  // end over end
     // Later outliers scatter (no two agree), so PoseEkf's restart cannot fire.
     if (f % 4 == 3) noise.tail<3>() = Vec3(0, 0.5 + 0.3 * f, 0);
@@ -42,8 +50,8 @@ Outcome run(int init_views, bool flipped_first, int hypotheses = PoseEkfParams{}
   }
   EXPECT_TRUE(fusion.has_estimate());
   return {(fusion.T_world_obj().translation() - truth.translation()).norm(),
-          rotation_distance_rad(fusion.T_world_obj().rotation(), truth.rotation()), fusion.accepted(),
-          fusion.rejected()};
+          rotation_distance_rad(fusion.T_world_obj().rotation(), truth.rotation()),
+          fusion.accepted(), fusion.rejected()};
 }
 
 TEST(ObjectFusion, ConsensusInitialisationIgnoresAWrongFirstMeasurement) {
@@ -106,12 +114,9 @@ TEST(ObjectFusion, HypothesesRecoverFromAWrongConsensusStart) {
     p.hypothesis_evidence_decay = 0.95;
     ObjectPoseFusion fusion(p, ObjectSymmetry{}, 5);
     std::mt19937 rng(9);
-    std::normal_distribution<double> n(0, 1);
     for (int f = 0; f < 25; ++f) {
       const SE3 cam(so3_exp(Vec3(0, 0.01 * f, 0)), Vec3(0.005 * f, 0, 0));
-      Vec6 noise;
-      for (int i = 0; i < 3; ++i) noise[i] = 0.002 * n(rng);
-      for (int i = 3; i < 6; ++i) noise[i] = 0.01 * n(rng);
+      const Vec6 noise = pose_noise(rng, 0.002, 0.01);
       const bool right = f >= 5 && f % 5 != 1 && f % 5 != 3;
       fusion.add(measure(f, right ? truth : wrong, cam, noise), right ? 0.9 : 0.6);
     }

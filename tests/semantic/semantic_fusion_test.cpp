@@ -354,6 +354,14 @@ TEST(SemanticFusion, SameClassInstancesOverlappedByOneDetectionMerge) {
   EXPECT_EQ(s.map.instance_id[s.surfel(12, 12)], id);
   EXPECT_EQ(s.map.instance_id[s.surfel(27, 27)], id);
   EXPECT_EQ(fusion.instances().begin()->second.detections, 3);
+  // The absorbed id is on record and resolves to the survivor (later stages hand over its state).
+  ASSERT_EQ(fusion.merged_into().size(), 1u);
+  const int absorbed = fusion.merged_into().begin()->first;
+  EXPECT_NE(absorbed, id);
+  EXPECT_EQ(fusion.merged_into().begin()->second, id);
+  EXPECT_EQ(fusion.resolve_instance(absorbed), id);
+  EXPECT_EQ(fusion.resolve_instance(id), id);
+  EXPECT_EQ(fusion.resolve_instance(12345), 12345) << "unknown ids resolve to themselves";
   // Different classes never merge.
   test::PlanarSetup t;
   SemanticFusion other(no_pruning());

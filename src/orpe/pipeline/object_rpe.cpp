@@ -203,6 +203,7 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
     result_.keyframe = step.keyframe;
     result_.detections = static_cast<int>(step.detections.size());
     result_.instances = static_cast<int>(semantic_->fusion().instances().size());
+    hand_over_merged_tracks();
     if (step.keyframe) {
       ++stats_.keyframes;
       stats_.detections += result_.detections;
@@ -479,9 +480,30 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   }
 }
 
+void ObjectRpePipeline::hand_over_merged_tracks() {
+  const SemanticFusion& fusion = semantic_->fusion();
+  if (fusion.merged_into().empty()) return;
+  // Views fused so far: what a track has to lose.
+  auto views = [](const Track& t) { return t.ekf ? t.ekf->accepted() : t.valid_views; };
+  for (auto& v : variants_) {
+    for (auto it = v.tracks.begin(); it != v.tracks.end();) {
+      const int survivor = fusion.resolve_instance(it->first);
+      if (survivor == it->first) {
+        ++it;
+        continue;
+      }
+      // std::map insertion keeps `it` valid.
+      auto [dst, inserted] = v.tracks.try_emplace(survivor);
+      if (inserted || views(it->second) > views(dst->second)) dst->second = std::move(it->second);
+      it = v.tracks.erase(it);
+    }
+  }
+}
+
 void ObjectRpePipeline::finalize() {
   if (!semantic_) return;
   semantic_->finalize(slam_->map());
+  hand_over_merged_tracks();
   const auto& instances = semantic_->fusion().instances();
   for (auto& v : variants_) {
     for (auto it = v.tracks.begin(); it != v.tracks.end();) {
@@ -503,7 +525,9 @@ std::vector<PoseResultRow> ObjectRpePipeline::final_pose_rows(size_t vi) const {
   std::vector<PoseResultRow> rows;
   if (!vs.config.ekf) return rows;
   for (const auto& s : vs.seen) {
-    const auto t = vs.tracks.find(s.instance_id);
+    // The object's final pose, also in frames seen under an id the map later merged away.
+    const int id = semantic_ ? semantic_->fusion().resolve_instance(s.instance_id) : s.instance_id;
+    const auto t = vs.tracks.find(id);
     if (t == vs.tracks.end() || !t->second.ekf || !t->second.ekf->has_estimate() ||
         t->second.class_id != s.class_id)
       continue;

@@ -195,6 +195,9 @@ class ObjectRpePipeline {
   struct VariantState;
   struct Candidate;
   void estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam, PipelineFrameResult& result);
+  /// Moves the pose tracks of instances the semantic map merged onto the survivors (the one with
+  /// more fused views wins when both have a track).
+  void hand_over_merged_tracks();
 
   ObjectRpeParams params_;
   DatasetInfo dataset_;

@@ -224,6 +224,17 @@ void SemanticFusion::merge_into(int keep, int absorb, slam::SurfelMap& map) {
   k.last_frame = std::max(k.last_frame, a.last_frame);
   k.visible_keyframes = std::max(k.visible_keyframes, a.visible_keyframes);
   instances_.erase(absorb);
+  merged_into_[absorb] = keep;
+}
+
+int SemanticFusion::resolve_instance(int id) const {
+  // Ids only ever merge into live instances, so the chain ends; the bound guards against a cycle.
+  for (size_t hops = 0; hops <= merged_into_.size(); ++hops) {
+    const auto it = merged_into_.find(id);
+    if (it == merged_into_.end()) break;
+    id = it->second;
+  }
+  return id;
 }
 
 void SemanticFusion::UpdateCounts::add(const UpdateCounts& o) {

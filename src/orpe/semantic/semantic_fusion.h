@@ -248,6 +248,11 @@ class SemanticFusion {
   void remove_instance(int id, slam::SurfelMap& map);
 
   const std::map<int, InstanceInfo>& instances() const { return instances_; }
+  /// The instance that `id` lives on as: `id` itself unless it was merged into another instance
+  /// (then the survivor, following chains of merges). Removed instances resolve to themselves.
+  int resolve_instance(int id) const;
+  /// Every merge so far: absorbed instance id -> the instance it was merged into.
+  const std::map<int, int>& merged_into() const { return merged_into_; }
   const SemanticParams& params() const { return params_; }
   /// The instances detected in >= min_confirmed_detections keyframes.
   std::map<int, InstanceInfo> confirmed_instances() const;
@@ -272,6 +277,7 @@ class SemanticFusion {
 
   SemanticParams params_;
   std::map<int, InstanceInfo> instances_;
+  std::map<int, int> merged_into_;  // absorbed -> survivor, kept for later stages (pose tracks)
   int next_instance_id_ = 1;
   slam::MapRenderer renderer_;
   InstanceRenderer instance_renderer_;

@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "orpe/core/error.h"
+#include "orpe/pipeline/instance_tracks.h"
 #include "orpe/pipeline/object_fusion.h"
 #include "orpe/semantic/detection.h"
 
@@ -485,19 +486,8 @@ void ObjectRpePipeline::hand_over_merged_tracks() {
   if (fusion.merged_into().empty()) return;
   // Views fused so far: what a track has to lose.
   auto views = [](const Track& t) { return t.ekf ? t.ekf->accepted() : t.valid_views; };
-  for (auto& v : variants_) {
-    for (auto it = v.tracks.begin(); it != v.tracks.end();) {
-      const int survivor = fusion.resolve_instance(it->first);
-      if (survivor == it->first) {
-        ++it;
-        continue;
-      }
-      // std::map insertion keeps `it` valid.
-      auto [dst, inserted] = v.tracks.try_emplace(survivor);
-      if (inserted || views(it->second) > views(dst->second)) dst->second = std::move(it->second);
-      it = v.tracks.erase(it);
-    }
-  }
+  for (auto& v : variants_)
+    hand_over_merged(v.tracks, [&](int id) { return fusion.resolve_instance(id); }, views);
 }
 
 void ObjectRpePipeline::finalize() {

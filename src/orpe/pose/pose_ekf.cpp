@@ -69,30 +69,26 @@ Vec6 PoseEkf::innovation(const SE3& z) const {
   return (T_world_obj_.inverse() * z).log();
 }
 
+SE3 PoseEkf::snap_to(const SE3& reference, const Mat6& S_inv, const SE3& z, double* d2) const {
+  if (params_.use_symmetry) return closest_equivalent_to(reference, S_inv, z, symmetry_, d2);
+  const Vec6 nu = (reference.inverse() * z).log();
+  *d2 = nu.dot(S_inv * nu);
+  return z;
+}
+
 double PoseEkf::gate_distance_sq(const PoseMeasurement& m) const {
   if (!initialised_) return 0;
-  const Mat6 R = measurement_covariance(m.mu_m);
-  const SE3 z = m.T_world_cam * m.T_cam_obj;
-  const Mat6 S_inv = (P_ + R).inverse();
-  if (params_.use_symmetry) {
-    double d2 = 0;
-    closest_equivalent_to(T_world_obj_, S_inv, z, symmetry_, &d2);
-    return d2;
-  }
-  const Vec6 nu = innovation(z);
-  return nu.dot(S_inv * nu);
+  const Mat6 S_inv = (P_ + measurement_covariance(m.mu_m)).inverse();
+  double d2 = 0;
+  snap_to(T_world_obj_, S_inv, m.T_world_cam * m.T_cam_obj, &d2);
+  return d2;
 }
 
 double PoseEkf::state_distance_sq(const PoseEkf& other) const {
   if (!initialised_ || !other.initialised_) return std::numeric_limits<double>::infinity();
-  const Mat6 S_inv = (P_ + other.P_).inverse();
-  if (params_.use_symmetry) {
-    double d2 = 0;
-    closest_equivalent_to(T_world_obj_, S_inv, other.T_world_obj_, symmetry_, &d2);
-    return d2;
-  }
-  const Vec6 nu = innovation(other.T_world_obj_);
-  return nu.dot(S_inv * nu);
+  double d2 = 0;
+  snap_to(T_world_obj_, (P_ + other.P_).inverse(), other.T_world_obj_, &d2);
+  return d2;
 }
 
 void PoseEkf::predict() {
@@ -167,14 +163,8 @@ PoseEkfStep PoseEkf::update(const PoseMeasurement& m) {
     step.accepted = true;
     step.initialised = true;
   } else {
-    const Mat6 S_inv = (P_ + R).inverse();
     double d2 = 0;
-    if (params_.use_symmetry) {
-      z = closest_equivalent_to(T_world_obj_, S_inv, z, symmetry_, &d2);
-    } else {
-      const Vec6 nu = innovation(z);
-      d2 = nu.dot(S_inv * nu);
-    }
+    z = snap_to(T_world_obj_, (P_ + R).inverse(), z, &d2);
     step.mahalanobis_sq = d2;
     if (params_.gate_chi2 <= 0 || d2 <= params_.gate_chi2) {
       fuse(z, R);
@@ -183,7 +173,8 @@ PoseEkfStep PoseEkf::update(const PoseMeasurement& m) {
       // is not outnumbered by them, so a competing mode seen in most recent views (a near-symmetric
       // object flipping between two poses) can still restart the filter.
       ++accepted_since_pending_;
-      if (!params_.reinit_interleaved || accepted_since_pending_ > static_cast<int>(pending_.size()))
+      if (!params_.reinit_interleaved ||
+          accepted_since_pending_ > static_cast<int>(pending_.size()))
         pending_.clear();
     } else {
       ++num_rejected_;
@@ -191,19 +182,12 @@ PoseEkfStep PoseEkf::update(const PoseMeasurement& m) {
         if (!pending_.empty()) {
           // Consistent with the first pending measurement? (Aligned to it under the symmetry.)
           const Pending& first = pending_.front();
-          const Mat6 S2_inv = (first.R + R).inverse();
           double d2p = 0;
-          const SE3 aligned =
-              params_.use_symmetry ? closest_equivalent_to(first.z, S2_inv, z, symmetry_, &d2p) : z;
-          if (!params_.use_symmetry) {
-            const Vec6 nu = (first.z.inverse() * z).log();
-            d2p = nu.dot(S2_inv * nu);
-          }
+          const SE3 aligned = snap_to(first.z, (first.R + R).inverse(), z, &d2p);
           if (params_.gate_chi2 > 0 && d2p > params_.gate_chi2) {
             pending_.clear();
             accepted_since_pending_ = 0;
-          }
-          else
+          } else
             z = aligned;
         }
         if (pending_.empty()) accepted_since_pending_ = 0;

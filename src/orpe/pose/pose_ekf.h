@@ -156,6 +156,9 @@ class PoseEkf {
   void fuse(const SE3& z, const Mat6& R);
   static SE3 closest_equivalent_to(const SE3& reference, const Mat6& S_inv, const SE3& z,
                                    const ObjectSymmetry& symmetry, double* d2);
+  /// z's symmetry-equivalent closest to `reference` (z itself without use_symmetry) and its squared
+  /// Mahalanobis distance to `reference` under S_inv: the gate's measure, everywhere it is taken.
+  SE3 snap_to(const SE3& reference, const Mat6& S_inv, const SE3& z, double* d2) const;
 
   PoseEkfParams params_;
   ObjectSymmetry symmetry_;
@@ -165,7 +168,8 @@ class PoseEkf {
   int num_fused_ = 0;
   int num_rejected_ = 0;
   int num_reinit_ = 0;
-  std::vector<Pending> pending_;  ///< rejected, mutually consistent measurements (see reinit_interleaved)
+  std::vector<Pending>
+      pending_;  ///< rejected, mutually consistent measurements (see reinit_interleaved)
   int accepted_since_pending_ = 0;
   std::vector<PoseEkfStep> history_;
 };

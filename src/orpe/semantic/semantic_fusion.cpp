@@ -333,23 +333,19 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   for (size_t k : order) masks.push_back(binary_mask(detections[k].probability, threshold));
   const auto assoc = associate_detections(masks, view_.instance_id, params_.association_min_overlap,
                                           params_.association_min_projected_area_px);
-  std::map<int, int> redirect;  // absorbed instance -> survivor
-  auto resolve = [&](int id) {
-    while (redirect.count(id)) id = redirect[id];
-    return id;
-  };
   std::vector<int> instance_of(order.size(), 0);
   for (size_t j = 0; j < order.size(); ++j) {
-    int id = resolve(assoc[j].instance_id);
+    // An instance merged away earlier in this loop lives on as its survivor (merge_into records
+    // it).
+    int id = resolve_instance(assoc[j].instance_id);
     if (id > 0) {
       ++rep.associated;
       if (params_.merge_same_class_instances) {
         for (int other : assoc[j].also_overlapping) {
-          other = resolve(other);
+          other = resolve_instance(other);
           if (other == id || !instances_.count(other) || !instances_.count(id)) continue;
           if (instances_[other].argmax_class() != instances_[id].argmax_class()) continue;
           merge_into(id, other, map);
-          redirect[other] = id;
           ++rep.merged_instances;
         }
       }
@@ -366,7 +362,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   // one frame are averaged first).
   std::map<int, std::pair<std::map<int, double>, int>> frame_classes;
   for (size_t j = 0; j < order.size(); ++j) {
-    auto& [sum, n] = frame_classes[resolve(instance_of[j])];
+    auto& [sum, n] = frame_classes[resolve_instance(instance_of[j])];
     for (const auto& [c, p] : class_distribution(detections[order[j]])) sum[c] += p;
     ++n;
   }
@@ -380,7 +376,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   }
   std::map<int, int> rendered_area;
   for (const auto id : view_.instance_id)
-    if (id > 0) ++rendered_area[resolve(id)];
+    if (id > 0) ++rendered_area[resolve_instance(id)];
   std::vector<int> missed;
   for (const auto& [id, area] : rendered_area) {
     auto it = instances_.find(id);
@@ -396,7 +392,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   if (skip_missed) {
     missed_labels_ = LabelImage(W, H, 0);
     for (size_t k = 0; k < missed_labels_.size(); ++k) {
-      const int id = view_.instance_id[k] > 0 ? resolve(view_.instance_id[k]) : 0;
+      const int id = view_.instance_id[k] > 0 ? resolve_instance(view_.instance_id[k]) : 0;
       if (id > 0 && std::binary_search(missed.begin(), missed.end(), id)) missed_labels_[k] = id;
     }
   }
@@ -414,7 +410,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   ProbabilityImage label_probability(W, H, 0.0f);
   for (size_t j = 0; j < order.size(); ++j) {
     const ProbabilityImage& prob = detections[order[j]].probability;
-    const int id = resolve(instance_of[j]);
+    const int id = resolve_instance(instance_of[j]);
     for (size_t k = 0; k < prob.size(); ++k) {
       const float p = prob[k];
       pixel_probability_[k] = std::max(pixel_probability_[k], p);

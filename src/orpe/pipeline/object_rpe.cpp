@@ -204,7 +204,7 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
     result_.keyframe = step.keyframe;
     result_.detections = static_cast<int>(step.detections.size());
     result_.instances = static_cast<int>(semantic_->fusion().instances().size());
-    hand_over_merged_tracks();
+    if (step.keyframe && step.report.merged_instances > 0) hand_over_merged_tracks();
     if (step.keyframe) {
       ++stats_.keyframes;
       stats_.detections += result_.detections;
@@ -483,7 +483,6 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
 
 void ObjectRpePipeline::hand_over_merged_tracks() {
   const SemanticFusion& fusion = semantic_->fusion();
-  if (fusion.merged_into().empty()) return;
   // Views fused so far: what a track has to lose.
   auto views = [](const Track& t) { return t.ekf ? t.ekf->accepted() : t.valid_views; };
   for (auto& v : variants_)
@@ -492,8 +491,7 @@ void ObjectRpePipeline::hand_over_merged_tracks() {
 
 void ObjectRpePipeline::finalize() {
   if (!semantic_) return;
-  semantic_->finalize(slam_->map());
-  hand_over_merged_tracks();
+  semantic_->finalize(slam_->map());  // prunes, never merges: the tracks already follow every merge
   const auto& instances = semantic_->fusion().instances();
   for (auto& v : variants_) {
     for (auto it = v.tracks.begin(); it != v.tracks.end();) {

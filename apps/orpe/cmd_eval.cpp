@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "command.h"
-#include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
@@ -21,10 +20,6 @@
 
 namespace orpe::cli {
 namespace {
-
-void write_text_atomic(const std::string& path, const std::string& text) {
-  write_file_atomic(path, [&](std::ostream& os) { os << text << "\n"; });
-}
 
 void require_file(const std::string& path, const char* what) {
   if (!std::filesystem::is_regular_file(path))

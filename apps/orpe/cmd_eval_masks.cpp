@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "command.h"
-#include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 #include "orpe/eval/mask_run.h"
 #include "orpe/io/dataset.h"
@@ -68,8 +67,7 @@ void run_masks(const MasksCommand& c) {
   if (c.json_path == "-") {
     std::cout << ev.to_json() << "\n";
   } else if (!c.json_path.empty()) {
-    const std::string text = ev.to_json();
-    write_file_atomic(c.json_path, [&](std::ostream& os) { os << text << "\n"; });
+    write_text_atomic(c.json_path, ev.to_json());
   }
 }
 

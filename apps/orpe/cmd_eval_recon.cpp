@@ -11,7 +11,6 @@
 #include <set>
 
 #include "command.h"
-#include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/point_cloud_io.h"
@@ -65,8 +64,7 @@ void run_recon(const ReconCommand& c) {
   const ReconstructionEvaluation ev =
       evaluate_reconstruction(map, objects, surface_ptrs, info.class_names, params);
   std::cout << (c.markdown ? ev.markdown() : ev.report());
-  if (!c.json_path.empty())
-    write_file_atomic(c.json_path, [&](std::ostream& os) { os << ev.to_json() << "\n"; });
+  if (!c.json_path.empty()) write_text_atomic(c.json_path, ev.to_json());
 }
 
 CommandRegistrar reg(71, [](CLI::App& root) {

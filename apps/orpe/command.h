@@ -29,4 +29,7 @@ void add_config_options(CLI::App& app, ConfigOptions& options);
 /// Defaults, then the preset, then the file, then the overrides; validated. Throws ConfigError / IoError.
 OrpeConfig resolve_config(const ConfigOptions& options);
 
+/// Writes `text` and a newline to `path` atomically (the commands' --json outputs).
+void write_text_atomic(const std::string& path, const std::string& text);
+
 }  // namespace orpe::cli

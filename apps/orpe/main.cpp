@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "command.h"
+#include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 
 namespace orpe::cli {
@@ -37,6 +38,10 @@ OrpeConfig resolve_config(const ConfigOptions& options) {
   std::string why;
   if (!config.IsValid(&why)) throw ConfigError("invalid configuration: " + why);
   return config;
+}
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  write_file_atomic(path, [&](std::ostream& os) { os << text << "\n"; });
 }
 
 }  // namespace orpe::cli

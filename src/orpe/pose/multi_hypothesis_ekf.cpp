@@ -45,10 +45,8 @@ PoseEkfStep MultiHypothesisPoseEkf::update_single(const PoseMeasurement& m, doub
 
 PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double score) {
   ++num_measurements_;
-  if (params_.hypotheses == 1) {
-    history_.push_back(update_single(m, score));
-    return history_.back();
-  }
+  // One filter keeps its own history (result() returns it).
+  if (params_.hypotheses == 1) return update_single(m, score);
 
   for (auto& h : hypotheses_) h.evidence *= params_.hypothesis_evidence_decay;
   PoseEkfStep step;

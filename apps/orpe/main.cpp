@@ -8,6 +8,7 @@
 #include "command.h"
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/version.h"
 
 namespace orpe::cli {
 
@@ -49,6 +50,7 @@ void write_text_atomic(const std::string& path, const std::string& text) {
 int main(int argc, char** argv) {
   using namespace orpe::cli;
   CLI::App app{"orpe: object recognition and 6D pose estimation from RGB-D scans (Object-RPE)"};
+  app.set_version_flag("--version", std::string("orpe ") + orpe::kVersion);
   app.require_subcommand(1);
   bool verbose = false, quiet = false;
   app.add_flag("-v,--verbose", verbose, "Debug logging");

@@ -12,6 +12,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/version.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/bop_results.h"
 #include "orpe/io/image_io.h"
@@ -283,6 +284,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   summary.wall_ms = ms_since(t_start);
 
   JsonSummary js;
+  js.set("orpe_version", std::string(kVersion));
   js.set("mode", options.mode);
   js.set("dataset.path", options.dataset_path);
   js.set("dataset.format", info.format);

@@ -23,9 +23,11 @@ CommandRegistrar::CommandRegistrar(int order, CommandSetup setup) {
 
 void add_config_options(CLI::App& app, ConfigOptions& options) {
   app.add_option("--preset", options.preset,
-                 "Named parameter preset applied first: default, realtime (SLAM >= 15 frames/s; docs/SLAM.md)")
+                 "Named parameter preset applied first: default, realtime (SLAM >= 15 frames/s; "
+                 "docs/SLAM.md)")
       ->check(CLI::IsMember(config_preset_names()));
-  app.add_option("--config", options.config_file, "JSON config file ({\"section\": {\"key\": value}})")
+  app.add_option("--config", options.config_file,
+                 "JSON config file ({\"section\": {\"key\": value}})")
       ->check(CLI::ExistingFile);
   app.add_option("--set", options.overrides,
                  "Override one parameter, section.key=value (repeatable); see `orpe config`");

@@ -419,10 +419,10 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
       const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
                              track->ekf->has_estimate();
       const bool learned = track && track->colour && track->colour->model();
-      const auto key = std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key,
-                                       cfg.projected_depth ? 1 : 0,
-                                       estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
-                                       use_prior || learned ? static_cast<int>(vi) : -1);
+      const auto key =
+          std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,
+                          estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
+                          use_prior || learned ? static_cast<int>(vi) : -1);
       auto cached = cache.find(key);
       if (c.report_only) {
         est.single_view = SingleViewPose{};

@@ -42,7 +42,8 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (free_space_window_px < 0 || free_space_window_px > 10)
     return fail("free_space_window_px must be in [0, 10]");
   if (free_space_model_points < 10) return fail("free_space_model_points must be >= 10");
-  if (std::string cwhy; !colour.IsValid(&cwhy) || !colour_learning.IsValid(&cwhy)) return fail(cwhy);
+  if (std::string cwhy; !colour.IsValid(&cwhy) || !colour_learning.IsValid(&cwhy))
+    return fail(cwhy);
   if (min_inlier_fraction < 0 || min_inlier_fraction > 1)
     return fail("min_inlier_fraction must be in [0, 1]");
   return true;
@@ -440,8 +441,8 @@ double geometry_margin(const std::vector<Hypothesis>& candidates, const Hypothes
   return other > -1e8 ? chosen.score - other : 0.0;
 }
 
-/// Adds the best hypothesis's confusable poses (refined and scored), scores every candidate's colour
-/// and returns the index of the chosen one, or -1 (no colour: keep the geometric choice).
+/// Adds the best hypothesis's confusable poses (refined and scored), scores every candidate's
+/// colour and returns the index of the chosen one, or -1 (no colour: keep the geometric choice).
 int rank_by_colour(const ModelRegistrationParams& params, const Registration& reg,
                    const SegmentedCloud& cloud, const ObjectModel& model,
                    const SingleViewInput& input, std::vector<Hypothesis>& refine,
@@ -450,11 +451,10 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
   if (!input.color || input.color->empty() || !has_usable_colour(model, cp) || refine.empty())
     return -1;
   auto geometric_best = [&]() {
-    return static_cast<size_t>(std::max_element(refine.begin(), refine.end(),
-                                                [](const auto& a, const auto& b) {
-                                                  return a.score < b.score;
-                                                }) -
-                               refine.begin());
+    return static_cast<size_t>(
+        std::max_element(refine.begin(), refine.end(),
+                         [](const auto& a, const auto& b) { return a.score < b.score; }) -
+        refine.begin());
   };
   if (cp.try_flips) {
     const std::vector<SE3> flips = confusable_poses(model, refine[geometric_best()].T_cam_obj);
@@ -476,8 +476,8 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
   for (size_t i = 0; i < refine.size(); ++i) {
     Hypothesis& h = refine[i];
     if (h.score < best_geometry - cp.geometry_margin) continue;
-    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth,
-                                *input.mask, input.intrinsics, cp)
+    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth, *input.mask,
+                                input.intrinsics, cp)
                    .ncc;
     const double rank = h.score + cp.weight * h.colour;
     if (rank > chosen_rank) chosen_rank = rank, chosen = static_cast<int>(i);
@@ -584,11 +584,11 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
   }
   const int by_colour =
       fixed_pose ? -1 : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
-  const auto best = by_colour >= 0 ? refine.begin() + by_colour
-                                   : std::max_element(refine.begin(), refine.end(),
-                                                      [](const auto& a, const auto& b) {
-                                                        return a.score < b.score;
-                                                      });
+  const auto best =
+      by_colour >= 0
+          ? refine.begin() + by_colour
+          : std::max_element(refine.begin(), refine.end(),
+                             [](const auto& a, const auto& b) { return a.score < b.score; });
 
   out.T_cam_obj = best->T_cam_obj;
   out.score = best->score;

@@ -304,7 +304,8 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
     for (const auto& mname : tri_material) {
       auto it = materials.find(mname);
       if (it == materials.end() || it->second.texture_path.empty()) continue;
-      mesh.texture = load_texture_image(it->second.texture_path, path, options.warn_missing_texture);
+      mesh.texture =
+          load_texture_image(it->second.texture_path, path, options.warn_missing_texture);
       texture_material = mname;
       break;
     }
@@ -766,7 +767,7 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
   }
   if (options.load_texture && !texture_file.empty() && !mesh.uvs.empty())
     mesh.texture = load_texture_image((fs::path(path).parent_path() / texture_file).string(), path,
-                                     options.warn_missing_texture);
+                                      options.warn_missing_texture);
   if (!mesh.texture)
     mesh.uvs.clear();
   else

@@ -16,6 +16,11 @@
 // detector misses part of the object); --dilate N grows each mask by N pixels (boundary leaking
 // into the background, as a detector's mask does); --occlude F is --cut F with an occluder: the cut
 // part of the bounding box (plus 5 px) gets the depth of a surface 10 cm in front of the object.
+// --colour-source: where the models' colour comes from (pose_registration.colour_*): `mesh`
+// (default: the texture of the textured meshes), `none`, `other-clips` (learned from the
+// ground-truth poses of the other listed videos' frames: never from the video being scored; a class
+// seen in no other video has no colour) or `mesh+other-clips` (the texture where there is one, else
+// learned).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -26,6 +31,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -35,6 +41,7 @@
 #include "orpe/core/params_io.h"
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/io/dataset.h"
+#include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
 
@@ -78,6 +85,7 @@ int main(int argc, char** argv) {
   double cut_fraction = 0, occlude_fraction = 0;
   int dilate_px = 0;
   orpe::ModelRegistrationParams params;
+  std::string colour_source = "mesh";
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -89,7 +97,15 @@ int main(int argc, char** argv) {
         data = next();
       else if (a == "--videos")
         videos = split(next(), ',');
-      else if (a == "--stride")
+      else if (a == "--colour-source") {
+        colour_source = next();
+        if (colour_source != "mesh" && colour_source != "none" && colour_source != "other-clips" &&
+            colour_source != "mesh+other-clips")
+          throw orpe::ConfigError(
+              "--colour-source: expected mesh, none, other-clips or "
+              "mesh+other-clips, got " +
+              colour_source);
+      } else if (a == "--stride")
         stride = std::stoi(next());
       else if (a == "--csv")
         csv_path = next();
@@ -127,7 +143,8 @@ int main(int argc, char** argv) {
         std::printf(
             "usage: %s [--data DIR] [--videos 0000,0001] [--stride N] [--set key=value]... "
             "[--csv FILE] [--markdown] [--diagnose] [--classes ids] [--cut F] [--occlude F] "
-            "[--dilate N] [--fuse] [--ekf key=value]\n",
+            "[--dilate N] [--fuse] [--ekf key=value] [--colour-source mesh|none|other-clips|"
+            "mesh+other-clips]\n",
             argv[0]);
         return 0;
       } else {
@@ -146,7 +163,67 @@ int main(int argc, char** argv) {
     double total_ms = 0;
     std::vector<double> times_ms, cpu_ms;
 
+    auto ensure_model = [&](const orpe::DatasetInfo& info, int class_id) {
+      if (models.count(class_id)) return;
+      const auto pts = info.model_points_paths.find(class_id);
+      if (pts == info.model_points_paths.end())
+        throw orpe::IoError(data, "no model points for class " + std::to_string(class_id));
+      orpe::ModelLoadOptions mo;
+      if (const auto mesh = info.model_mesh_paths.find(class_id);
+          mesh != info.model_mesh_paths.end())
+        mo.mesh_path = mesh->second;
+      mo.units_per_m = info.model_units_per_m;
+      mo.load_colour = colour_source.rfind("mesh", 0) == 0;
+      models[class_id] =
+          orpe::load_object_model(pts->second, mo, class_id, info.class_names.at(class_id));
+      std::vector<orpe::Vec3> p;
+      for (const auto& q : models[class_id].points) p.push_back(q.cast<double>());
+      eval_points.emplace(class_id, orpe::ModelPoints(p));
+      models[class_id].symmetric_for_metric =
+          std::count(info.symmetric_classes.begin(), info.symmetric_classes.end(), class_id) > 0;
+    };
+    // Colour learned per (video, class) from the ground-truth poses, for --colour-source
+    // *other-clips.
+    std::map<std::pair<std::string, int>, orpe::ModelColourAccumulator> learned;
+    if (colour_source.find("other-clips") != std::string::npos)
+      for (const auto& video : videos) {
+        orpe::DatasetParams dp;
+        dp.format = "ycbv";
+        dp.scene = video;
+        dp.stride = 1;
+        const auto reader = orpe::open_dataset(data, dp);
+        for (size_t fi = 0; fi < reader->size(); ++fi) {
+          const orpe::RgbdFrame frame = reader->read(fi);
+          for (size_t k = 0; k < frame.objects_gt.size(); ++k) {
+            const auto& gt = frame.objects_gt[k];
+            ensure_model(reader->info(), gt.class_id);
+            orpe::MaskImage mask(frame.labels_gt.width(), frame.labels_gt.height(), 0);
+            for (size_t i = 0; i < mask.size(); ++i)
+              mask[i] = frame.labels_gt[i] == static_cast<int>(k) + 1 ? 1 : 0;
+            auto it = learned.try_emplace({video, gt.class_id}, models.at(gt.class_id)).first;
+            it->second.add_view(gt.T_cam_obj, frame.color, frame.depth, mask, frame.intrinsics);
+          }
+        }
+      }
+    // The models used on `video`: colour learned from the other videos only.
+    auto models_for = [&](const std::string& video) {
+      std::map<int, orpe::ObjectModel> out = models;
+      if (learned.empty()) return out;
+      for (auto& [cls, m] : out) {
+        if (colour_source == "mesh+other-clips" && m.colour) continue;
+        std::optional<orpe::ModelColourAccumulator> acc;
+        for (const auto& [key, a] : learned)
+          if (key.second == cls && key.first != video) {
+            if (!acc) acc.emplace(m);
+            acc->merge(a);
+          }
+        m.colour = acc ? acc->result("learned from other clips") : nullptr;
+      }
+      return out;
+    };
+
     for (const auto& video : videos) {
+      std::map<int, orpe::ObjectModel> video_models;
       orpe::DatasetParams dp;
       dp.format = "ycbv";
       dp.scene = video;
@@ -162,22 +239,9 @@ int main(int argc, char** argv) {
         for (size_t k = 0; k < frame.objects_gt.size(); ++k) {
           const auto& gt = frame.objects_gt[k];
           if (!only_classes.empty() && !only_classes.count(gt.class_id)) continue;
-          if (!models.count(gt.class_id)) {
-            const auto pts = info.model_points_paths.find(gt.class_id);
-            if (pts == info.model_points_paths.end())
-              throw orpe::IoError(data, "no model points for class " + std::to_string(gt.class_id));
-            orpe::ModelLoadOptions mo;
-            if (const auto mesh = info.model_mesh_paths.find(gt.class_id);
-                mesh != info.model_mesh_paths.end())
-              mo.mesh_path = mesh->second;
-            mo.units_per_m = info.model_units_per_m;
-            models[gt.class_id] = orpe::load_object_model(pts->second, mo, gt.class_id,
-                                                          info.class_names.at(gt.class_id));
-            std::vector<orpe::Vec3> p;
-            for (const auto& q : models[gt.class_id].points) p.push_back(q.cast<double>());
-            eval_points.emplace(gt.class_id, orpe::ModelPoints(p));
-            models[gt.class_id].symmetric_for_metric =
-                std::count(symmetric.begin(), symmetric.end(), gt.class_id) > 0;
+          if (!models.count(gt.class_id) || !video_models.count(gt.class_id)) {
+            ensure_model(info, gt.class_id);
+            video_models = models_for(video);
           }
           orpe::MaskImage mask(frame.labels_gt.width(), frame.labels_gt.height(), 0);
           const int label = static_cast<int>(k) + 1;
@@ -227,7 +291,7 @@ int main(int argc, char** argv) {
           in.color = &frame.color;
           in.intrinsics = frame.intrinsics;
           in.class_id = gt.class_id;
-          in.model = &models[gt.class_id];
+          in.model = &video_models.at(gt.class_id);
           if (prior_gt) in.T_cam_obj_prior = gt.T_cam_obj;  // diagnosis: can ICP hold the truth?
 
           Row row;
@@ -261,10 +325,13 @@ int main(int argc, char** argv) {
             row.violation_gt = at_gt.free_space_violation;
           }
           std::fprintf(
-              stderr, "%s/%06d %-22s ADD-S %7.1f mm  ADD %7.1f mm  score %.3f%s  %s%6.0f ms\n",
+              stderr,
+              "%s/%06d %-22s ADD-S %7.1f mm  ADD %7.1f mm  score %.3f%s  colour %s%.2f (lead "
+              "%.2f)  %s%6.0f ms\n",
               video.c_str(), frame.index, info.class_names.at(gt.class_id).c_str(),
               row.adds_m * 1000, row.add_m * 1000, row.est.score,
               diagnose ? (" (gt " + std::to_string(row.score_gt).substr(0, 5) + ")").c_str() : "",
+              row.est.colour_used ? "" : "off ", row.est.colour_ncc, row.est.colour_margin,
               row.est.valid ? "" : "INVALID ", row.est.time_ms);
           scores.push_back(s);
           rows.push_back(row);

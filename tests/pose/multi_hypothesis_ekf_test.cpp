@@ -165,3 +165,31 @@ TEST(MultiHypothesisEkf, InvalidParamsThrow) {
 
 }  // namespace
 }  // namespace orpe
+
+namespace orpe {
+namespace {
+
+TEST(MultiHypothesisEkf, ColourConfirmedViewsWinTheCompetitionOfModes) {
+  // A box flipped by geometry in every other view (equal support: the first, wrong, mode stays
+  // reported); the right views carry colour evidence (a colour lead of 0.25 at gain 4 = weight 2).
+  auto run = [](double gain) {
+    PoseEkfParams p = multi(3, 0.8);
+    p.colour_evidence_gain = gain;
+    MultiHypothesisPoseEkf mh(p);
+    std::mt19937 rng(11);
+    for (int i = 0; i < 20; ++i) {
+      const bool right = i % 2 == 1;
+      PoseMeasurement m = meas(jitter(right ? kTruth : kWrong, rng), 0.002, i);
+      if (right) m.mode_weight = mode_weight_from_colour(0.25, p.colour_evidence_gain);
+      mh.predict();
+      mh.update(m);
+    }
+    return rotation_distance_rad(mh.T_world_obj().rotation(), kTruth.rotation());
+  };
+  EXPECT_LT(run(4.0), 0.02);  // colour decides
+  EXPECT_GT(run(0.0), 1.0);   // colour ignored: the first mode is kept
+  EXPECT_DOUBLE_EQ(mode_weight_from_colour(-0.3, 4.0), 1.0);  // a negative lead is no evidence
+}
+
+}  // namespace
+}  // namespace orpe

@@ -11,6 +11,7 @@
 
 #include "orpe/core/error.h"
 #include "orpe/io/model_io.h"
+#include "orpe/pose/colour_score.h"
 #include "orpe/render/mesh_io.h"
 
 namespace orpe {
@@ -117,8 +118,9 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
   if (lower_extension(points->second) == ".ply") {
     MeshLoadOptions mo;
     mo.metres_per_unit = 1.0 / info.model_units_per_m;
-    mo.load_texture = false;
+    mo.warn_missing_texture = false;
     const TriangleMesh m = load_mesh(points->second, mo);
+    model.colour = model_colour_from_mesh(m);
     model.class_id = class_id;
     model.name = name;
     if (!m.triangles.empty()) sample_mesh_surface(m, surface_points, model);

@@ -11,6 +11,7 @@
 #include "orpe/core/error.h"
 #include "orpe/pipeline/instance_tracks.h"
 #include "orpe/pipeline/object_fusion.h"
+#include "orpe/pose/colour_score.h"
 #include "orpe/semantic/detection.h"
 
 namespace orpe {
@@ -100,6 +101,8 @@ std::string PipelineFrameResult::report() const {
 struct ObjectRpePipeline::Track {
   int class_id = 0;
   std::unique_ptr<ObjectPoseFusion> ekf;  // EKF variants
+  // Colour learned from the views at the fused pose (EKF variants, models without own colour).
+  std::unique_ptr<ColourLearner> colour;
   // Best single-view estimate (variants without the EKF).
   bool have_best = false;
   double best_score = -1e9;
@@ -146,8 +149,11 @@ ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const Datase
     for (const auto& [id, name] : dataset_.class_names) class_ids.push_back(id);
     semantic_ = std::make_unique<SemanticMapper>(params_.segmentation, params_.semantic, class_ids);
   }
-  if (!params_.variants.empty())
+  if (!params_.variants.empty()) {
     estimator_ = std::make_unique<ModelRegistrationEstimator>(params_.pose_registration);
+    // The registration ranks confusable poses by colour (pose_registration.colour_enabled).
+    estimator_uses_color_ = params_.pose_registration.colour.enabled;
+  }
   for (const auto& v : params_.variants) {
     VariantState s;
     s.config = v;
@@ -232,6 +238,21 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
       it->time_s = result_.total_ms / 1000.0;
   }
   return result_;
+}
+
+void ObjectRpePipeline::learn_colour(Track& track, const ObjectModel& model,
+                                     const SingleViewPose& sv, bool accepted,
+                                     const ObjectPoseFusion& fusion, const SE3& T_world_cam,
+                                     const ColorImage& color, const DepthImage& depth,
+                                     const MaskImage& mask, const PinholeIntrinsics& K) {
+  const ModelRegistrationParams& rp = params_.pose_registration;
+  if (!rp.colour.enabled || !rp.colour_learning.enabled || model.colour || color.empty() ||
+      !fusion.has_estimate())
+    return;
+  if (!track.colour) track.colour = std::make_unique<ColourLearner>(model, rp.colour_learning);
+  if (track.colour->observe(sv, accepted, fusion.accepted(), fusion.T_cam_obj(T_world_cam), color,
+                            depth, mask, K))
+    ++stats_.colour_views_learned;
 }
 
 void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam,
@@ -344,7 +365,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   const ColorImage& projected_color = need_projected ? view.color : frame.color;
 
   // Single-view estimates, computed once per distinct input. The colour source is part of the key
-  // only for estimators that use colour (the model-based registration does not).
+  // only for estimators that use colour (the model-based registration does when its colour ranking
+  // is on).
   const bool estimator_uses_color = estimator_uses_color_;
   std::map<std::tuple<int, int, int, int, int>, SingleViewPose> cache;
   result.variants.resize(variants_.size());
@@ -396,10 +418,11 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
       }
       const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
                              track->ekf->has_estimate();
-      const auto key = std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key,
-                                       cfg.projected_depth ? 1 : 0,
-                                       estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
-                                       use_prior ? static_cast<int>(vi) : -1);
+      const bool learned = track && track->colour && track->colour->model();
+      const auto key =
+          std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,
+                          estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
+                          use_prior || learned ? static_cast<int>(vi) : -1);
       auto cached = cache.find(key);
       if (c.report_only) {
         est.single_view = SingleViewPose{};
@@ -414,7 +437,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         in.color = cfg.projected_color ? &projected_color : &frame.color;
         in.intrinsics = K;
         in.class_id = c.class_id;
-        in.model = model;
+        in.model = learned ? track->colour->model() : model;
         if (use_prior) in.T_cam_obj_prior = track->ekf->T_cam_obj(T_world_cam);
         t0 = Clock::now();
         est.single_view = estimator_->estimate(in);
@@ -437,9 +460,15 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
             m.T_world_cam = T_world_cam;
             m.T_cam_obj = sv.T_cam_obj;
             m.mu_m = sv.mu_m;
+            if (sv.colour_used)
+              m.mode_weight =
+                  mode_weight_from_colour(sv.colour_margin, params_.pose_ekf.colour_evidence_gain);
             const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
             est.ekf_accepted = o.accepted;
             ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);
+            learn_colour(*track, *model, sv, o.accepted, fusion, T_world_cam,
+                         cfg.projected_color ? projected_color : frame.color,
+                         cfg.projected_depth ? projected_depth : frame.depth, *c.mask, K);
           }
           if (fusion.has_estimate()) {
             est.reported = true;

@@ -51,6 +51,8 @@
 namespace orpe {
 
 /// One configuration of the single-view inputs and the EKF switch (a row of the ablation table).
+class ObjectPoseFusion;
+
 struct PoseVariant {
   std::string name;
   bool projected_mask = true;
@@ -135,6 +137,7 @@ struct PipelineStats {
   int detections = 0;
   int single_view_estimates = 0, single_view_valid = 0, single_view_cache_hits = 0;
   int ekf_accepted = 0, ekf_rejected = 0;
+  int colour_views_learned = 0;  ///< views that taught an object its colour (learned from the map)
   double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
 };
 
@@ -195,6 +198,11 @@ class ObjectRpePipeline {
   struct VariantState;
   struct Candidate;
   void estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam, PipelineFrameResult& result);
+  /// Feeds the track's colour learner (pose_registration.colour_learn*; colour_score.h) with a view
+  /// the fusion has just seen, for models without colour of their own.
+  void learn_colour(Track& track, const ObjectModel& model, const SingleViewPose& sv, bool accepted,
+                    const ObjectPoseFusion& fusion, const SE3& T_world_cam, const ColorImage& color,
+                    const DepthImage& depth, const MaskImage& mask, const PinholeIntrinsics& K);
   /// Moves the pose tracks of instances the semantic map merged onto the survivors (the one with
   /// more fused views wins when both have a track).
   void hand_over_merged_tracks();

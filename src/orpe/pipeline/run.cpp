@@ -335,6 +335,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("counts.single_view_reused", st.single_view_cache_hits);
   js.set("counts.ekf_accepted", st.ekf_accepted);
   js.set("counts.ekf_rejected", st.ekf_rejected);
+  js.set("counts.colour_views_learned", st.colour_views_learned);
   const double n = std::max(summary.frames, 1);
   js.set("timing_ms.total.read", summary.read_ms);
   js.set("timing_ms.total.slam", st.slam_ms);

@@ -42,6 +42,8 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (free_space_window_px < 0 || free_space_window_px > 10)
     return fail("free_space_window_px must be in [0, 10]");
   if (free_space_model_points < 10) return fail("free_space_model_points must be >= 10");
+  if (std::string cwhy; !colour.IsValid(&cwhy) || !colour_learning.IsValid(&cwhy))
+    return fail(cwhy);
   if (min_inlier_fraction < 0 || min_inlier_fraction > 1)
     return fail("min_inlier_fraction must be in [0, 1]");
   return true;
@@ -88,6 +90,7 @@ struct Hypothesis {
   double inliers = 0;
   double violation = 0;
   double support = 0;
+  double colour = 0;  ///< colour NCC (rank_by_colour)
 };
 
 /// What scoring needs of the frame: depth min-filtered over a window (a model point is a free-space
@@ -427,6 +430,71 @@ void search(const ModelRegistrationParams& params, const std::vector<Mat3>& rota
   }
 }
 
+// ---- Colour ranking (step 5; colour_score.h). Kept apart from the geometric search above. ----
+
+/// Score lead of `chosen` over the best candidate at a rotation more than 0.3 rad away (0: none).
+double geometry_margin(const std::vector<Hypothesis>& candidates, const Hypothesis& chosen) {
+  double other = -1e9;
+  for (const auto& h : candidates)
+    if (rotation_distance_rad(h.T_cam_obj.rotation(), chosen.T_cam_obj.rotation()) > 0.3)
+      other = std::max(other, h.score);
+  return other > -1e8 ? chosen.score - other : 0.0;
+}
+
+/// Adds the best hypothesis's confusable poses (refined and scored), scores every candidate's
+/// colour and returns the index of the chosen one, or -1 (no colour: keep the geometric choice).
+int rank_by_colour(const ModelRegistrationParams& params, const Registration& reg,
+                   const SegmentedCloud& cloud, const ObjectModel& model,
+                   const SingleViewInput& input, std::vector<Hypothesis>& refine,
+                   SingleViewPose& out) {
+  const ColourScoreParams& cp = params.colour;
+  if (!input.color || input.color->empty() || !has_usable_colour(model, cp) || refine.empty())
+    return -1;
+  auto geometric_best = [&]() {
+    return static_cast<size_t>(
+        std::max_element(refine.begin(), refine.end(),
+                         [](const auto& a, const auto& b) { return a.score < b.score; }) -
+        refine.begin());
+  };
+  if (cp.try_flips) {
+    const std::vector<SE3> flips = confusable_poses(model, refine[geometric_best()].T_cam_obj);
+    std::vector<Hypothesis> extra(flips.size());
+    const double start =
+        std::max(params.refine_max_corr_factor * model.diameter_m, params.final_max_corr_m);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int i = 0; i < static_cast<int>(flips.size()); ++i) {
+      Hypothesis& h = extra[static_cast<size_t>(i)];
+      h.T_cam_obj = reg.icp(cloud.points, flips[static_cast<size_t>(i)], params.refine_iterations,
+                            start, params.final_max_corr_m, false);
+      reg.score(cloud.points, h, false);
+    }
+    refine.insert(refine.end(), extra.begin(), extra.end());
+  }
+  const double best_geometry = refine[geometric_best()].score;
+  int chosen = -1;
+  double chosen_rank = -1e9;
+  for (size_t i = 0; i < refine.size(); ++i) {
+    Hypothesis& h = refine[i];
+    if (h.score < best_geometry - cp.geometry_margin) continue;
+    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth, *input.mask,
+                                input.intrinsics, cp)
+                   .ncc;
+    const double rank = h.score + cp.weight * h.colour;
+    if (rank > chosen_rank) chosen_rank = rank, chosen = static_cast<int>(i);
+  }
+  // Lead of the chosen pose's colour over the best other (distinct) candidate.
+  const Hypothesis& c = refine[static_cast<size_t>(chosen)];
+  double other = -1e9;
+  for (const auto& h : refine)
+    if (h.score >= best_geometry - cp.geometry_margin &&
+        rotation_distance_rad(h.T_cam_obj.rotation(), c.T_cam_obj.rotation()) > 0.3)
+      other = std::max(other, h.colour);
+  out.colour_used = true;
+  out.colour_ncc = c.colour;
+  out.colour_margin = other > -1e8 ? c.colour - other : 0.0;
+  return chosen;
+}
+
 }  // namespace
 
 ModelRegistrationEstimator::ModelRegistrationEstimator(const ModelRegistrationParams& params)
@@ -514,11 +582,17 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
         params.translation_search_occlusion >= 0 && occluded >= params.translation_search_occlusion;
     search(params_, rotations_, reg, cloud, diameter, input, translation_search, refine);
   }
-  const auto best = std::max_element(
-      refine.begin(), refine.end(), [](const auto& a, const auto& b) { return a.score < b.score; });
+  const int by_colour =
+      fixed_pose ? -1 : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
+  const auto best =
+      by_colour >= 0
+          ? refine.begin() + by_colour
+          : std::max_element(refine.begin(), refine.end(),
+                             [](const auto& a, const auto& b) { return a.score < b.score; });
 
   out.T_cam_obj = best->T_cam_obj;
   out.score = best->score;
+  out.geometry_margin = geometry_margin(refine, *best);
   out.inlier_fraction = best->inliers;
   out.free_space_violation = best->violation;
   out.mu_m = mean_model_distance_m(cloud.points, *model, out.T_cam_obj);

@@ -12,6 +12,10 @@
 //     depth are pulled onto the nearest observed point) on a small subset of the points; then a
 //     score.
 //  4. Refine the best distinct hypotheses on all points, score again, keep the best.
+//  5. Colour (when the model has colour and the input a colour image; pose_registration.colour_*):
+//     the best pose turned about the model's principal axes (its near-symmetries) is refined too,
+//     and the candidates whose geometric score is within colour_geometry_margin of the best are
+//     ranked by score + colour_weight * NCC of the image with the model's colour (colour_score.h).
 //
 // Score = fit - free_space_weight * violations, where fit = mean over the observed points of
 // max(0, 1 - d / inlier_distance) (d: distance to the model surface) and violations = fraction of
@@ -22,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "orpe/pose/colour_score.h"
 #include "orpe/pose/single_view.h"
 
 namespace orpe {
@@ -56,6 +61,10 @@ struct ModelRegistrationParams {
   int free_space_model_points = 500;
   double min_inlier_fraction = 0.3;
   int seed = 7;
+  /// Colour ranking of the candidates geometry cannot separate (colour_score.h).
+  ColourScoreParams colour;
+  /// Colour learned from the map for models without their own (the pipeline; colour_score.h).
+  ColourLearningParams colour_learning;
 
   template <class V>
   void visit(V&& v) {
@@ -110,6 +119,8 @@ struct ModelRegistrationParams {
     v("min_inlier_fraction", min_inlier_fraction,
       "Below this inlier fraction the estimate is invalid");
     v("seed", seed, "Seed of the deterministic point subsampling");
+    colour.visit(v);
+    colour_learning.visit(v);
   }
   bool IsValid(std::string* why) const;
   SegmentedCloudParams segmented_cloud() const;

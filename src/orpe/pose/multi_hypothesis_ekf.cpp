@@ -67,7 +67,8 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
     const PoseEkfStep s = h.ekf.update(m);
     if (!s.accepted) continue;  // cannot happen (same gate), but never count a rejected view
     joined_any = true;
-    h.evidence += params_.hypothesis_evidence == "kernel" ? 1.0 - d2[i] / params_.gate_chi2 : 1.0;
+    h.evidence += m.mode_weight *
+                  (params_.hypothesis_evidence == "kernel" ? 1.0 - d2[i] / params_.gate_chi2 : 1.0);
     h.score_sum += score;
     ++h.views;
     h.last_measurement = num_measurements_;
@@ -77,7 +78,8 @@ PoseEkfStep MultiHypothesisPoseEkf::update(const PoseMeasurement& m, double scor
 
   if (!joined_any) {
     // A mode no hypothesis explains: a new hypothesis, in place of the weakest one when full.
-    Hypothesis fresh{PoseEkf(hypothesis_params_, symmetry_), 1.0, score, 1, num_measurements_};
+    Hypothesis fresh{PoseEkf(hypothesis_params_, symmetry_), m.mode_weight, score, 1,
+                     num_measurements_};
     fresh.ekf.update(m);
     if (static_cast<int>(hypotheses_.size()) < params_.hypotheses) {
       hypotheses_.push_back(std::move(fresh));

@@ -13,7 +13,10 @@
 // Evidence of a hypothesis: the views that passed its gate, each weighted (`kernel`, default) by
 // 1 - d2 / gate_chi2 of its Mahalanobis distance d2 (an Epanechnikov kernel: a tight cluster of
 // views is a mode, views scattered to the edge of the gate are weak support), or 1 each (`count`);
-// each view first multiplies every hypothesis's evidence by `hypothesis_evidence_decay`. The
+// each view first multiplies every hypothesis's evidence by `hypothesis_evidence_decay`. A view's
+// contribution is multiplied by its PoseMeasurement::mode_weight: views whose colour singled out
+// their pose among the confusable ones (pose_ekf.colour_evidence_gain) count more than views whose
+// geometry alone could not tell the modes apart. The
 // reported state is the hypothesis with the most evidence, but the report moves only when another
 // hypothesis leads the reported one by more than `hypothesis_switch_margin` views: with two modes
 // supported equally (alternating views) the lead is below one view at any decay (1 / (1 + decay)),

@@ -10,6 +10,7 @@
 
 #include "orpe/core/error.h"
 #include "orpe/io/model_io.h"
+#include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
 
 namespace orpe {
@@ -241,6 +242,8 @@ ObjectModel load_object_model(const std::string& points_path, const ModelLoadOpt
     throw IoError(points_path, e.what());
   }
   if (options.detect_symmetry) model.symmetry = detect_symmetry(model);
+  if (options.load_colour && !options.mesh_path.empty())
+    model.colour = load_mesh_colour(options.mesh_path, 1.0 / options.units_per_m);
   return model;
 }
 

@@ -19,6 +19,7 @@
 namespace orpe {
 
 class ModelSearchIndex;  // kd-tree over the model points (model_search.h)
+struct ModelColour;      // surface samples with grey levels (colour_score.h)
 
 enum class SymmetryKind { kNone, kDiscrete, kContinuous };
 
@@ -53,6 +54,9 @@ struct ObjectModel {
   ObjectSymmetry symmetry;
   /// kd-tree over `points`; built by prepare_object_model(). Shared between copies.
   std::shared_ptr<const ModelSearchIndex> search_index;
+  /// Appearance (texture, vertex colours, or learned from views with known poses); null = none.
+  /// Shared between copies; used to rank the poses geometry cannot separate (colour_score.h).
+  std::shared_ptr<const ModelColour> colour;
 
   bool has_normals() const { return !normals.empty() && normals.size() == points.size(); }
   bool prepared() const { return search_index != nullptr && diameter_m > 0; }
@@ -75,6 +79,8 @@ struct ModelLoadOptions {
   bool use_mesh_vertices = false;
   /// Detect the geometric symmetry group from the points (detect_symmetry()).
   bool detect_symmetry = true;
+  /// Take the model's colour (colour_score.h) from the mesh's texture or vertex colours.
+  bool load_colour = true;
 };
 
 /// Loads an ASCII point file (io/model_io.h read_xyz_points), normals from the mesh when given,

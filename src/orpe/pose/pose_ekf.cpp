@@ -27,6 +27,8 @@ bool PoseEkfParams::IsValid(std::string* why) const {
     return fail("hypotheses > 1 needs a gate (gate_chi2 > 0) to tell the hypotheses apart");
   if (hypothesis_evidence != "count" && hypothesis_evidence != "kernel")
     return fail("hypothesis_evidence must be count or kernel, not '" + hypothesis_evidence + "'");
+  if (!(colour_evidence_gain >= 0) || colour_evidence_gain > 100)
+    return fail("colour_evidence_gain must be in [0, 100]");
   if (!(hypothesis_evidence_decay > 0) || hypothesis_evidence_decay > 1)
     return fail("hypothesis_evidence_decay must be in (0, 1]");
   if (!(hypothesis_switch_margin >= 0) || !std::isfinite(hypothesis_switch_margin))

@@ -41,6 +41,7 @@ struct PoseEkfParams {
   std::string hypothesis_evidence = "kernel";
   double hypothesis_evidence_decay = 0.95;
   double hypothesis_switch_margin = 1.0;
+  double colour_evidence_gain = 4.0;
 
   template <class V>
   void visit(V&& v) {
@@ -79,6 +80,10 @@ struct PoseEkfParams {
     v("hypothesis_switch_margin", hypothesis_switch_margin,
       "The reported hypothesis changes only when another one's evidence exceeds its own by more "
       "than this (views; hysteresis against flipping between equally supported modes)");
+    v("colour_evidence_gain", colour_evidence_gain,
+      "Colour in the competition of modes: a view whose colour singled out its pose (colour "
+      "lead L over the confusable poses, pose_registration.colour_*) adds 1 + gain * L times the "
+      "evidence of a geometry-only view; 0 = colour ignored");
   }
   bool IsValid(std::string* why) const;
 };
@@ -89,7 +94,15 @@ struct PoseMeasurement {
   SE3 T_world_cam;  ///< tracked camera pose of the frame
   SE3 T_cam_obj;    ///< single-view estimate
   double mu_m = 0;  ///< the estimator's mean model distance (m)
+  /// Evidence factor of this view for its mode (MultiHypothesisPoseEkf): 1 = a geometry-only view;
+  /// the pipeline passes mode_weight_from_colour() (> 1 when colour singled the pose out).
+  double mode_weight = 1.0;
 };
+
+/// 1 + gain * max(0, colour lead): the mode weight of a view with colour evidence.
+inline double mode_weight_from_colour(double colour_margin, double gain) {
+  return 1.0 + gain * (colour_margin > 0 ? colour_margin : 0.0);
+}
 
 /// What one update did, and the per-frame record kept in the history.
 struct PoseEkfStep {

@@ -48,6 +48,15 @@ struct SingleViewPose {
   double free_space_violation =
       0;  ///< fraction of model points seen in front of the observed depth
   double time_ms = 0;
+  /// Colour evidence (colour_score.h), when the model has colour and the input a colour image:
+  /// NCC of the image with the model's colour at T_cam_obj, and its lead over the best other
+  /// candidate pose that geometry could not exclude (0 when there was none or no colour).
+  /// Geometric score lead of T_cam_obj over the best refined candidate at another rotation (> 0.3
+  /// rad away; 0 when there was none): small = geometry alone cannot tell the modes apart.
+  double geometry_margin = 0;
+  bool colour_used = false;
+  double colour_ncc = 0;
+  double colour_margin = 0;
   std::string report() const;
 };
 

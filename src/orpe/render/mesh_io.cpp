@@ -43,9 +43,11 @@ std::string lower(std::string s) {
 /// Reads an 8-bit texture as RGB8 (OpenCV is BGR). Returns nullptr (with a warning) when
 /// unreadable.
 std::shared_ptr<const ColorImage> load_texture_image(const std::string& path,
-                                                     const std::string& mesh_path) {
+                                                     const std::string& mesh_path,
+                                                     bool warn_missing) {
   if (!fs::exists(path)) {
-    spdlog::warn("{}: texture '{}' not found; rendering without texture", mesh_path, path);
+    if (warn_missing)
+      spdlog::warn("{}: texture '{}' not found; rendering without texture", mesh_path, path);
     return nullptr;
   }
   cv::Mat m;
@@ -302,7 +304,8 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
     for (const auto& mname : tri_material) {
       auto it = materials.find(mname);
       if (it == materials.end() || it->second.texture_path.empty()) continue;
-      mesh.texture = load_texture_image(it->second.texture_path, path);
+      mesh.texture =
+          load_texture_image(it->second.texture_path, path, options.warn_missing_texture);
       texture_material = mname;
       break;
     }
@@ -763,7 +766,8 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
     mesh.triangles = std::move(faces);
   }
   if (options.load_texture && !texture_file.empty() && !mesh.uvs.empty())
-    mesh.texture = load_texture_image((fs::path(path).parent_path() / texture_file).string(), path);
+    mesh.texture = load_texture_image((fs::path(path).parent_path() / texture_file).string(), path,
+                                      options.warn_missing_texture);
   if (!mesh.texture)
     mesh.uvs.clear();
   else

@@ -25,6 +25,7 @@ struct MeshLoadOptions {
   /// Metres per file unit: 1 for files in metres (YCB OBJ), 0.001 for millimetres (BOP PLY).
   double metres_per_unit = 1.0;
   bool load_texture = true;  ///< read the texture image referenced by the file, when present
+  bool warn_missing_texture = true;  ///< warn when the referenced texture file does not exist
 };
 
 /// Loads an OBJ or PLY file (by extension, case-insensitive). Normals are computed when the file

@@ -1,0 +1,353 @@
+#include "orpe/pose/colour_score.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include "orpe/core/atomic_file.h"
+#include "orpe/core/error.h"
+#include "orpe/pose/model_search.h"
+#include "orpe/pose/object_model.h"
+#include "orpe/pose/single_view.h"
+#include "orpe/render/mesh.h"
+#include "orpe/render/mesh_io.h"
+
+namespace orpe {
+
+size_t ModelColour::num_known() const {
+  return static_cast<size_t>(
+      std::count_if(weight.begin(), weight.end(), [](float w) { return w > 0; }));
+}
+
+bool ModelColour::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  const size_t n = points.size();
+  if (normals.size() != n || grey.size() != n || weight.size() != n)
+    return fail("points, normals, grey and weight sizes differ");
+  for (size_t i = 0; i < n; ++i) {
+    if (!points[i].allFinite() || !normals[i].allFinite()) return fail("non-finite sample");
+    if (!(grey[i] >= 0 && grey[i] <= 1)) return fail("grey level outside [0, 1]");
+    if (!(weight[i] >= 0) || !std::isfinite(weight[i]))
+      return fail("negative or non-finite weight");
+  }
+  return true;
+}
+
+bool ColourScoreParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(weight >= 0 && weight <= 10)) return fail("colour_weight must be in [0, 10]");
+  if (!(geometry_margin >= 0 && geometry_margin <= 2))
+    return fail("colour_geometry_margin must be in [0, 2]");
+  if (min_pixels < 3) return fail("colour_min_pixels must be >= 3");
+  if (!(depth_tolerance_m > 0 && depth_tolerance_m <= 0.5))
+    return fail("colour_depth_tolerance_m must be in (0, 0.5]");
+  if (!(min_learned_fraction >= 0 && min_learned_fraction <= 1))
+    return fail("colour_min_learned_fraction must be in [0, 1]");
+  return true;
+}
+
+namespace {
+
+/// Grey level of the 3x3 box around (u, v) (clipped at the border).
+float box_grey(const ColorImage& image, int u, int v) {
+  float sum = 0;
+  int n = 0;
+  for (int dv = -1; dv <= 1; ++dv)
+    for (int du = -1; du <= 1; ++du) {
+      const int uu = u + du, vv = v + dv;
+      if (!image.in_bounds(uu, vv)) continue;
+      sum += grey_of(image.at(uu, vv));
+      ++n;
+    }
+  return n ? sum / static_cast<float>(n) : 0.0f;
+}
+
+/// Calls f(i, u, v) for every sample facing the camera, projecting inside `mask` (when not empty)
+/// onto a pixel whose observed depth is within `tol` of the sample's depth.
+template <class F>
+void for_each_visible(const std::vector<Eigen::Vector3f>& points,
+                      const std::vector<Eigen::Vector3f>& normals, const SE3& T_cam_obj,
+                      const DepthImage& depth, const MaskImage& mask, const PinholeIntrinsics& K,
+                      double tol, F&& f) {
+  const Eigen::Matrix3f R = T_cam_obj.rotation().cast<float>();
+  const Eigen::Vector3f t = T_cam_obj.translation().cast<float>();
+  const bool use_mask = !mask.empty();
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3f pc = R * points[i] + t;
+    if (pc.z() <= 0.01f) continue;
+    if ((R * normals[i]).dot(pc) > -0.1f * pc.norm()) continue;  // back-facing or grazing
+    const int u = static_cast<int>(std::lround(K.fx * pc.x() / pc.z() + K.cx));
+    const int v = static_cast<int>(std::lround(K.fy * pc.y() / pc.z() + K.cy));
+    if (!depth.in_bounds(u, v)) continue;
+    if (use_mask && !mask.at(u, v)) continue;
+    const float z = depth.at(u, v);
+    if (!(z > 0) || std::abs(z - pc.z()) > static_cast<float>(tol)) continue;
+    f(i, u, v);
+  }
+}
+
+/// Centre of the points' extent along each principal axis, and the axes (columns).
+void principal_frame(const std::vector<Eigen::Vector3f>& pts, Vec3& centre, Mat3& axes) {
+  Vec3 mean = Vec3::Zero();
+  for (const auto& p : pts) mean += p.cast<double>();
+  mean /= static_cast<double>(std::max<size_t>(pts.size(), 1));
+  Mat3 C = Mat3::Zero();
+  for (const auto& p : pts) {
+    const Vec3 d = p.cast<double>() - mean;
+    C += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(C);
+  axes = eig.eigenvectors();
+  Vec3 lo = Vec3::Constant(1e9), hi = Vec3::Constant(-1e9);
+  for (const auto& p : pts) {
+    const Vec3 q = axes.transpose() * (p.cast<double>() - mean);
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  centre = mean + axes * (0.5 * (lo + hi));
+}
+
+}  // namespace
+
+std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, int samples,
+                                                    unsigned seed) {
+  if ((!mesh.has_texture() && !mesh.has_colors()) || mesh.triangles.empty() || samples <= 0)
+    return nullptr;
+  TriangleMesh m = mesh;
+  if (m.normals.size() != m.vertices.size()) m.compute_vertex_normals();
+  std::vector<Rgb8> colours;
+  const std::vector<Eigen::Vector3d> pts =
+      sample_surface_points(m, static_cast<size_t>(samples), seed, &colours);
+  auto out = std::make_shared<ModelColour>();
+  out->source = mesh.has_texture() ? "texture" : "vertex colours";
+  // Normals: of the nearest vertex (the samples lie on its triangles).
+  std::vector<Eigen::Vector3f> verts = m.vertices;
+  const ModelSearchIndex index(verts);
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const Eigen::Vector3f p = pts[i].cast<float>();
+    float d2 = 0;
+    const std::uint32_t j = index.nearest(p, &d2);
+    out->points.push_back(p);
+    out->normals.push_back(m.normals[j].normalized());
+    out->grey.push_back(grey_of(colours[i]));
+    out->weight.push_back(1.0f);
+  }
+  return out;
+}
+
+std::shared_ptr<ModelColour> load_mesh_colour(const std::string& mesh_path, double metres_per_unit,
+                                              int samples) {
+  MeshLoadOptions mo;
+  mo.metres_per_unit = metres_per_unit;
+  mo.warn_missing_texture = false;
+  return model_colour_from_mesh(load_mesh(mesh_path, mo), samples);
+}
+
+ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                 const ColorImage& image, const DepthImage& depth,
+                                 const MaskImage& mask, const PinholeIntrinsics& K,
+                                 const ColourScoreParams& params) {
+  ColourAgreement out;
+  if (image.empty() || image.width() != depth.width() || image.height() != depth.height())
+    return out;
+  double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  for_each_visible(colour.points, colour.normals, T_cam_obj, depth, mask, K,
+                   params.depth_tolerance_m, [&](size_t i, int u, int v) {
+                     const double w = colour.weight[i];
+                     if (w <= 0) return;
+                     const double x = colour.grey[i], y = box_grey(image, u, v);
+                     sw += w, sx += w * x, sy += w * y;
+                     sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
+                     ++out.pixels;
+                   });
+  if (out.pixels < params.min_pixels || sw <= 0) return out;
+  const double mx = sx / sw, my = sy / sw;
+  const double vx = sxx / sw - mx * mx, vy = syy / sw - my * my, cxy = sxy / sw - mx * my;
+  if (vx < 1e-6 || vy < 1e-6) return out;  // a flat-coloured model or image says nothing
+  out.ncc = std::clamp(cxy / std::sqrt(vx * vy), -1.0, 1.0);
+  out.valid = true;
+  return out;
+}
+
+std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj) {
+  std::vector<SE3> out;
+  if (model.points.size() < 4) return out;
+  Vec3 c;
+  Mat3 axes;
+  principal_frame(model.points, c, axes);
+  auto about = [&](const Vec3& axis, const Vec3& point, double angle) {
+    const Mat3 R = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+    return T_cam_obj * SE3(R, point - R * point);
+  };
+  for (int k = 0; k < 3; ++k) out.push_back(about(axes.col(k), c, M_PI));
+  if (model.symmetry.continuous)
+    for (int k = 1; k < 12; ++k)
+      if (k != 6)
+        out.push_back(about(model.symmetry.axis_obj, model.symmetry.axis_point_obj, k * M_PI / 6));
+  return out;
+}
+
+bool has_usable_colour(const ObjectModel& model, const ColourScoreParams& params) {
+  if (!params.enabled || !model.colour || model.colour->size() == 0) return false;
+  return static_cast<double>(model.colour->num_known()) >=
+         params.min_learned_fraction * static_cast<double>(model.colour->size());
+}
+
+ModelColourAccumulator::ModelColourAccumulator(const ObjectModel& model) {
+  colour_.points = model.points;
+  colour_.normals = model.normals;
+  if (colour_.normals.size() != colour_.points.size())
+    throw std::invalid_argument("ModelColourAccumulator: the model has no normals (prepare it)");
+  sum_.assign(colour_.points.size(), 0.0);
+  count_.assign(colour_.points.size(), 0.0);
+}
+
+int ModelColourAccumulator::add_view(const SE3& T_cam_obj, const ColorImage& image,
+                                     const DepthImage& depth, const MaskImage& mask,
+                                     const PinholeIntrinsics& K, double depth_tolerance_m) {
+  if (image.empty() || image.width() != depth.width() || image.height() != depth.height()) return 0;
+  int n = 0;
+  for_each_visible(colour_.points, colour_.normals, T_cam_obj, depth, mask, K, depth_tolerance_m,
+                   [&](size_t i, int u, int v) {
+                     sum_[i] += box_grey(image, u, v);
+                     count_[i] += 1;
+                     ++n;
+                   });
+  ++views_;
+  return n;
+}
+
+void ModelColourAccumulator::merge(const ModelColourAccumulator& other) {
+  if (other.sum_.size() != sum_.size())
+    throw std::invalid_argument("ModelColourAccumulator::merge: different models");
+  for (size_t i = 0; i < sum_.size(); ++i) sum_[i] += other.sum_[i], count_[i] += other.count_[i];
+  views_ += other.views_;
+}
+
+std::shared_ptr<ModelColour> ModelColourAccumulator::result(const std::string& source) const {
+  auto out = std::make_shared<ModelColour>(colour_);
+  out->source = source;
+  out->grey.assign(colour_.points.size(), 0.0f);
+  out->weight.assign(colour_.points.size(), 0.0f);
+  for (size_t i = 0; i < colour_.points.size(); ++i)
+    if (count_[i] > 0) {
+      out->grey[i] = static_cast<float>(sum_[i] / count_[i]);
+      out->weight[i] = 1.0f;
+    }
+  return out;
+}
+
+bool ColourLearningParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (min_fused_views < 1) return fail("colour_learn_min_fused_views must be >= 1");
+  if (!(min_geometry_margin >= 0)) return fail("colour_learn_min_geometry_margin must be >= 0");
+  if (!(min_colour_margin >= 0)) return fail("colour_learn_min_colour_margin must be >= 0");
+  if (reset_after_contradictions < 1)
+    return fail("colour_learn_reset_after_contradictions must be >= 1");
+  if (!(depth_tolerance_m > 0 && depth_tolerance_m <= 0.5))
+    return fail("colour_learn_depth_tolerance_m must be in (0, 0.5]");
+  return true;
+}
+
+ColourLearner::ColourLearner(const ObjectModel& base, const ColourLearningParams& params)
+    : base_(base), params_(params) {
+  if (!base.has_normals()) throw std::invalid_argument("ColourLearner: the model has no normals");
+}
+
+bool ColourLearner::observe(const SingleViewPose& sv, bool accepted, int fused_views,
+                            const SE3& T_cam_obj_fused, const ColorImage& image,
+                            const DepthImage& depth, const MaskImage& mask,
+                            const PinholeIntrinsics& K) {
+  if (!params_.enabled || !sv.valid) return false;
+  const bool decisive = sv.geometry_margin >= params_.min_geometry_margin;
+  if (decisive && !accepted && acc_) {
+    if (++contradictions_ >= params_.reset_after_contradictions) {
+      acc_.reset();
+      model_.reset();
+      contradictions_ = 0;
+      ++resets_;
+    }
+    return false;
+  }
+  if (!accepted || fused_views < params_.min_fused_views) return false;
+  const bool confirmed_by_colour =
+      acc_ && sv.colour_used && sv.colour_margin >= params_.min_colour_margin;
+  if (!decisive && !confirmed_by_colour) return false;
+  if (!acc_) acc_ = std::make_unique<ModelColourAccumulator>(base_);
+  if (acc_->add_view(T_cam_obj_fused, image, depth, mask, K, params_.depth_tolerance_m) == 0)
+    return false;
+  if (!model_) model_ = std::make_unique<ObjectModel>(base_);
+  model_->colour = acc_->result("learned from the map");
+  ++views_learned_;
+  return true;
+}
+
+void write_model_colour(const std::string& path, const ModelColour& colour) {
+  std::string why;
+  if (!colour.IsValid(&why))
+    throw IoError(path, "refusing to write an invalid colour model: " + why);
+  write_file_atomic(path, [&](std::ostream& os) {
+    os << "# orpe model colour v1\nsource " << colour.source << "\n" << std::setprecision(7);
+    for (size_t i = 0; i < colour.size(); ++i) {
+      const auto& p = colour.points[i];
+      const auto& n = colour.normals[i];
+      os << p.x() << ' ' << p.y() << ' ' << p.z() << ' ' << n.x() << ' ' << n.y() << ' ' << n.z()
+         << ' ' << colour.grey[i] << ' ' << colour.weight[i] << '\n';
+    }
+  });
+}
+
+std::shared_ptr<ModelColour> read_model_colour(const std::string& path) {
+  std::ifstream is(path);
+  if (!is) throw IoError(path, "cannot open the colour model");
+  auto out = std::make_shared<ModelColour>();
+  std::string line;
+  int line_no = 0;
+  bool header = false;
+  while (std::getline(is, line)) {
+    ++line_no;
+    if (line_no == 1) {
+      header = line == "# orpe model colour v1";
+      if (!header) throw IoError(path, "line 1: expected '# orpe model colour v1'");
+      continue;
+    }
+    if (line.empty() || line[0] == '#') continue;
+    if (line.rfind("source ", 0) == 0) {
+      out->source = line.substr(7);
+      continue;
+    }
+    std::istringstream ls(line);
+    Eigen::Vector3f p, n;
+    float g = 0, w = 0;
+    std::string extra;
+    if (!(ls >> p.x() >> p.y() >> p.z() >> n.x() >> n.y() >> n.z() >> g >> w) || (ls >> extra))
+      throw IoError(path, "line " + std::to_string(line_no) +
+                              ": expected 8 numbers 'x y z nx ny nz grey weight'");
+    if (!p.allFinite() || !n.allFinite() || !(n.norm() > 0.5f) || !(g >= 0 && g <= 1) ||
+        !(w >= 0) || !std::isfinite(w))
+      throw IoError(path, "line " + std::to_string(line_no) +
+                              ": non-finite value, zero normal, grey outside [0, 1] or negative "
+                              "weight");
+    out->points.push_back(p);
+    out->normals.push_back(n.normalized());
+    out->grey.push_back(g);
+    out->weight.push_back(w);
+  }
+  if (!header) throw IoError(path, "empty file (expected '# orpe model colour v1')");
+  if (out->points.empty()) throw IoError(path, "no samples");
+  return out;
+}
+
+}  // namespace orpe

@@ -1,0 +1,208 @@
+// Colour evidence for the pose stage: which of the poses that geometry cannot tell apart (a box and
+// the same box turned 180 degrees, a can turned about its axis) shows the object's appearance where
+// the image shows it.
+//
+// The appearance of a model (ModelColour) is a set of surface samples in the object frame, each
+// with a grey level in [0, 1] and a weight (0 = unknown). Three sources:
+//  - the model's own colour: a textured mesh (OBJ + MTL + image, PLY + TextureFile) or per-vertex
+//    colours, sampled on the surface (model_colour_from_mesh);
+//  - annotated recordings: frames with known object poses (e.g. one YCB-Video clip) project the
+//    samples into each image and average the grey levels seen there (ModelColourAccumulator);
+//  - the map: the same accumulator fed with keyframes at the object's fused pose (pipeline).
+//
+// Score of a pose (colour_agreement): the samples facing the camera, inside the instance's mask and
+// not occluded (observed depth within `depth_tolerance_m` of the sample's) are projected into the
+// image; the score is the weighted normalised cross-correlation (NCC) of their grey levels with the
+// image's (3x3 box-filtered) grey levels. NCC is invariant to a gain and an offset of the image, so
+// a brighter or dimmer light does not change it; a flipped pose puts the wrong half of the texture
+// on the visible pixels and correlates near 0.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "orpe/core/camera.h"
+#include "orpe/core/image.h"
+#include "orpe/core/se3.h"
+
+namespace orpe {
+
+struct ObjectModel;
+struct TriangleMesh;
+
+struct ModelColour {
+  std::vector<Eigen::Vector3f> points;   ///< surface samples, metres, object frame
+  std::vector<Eigen::Vector3f> normals;  ///< unit, outward
+  std::vector<float> grey;               ///< [0, 1]
+  std::vector<float> weight;             ///< >= 0; 0 = colour unknown at this sample
+  std::string source;                    ///< "texture", "vertex colours", "learned: ..."
+
+  size_t size() const { return points.size(); }
+  /// Samples with a known colour.
+  size_t num_known() const;
+  /// Sizes consistent and finite values.
+  bool IsValid(std::string* why) const;
+};
+
+struct ColourScoreParams {
+  bool enabled = true;
+  double weight = 0.5;
+  double geometry_margin = 0.08;
+  int min_pixels = 60;
+  double depth_tolerance_m = 0.015;
+  bool try_flips = true;
+  double min_learned_fraction = 0.3;
+
+  template <class V>
+  void visit(V&& v) {
+    v("colour_enabled", enabled,
+      "Rank the candidate poses geometry cannot separate by colour agreement (needs a colour image "
+      "and a model with colour: texture, vertex colours or learned)");
+    v("colour_weight", weight,
+      "Weight of the colour NCC (in [-1, 1]) added to the geometric score of each candidate");
+    v("colour_geometry_margin", geometry_margin,
+      "Only candidates whose geometric score is within this of the best compete on colour");
+    v("colour_min_pixels", min_pixels,
+      "Fewer visible coloured samples -> no colour evidence for that candidate (NCC 0)");
+    v("colour_depth_tolerance_m", depth_tolerance_m,
+      "A sample is visible when the observed depth at its pixel is within this (m) of its own");
+    v("colour_try_flips", try_flips,
+      "Also refine the best pose turned 180 degrees about each principal axis of the model (and "
+      "by 60-degree steps about a continuous symmetry axis): the modes geometry confuses");
+    v("colour_min_learned_fraction", min_learned_fraction,
+      "A learned colour model is used only when this fraction of its samples has a colour");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+struct ColourAgreement {
+  double ncc = 0;  ///< weighted NCC in [-1, 1]; 0 when not valid
+  int pixels = 0;  ///< visible coloured samples used
+  bool valid = false;
+};
+
+/// Grey level in [0, 1] of an RGB8 colour (Rec. 601 luma).
+inline float grey_of(const Rgb8& c) {
+  return (0.299f * c.r + 0.587f * c.g + 0.114f * c.b) / 255.0f;
+}
+
+/// Samples `samples` points on the textured or vertex-coloured mesh (object frame, metres), with
+/// outward normals from the triangles. nullptr when the mesh has neither texture nor colours.
+std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, int samples = 20000,
+                                                    unsigned seed = 11);
+
+/// Loads a mesh file (OBJ/PLY, render/mesh_io.h) with its texture and samples its colour as above;
+/// nullptr when the mesh has neither texture nor vertex colours (a missing texture is no warning:
+/// most YCB meshes ship without theirs). Throws IoError for an unreadable mesh.
+std::shared_ptr<ModelColour> load_mesh_colour(const std::string& mesh_path, double metres_per_unit,
+                                              int samples = 20000);
+
+/// Agreement of the image with the model's colour at T_cam_obj (see above).
+ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                 const ColorImage& image, const DepthImage& depth,
+                                 const MaskImage& mask, const PinholeIntrinsics& K,
+                                 const ColourScoreParams& params);
+
+/// The poses geometry tends to confuse with T_cam_obj: T_cam_obj * S for S = 180-degree turns about
+/// the three principal axes of the model points (through their bounding-box centre), and 60-degree
+/// steps about the model's continuous symmetry axis when it has one.
+std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj);
+
+/// Whether `model` carries a colour model usable under `params`.
+bool has_usable_colour(const ObjectModel& model, const ColourScoreParams& params);
+
+/// Builds a colour model from frames with known object poses: each frame's visible samples get the
+/// grey level under them, averaged over frames (weight = number of views that saw the sample).
+/// Samples start from the model's own points and normals.
+class ModelColourAccumulator {
+ public:
+  explicit ModelColourAccumulator(const ObjectModel& model);
+  /// Adds one view. `mask` may be empty (all pixels; the depth test still rejects occlusion).
+  /// Returns the samples that received a colour.
+  int add_view(const SE3& T_cam_obj, const ColorImage& image, const DepthImage& depth,
+               const MaskImage& mask, const PinholeIntrinsics& K, double depth_tolerance_m = 0.01);
+  /// Adds another accumulator's views (same model).
+  void merge(const ModelColourAccumulator& other);
+  int views() const { return views_; }
+  /// The averaged colour (a copy); `source` names where it came from.
+  std::shared_ptr<ModelColour> result(const std::string& source) const;
+
+ private:
+  ModelColour colour_;
+  std::vector<double> sum_;
+  std::vector<double> count_;
+  int views_ = 0;
+};
+
+struct SingleViewPose;
+
+/// When an object's colour is learned from the map (models without colour of their own), and how
+/// a wrong mode is kept from being locked in: colour learned at a wrong pose would, from then on,
+/// confirm that wrong pose. So the colour is seeded only from views whose geometry alone singled
+/// out the pose (geometry_margin >= min_geometry_margin: e.g. a handle or a bump in sight) and
+/// that the fused pose agrees with (the view joined the reported mode, which has >= min_fused_views
+/// views); once seeded, views whose learned colour singles out their pose (colour lead >=
+/// min_colour_margin) extend it to the sides seen later. A geometry-decisive view that the fused
+/// pose rejects contradicts the learned colour: after `reset_after_contradictions` of them the
+/// learned colour is dropped and must be seeded again.
+struct ColourLearningParams {
+  bool enabled = true;
+  int min_fused_views = 3;
+  double min_geometry_margin = 0.05;
+  double min_colour_margin = 0.2;
+  int reset_after_contradictions = 2;
+  double depth_tolerance_m = 0.01;
+
+  template <class V>
+  void visit(V&& v) {
+    v("colour_learn", enabled,
+      "Learn the colour of models without their own from the views at the fused pose (needs the "
+      "EKF); used on later views");
+    v("colour_learn_min_fused_views", min_fused_views,
+      "Learn only once the fused pose has this many views");
+    v("colour_learn_min_geometry_margin", min_geometry_margin,
+      "Seed the colour only from views whose geometric score lead over other rotations is at "
+      "least this (geometry alone singled out the pose)");
+    v("colour_learn_min_colour_margin", min_colour_margin,
+      "Once seeded, also learn from views whose learned colour leads by at least this");
+    v("colour_learn_reset_after_contradictions", reset_after_contradictions,
+      "Drop the learned colour after this many geometry-decisive views the fused pose rejects");
+    v("colour_learn_depth_tolerance_m", depth_tolerance_m,
+      "Visibility test of a sample when learning (m)");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+/// The learning rule above for one object (one map instance).
+class ColourLearner {
+ public:
+  /// Throws std::invalid_argument when `base` has no normals.
+  ColourLearner(const ObjectModel& base, const ColourLearningParams& params);
+  /// One view: the view's single-view estimate `sv` (on the current model()), whether the fusion
+  /// put it into the reported mode, that mode's number of views, and the fused pose after the
+  /// update moved into this camera. Returns true when the view taught the colour.
+  bool observe(const SingleViewPose& sv, bool accepted, int fused_views, const SE3& T_cam_obj_fused,
+               const ColorImage& image, const DepthImage& depth, const MaskImage& mask,
+               const PinholeIntrinsics& K);
+  /// The base model with the learned colour; nullptr before the colour is seeded.
+  const ObjectModel* model() const { return model_.get(); }
+  int views_learned() const { return views_learned_; }
+  int resets() const { return resets_; }
+
+ private:
+  const ObjectModel& base_;
+  ColourLearningParams params_;
+  std::unique_ptr<ModelColourAccumulator> acc_;
+  std::unique_ptr<ObjectModel> model_;
+  int views_learned_ = 0, contradictions_ = 0, resets_ = 0;
+};
+
+/// Text file of a colour model: "# orpe model colour v1" then "source <text>" then one line per
+/// sample "x y z nx ny nz grey weight". Throws IoError naming the file (and line) on failure.
+void write_model_colour(const std::string& path, const ModelColour& colour);
+std::shared_ptr<ModelColour> read_model_colour(const std::string& path);
+
+}  // namespace orpe

@@ -1,0 +1,284 @@
+// Colour evidence of the pose stage (colour_score.h): a box whose six faces carry different
+// printed patterns, rendered with the project's rasteriser. Geometry cannot tell the box from the
+// box turned 180 degrees about any of its axes; colour can.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "orpe/core/error.h"
+#include "orpe/pose/colour_score.h"
+#include "orpe/pose/model_registration.h"
+#include "orpe/pose/single_view.h"
+#include "orpe/render/primitives.h"
+#include "orpe/render/rasterizer.h"
+
+namespace orpe {
+namespace {
+
+/// Six 48x48 tiles of random grey 6x6-pixel blocks, one per face (its own seed).
+std::shared_ptr<ColorImage> face_atlas() {
+  auto tex = std::make_shared<ColorImage>(6 * 48, 48);
+  for (int f = 0; f < 6; ++f) {
+    std::mt19937 rng(100 + f);
+    std::uniform_int_distribution<int> g(20, 235);
+    for (int by = 0; by < 8; ++by)
+      for (int bx = 0; bx < 8; ++bx) {
+        const auto c = static_cast<std::uint8_t>(g(rng));
+        for (int y = 0; y < 6; ++y)
+          for (int x = 0; x < 6; ++x) tex->at(f * 48 + bx * 6 + x, by * 6 + y) = {c, c, c};
+      }
+  }
+  return tex;
+}
+
+TriangleMesh printed_box() {
+  std::array<UvRect, 6> uv;
+  for (int f = 0; f < 6; ++f) uv[f] = {f / 6.0f, 0.0f, (f + 1) / 6.0f, 1.0f};
+  TriangleMesh mesh = make_box(Eigen::Vector3f(0.16f, 0.06f, 0.21f), 0.02f, &uv);
+  mesh.texture = face_atlas();
+  return mesh;
+}
+
+/// Geometry from the mesh's colour samples (so no model point disagrees with the rendering).
+ObjectModel box_model(const TriangleMesh& mesh, bool with_colour) {
+  const auto colour = model_colour_from_mesh(mesh, 20000);
+  ObjectModel m;
+  m.name = "printed box";
+  for (size_t i = 0; i < colour->size(); i += 10) {
+    m.points.push_back(colour->points[i]);
+    m.normals.push_back(colour->normals[i]);
+  }
+  prepare_object_model(m);
+  m.symmetry = detect_symmetry(m);
+  if (with_colour) m.colour = colour;
+  return m;
+}
+
+struct View {
+  PinholeIntrinsics K;
+  ColorImage color;
+  DepthImage depth;
+  MaskImage mask;
+};
+
+View render(const TriangleMesh& mesh, const SE3& T_cam_obj, const Light* light = nullptr) {
+  View v;
+  v.K.fx = v.K.fy = 600;
+  Rasterizer r;
+  const RenderItem item{&mesh, T_cam_obj, 1};
+  RenderBuffers b = r.render(v.K, std::span<const RenderItem>(&item, 1),
+                             kRenderDepth | kRenderIds | kRenderColor, light);
+  v.color = b.color;
+  v.depth = b.depth;
+  v.mask = MaskImage(b.ids.width(), b.ids.height(), 0);
+  for (size_t i = 0; i < v.mask.size(); ++i) v.mask[i] = b.ids[i] == 1;
+  return v;
+}
+
+/// A pose that shows the +y face (the "front", 0.16 x 0.21) turned a little, at 0.7 m.
+SE3 front_view(double yaw_rad, double pitch_rad) {
+  const Mat3 R = so3_exp(Vec3(-M_PI / 2 + pitch_rad, 0, 0)) * so3_exp(Vec3(0, 0, yaw_rad));
+  return SE3(R, Vec3(0.01, -0.02, 0.7));
+}
+
+double add_m(const ObjectModel& m, const SE3& a, const SE3& b) {
+  double s = 0;
+  for (const auto& p : m.points) s += (a * p.cast<double>() - b * p.cast<double>()).norm();
+  return s / static_cast<double>(m.points.size());
+}
+
+SingleViewInput input_of(const View& v, const ObjectModel& model) {
+  SingleViewInput in;
+  in.mask = &v.mask;
+  in.depth = &v.depth;
+  in.color = &v.color;
+  in.intrinsics = v.K;
+  in.model = &model;
+  return in;
+}
+
+TEST(ColourScore, TexturedBoxFromTheFrontRanksFrontAboveBack) {
+  const TriangleMesh mesh = printed_box();
+  const ObjectModel model = box_model(mesh, true);
+  const SE3 T = front_view(0.3, 0.25);
+  // A dimmer, differently directed light than the default: NCC does not care about the gain.
+  const Light dim{Eigen::Vector3f(0.4f, -0.2f, -1.0f), 0.2f, 0.4f};
+  for (const Light* light : {static_cast<const Light*>(nullptr), &dim}) {
+    const View v = render(mesh, T, light);
+    const ColourScoreParams cp;
+    const ColourAgreement at_truth =
+        colour_agreement(*model.colour, T, v.color, v.depth, v.mask, v.K, cp);
+    ASSERT_TRUE(at_truth.valid);
+    EXPECT_GT(at_truth.ncc, 0.7);
+    const std::vector<SE3> flips = confusable_poses(model, T);
+    ASSERT_EQ(flips.size(), 3u);  // a box: 180 degrees about each axis
+    for (const SE3& F : flips) {
+      EXPECT_GT(add_m(model, F, T), 0.03);  // really another pose
+      const ColourAgreement at_flip =
+          colour_agreement(*model.colour, F, v.color, v.depth, v.mask, v.K, cp);
+      EXPECT_LT(at_flip.ncc, at_truth.ncc - 0.4) << "a flipped box matches the print";
+    }
+  }
+}
+
+TEST(ColourScore, EstimatorPicksThePrintedSideAndNotWithoutColour) {
+  const TriangleMesh mesh = printed_box();
+  const ObjectModel model = box_model(mesh, true);
+  ModelRegistrationParams off;
+  off.colour.enabled = false;
+  const ModelRegistrationEstimator with_colour, without_colour(off);
+  int right_with = 0, right_without = 0, n = 0;
+  for (double yaw : {-0.5, 0.2, 0.6})
+    for (double pitch : {-0.3, 0.35}) {
+      const SE3 T = front_view(yaw, pitch);
+      const View v = render(mesh, T);
+      const SingleViewInput in = input_of(v, model);
+      const SingleViewPose a = with_colour.estimate(in), b = without_colour.estimate(in);
+      ASSERT_TRUE(a.valid && b.valid);
+      EXPECT_TRUE(a.colour_used);
+      EXPECT_FALSE(b.colour_used);
+      right_with += add_m(model, a.T_cam_obj, T) < 0.01;
+      right_without += add_m(model, b.T_cam_obj, T) < 0.01;
+      ++n;
+      if (add_m(model, a.T_cam_obj, T) < 0.01) {
+        EXPECT_GT(a.colour_margin, 0.3);
+      }
+    }
+  EXPECT_EQ(right_with, n);
+  // Geometry alone picks one of the four equivalent box poses: not always the printed side.
+  EXPECT_LT(right_without, n);
+}
+
+TEST(ColourScore, ColourLearnedFromViewsWithKnownPosesRanksLikeTheTexture) {
+  const TriangleMesh mesh = printed_box();
+  ObjectModel model = box_model(mesh, false);  // no colour of its own
+  // Learn from two views with known poses (front + sides, then the back), score a third view.
+  ModelColourAccumulator acc(model);
+  const SE3 back = front_view(0.2, 0.2) * SE3(so3_exp(Vec3(0, 0, M_PI)), Vec3::Zero());
+  for (const SE3& T : {front_view(-0.6, 0.3), back}) {
+    const View v = render(mesh, T);
+    EXPECT_GT(acc.add_view(T, v.color, v.depth, v.mask, v.K), 100);
+  }
+  model.colour = acc.result("learned in the test");
+  const ColourScoreParams cp;
+  EXPECT_TRUE(has_usable_colour(model, cp));
+  const SE3 T = front_view(0.4, -0.2);
+  const View v = render(mesh, T);
+  const double at_truth = colour_agreement(*model.colour, T, v.color, v.depth, v.mask, v.K, cp).ncc;
+  EXPECT_GT(at_truth, 0.6);
+  for (const SE3& F : confusable_poses(model, T))
+    EXPECT_LT(colour_agreement(*model.colour, F, v.color, v.depth, v.mask, v.K, cp).ncc,
+              at_truth - 0.3);
+  // Too little learned (one view sees under a third of the samples): not used.
+  ModelColourAccumulator one(model);
+  const View v1 = render(mesh, T);
+  one.add_view(T, v1.color, v1.depth, v1.mask, v1.K);
+  ObjectModel partial = model;
+  partial.colour = one.result("one view");
+  ColourScoreParams strict;
+  strict.min_learned_fraction = 0.6;
+  EXPECT_FALSE(has_usable_colour(partial, strict));
+  strict.enabled = false;
+  EXPECT_FALSE(has_usable_colour(model, strict));
+}
+
+TEST(ColourScore, ColourLearnedFromTheMapDisambiguatesLaterViews) {
+  const TriangleMesh mesh = printed_box();
+  const ObjectModel model = box_model(mesh, false);  // a model without colour
+  SingleViewPose decisive;                           // geometry alone singled out the pose
+  decisive.valid = true;
+  decisive.geometry_margin = 0.2;
+  SingleViewPose ambiguous = decisive;  // geometry could not tell the modes apart
+  ambiguous.geometry_margin = 0.01;
+  const SE3 T_a = front_view(-0.6, 0.3);
+  const SE3 T_b = front_view(0.2, 0.2) * SE3(so3_exp(Vec3(0, 0, M_PI)), Vec3::Zero());
+  const View a = render(mesh, T_a), b = render(mesh, T_b);
+
+  ColourLearner learner(model, ColourLearningParams{});
+  // Lock-in guard: an ambiguous view does not seed the colour (the fused pose may be the wrong
+  // mode), nor does a decisive view before the fused pose is confident or that it rejected.
+  EXPECT_FALSE(learner.observe(ambiguous, true, 5, T_a, a.color, a.depth, a.mask, a.K));
+  EXPECT_FALSE(learner.observe(decisive, true, 1, T_a, a.color, a.depth, a.mask, a.K));
+  EXPECT_FALSE(learner.observe(decisive, false, 5, T_a, a.color, a.depth, a.mask, a.K));
+  EXPECT_EQ(learner.model(), nullptr);
+  EXPECT_TRUE(learner.observe(decisive, true, 5, T_a, a.color, a.depth, a.mask, a.K));
+  // Once seeded, a view whose learned colour singles out its pose extends the colour.
+  SingleViewPose by_colour = ambiguous;
+  by_colour.colour_used = true;
+  by_colour.colour_margin = 0.5;
+  EXPECT_TRUE(learner.observe(by_colour, true, 6, T_b, b.color, b.depth, b.mask, b.K));
+  ASSERT_NE(learner.model(), nullptr);
+  EXPECT_EQ(learner.views_learned(), 2);
+
+  // Later views: the learned colour picks the printed side, geometry alone does not always.
+  const ModelRegistrationEstimator estimator;
+  int right_learned = 0, right_plain = 0, n = 0;
+  for (double yaw : {-0.4, 0.3, 0.5})
+    for (double pitch : {-0.25, 0.3}) {
+      const SE3 T = front_view(yaw, pitch);
+      const View v = render(mesh, T);
+      const SingleViewPose with = estimator.estimate(input_of(v, *learner.model()));
+      const SingleViewPose plain = estimator.estimate(input_of(v, model));
+      ASSERT_TRUE(with.valid && plain.valid);
+      EXPECT_TRUE(with.colour_used);
+      right_learned += add_m(model, with.T_cam_obj, T) < 0.01;
+      right_plain += add_m(model, plain.T_cam_obj, T) < 0.01;
+      ++n;
+    }
+  EXPECT_EQ(right_learned, n);
+  EXPECT_LT(right_plain, n);
+
+  // Decisive views the fused pose keeps rejecting: the learned colour is dropped.
+  EXPECT_FALSE(learner.observe(decisive, false, 6, T_a, a.color, a.depth, a.mask, a.K));
+  EXPECT_NE(learner.model(), nullptr);
+  EXPECT_FALSE(learner.observe(decisive, false, 6, T_a, a.color, a.depth, a.mask, a.K));
+  EXPECT_EQ(learner.model(), nullptr);
+  EXPECT_EQ(learner.resets(), 1);
+
+  // Learning switched off: nothing learned.
+  ColourLearningParams off;
+  off.enabled = false;
+  ColourLearner none(model, off);
+  EXPECT_FALSE(none.observe(decisive, true, 5, T_a, a.color, a.depth, a.mask, a.K));
+  EXPECT_EQ(none.model(), nullptr);
+}
+
+TEST(ColourScore, ColourFileRoundTripAndErrors) {
+  const TriangleMesh mesh = printed_box();
+  const auto colour = model_colour_from_mesh(mesh, 500);
+  ASSERT_TRUE(colour);
+  EXPECT_EQ(colour->source, "texture");
+  const std::string dir = ::testing::TempDir() + "/orpe_colour_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/box.colour.txt";
+  write_model_colour(path, *colour);
+  const auto back = read_model_colour(path);
+  ASSERT_EQ(back->size(), colour->size());
+  EXPECT_NEAR(back->grey[7], colour->grey[7], 1e-5);
+  EXPECT_EQ(back->source, "texture");
+  {
+    std::ofstream os(path);
+    os << "# orpe model colour v1\nsource x\n0 0 0 0 0 1 0.5\n";
+  }
+  try {
+    read_model_colour(path);
+    FAIL() << "a short line must be rejected";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("line 3"), std::string::npos) << e.what();
+  }
+  TriangleMesh plain = mesh;
+  plain.texture.reset();
+  EXPECT_EQ(model_colour_from_mesh(plain), nullptr);  // nothing to take colour from
+  ColourScoreParams bad;
+  bad.weight = -1;
+  EXPECT_FALSE(bad.IsValid(nullptr));
+  ModelRegistrationParams p;
+  p.colour.min_pixels = 0;
+  EXPECT_THROW(ModelRegistrationEstimator{p}, ConfigError);
+}
+
+}  // namespace
+}  // namespace orpe

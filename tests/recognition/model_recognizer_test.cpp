@@ -116,7 +116,7 @@ TEST(ModelRecognizer, ExplainsEachPointOnce) {
 TEST(ModelRecognizer, MergesFragmentsOfAnOccludedObject) {
   const auto& s = shapes();
   // A thin pole in front of the box splits its visible surface in two regions.
-  static const SurfaceSamples pole = test::sample_box({0.012f, 0.012f, 0.30f}, 0.0015f);
+  static const test::SurfaceSamples pole = test::sample_box({0.012f, 0.012f, 0.30f}, 0.0015f);
   const RgbdFrame f = test::render_table_scene(
       {{1, &s.box, TestShapes::on_table(0, 0, 0.0, 0.025)}}, Vec3(0.05, -0.5, 0.45),
       Vec3(0, 0, 0.03), 0, {{9, &pole, TestShapes::on_table(0.005, -0.15, 0, 0.15)}});
@@ -140,7 +140,7 @@ TEST(ModelRecognizer, MergesFragmentsOfAnOccludedObject) {
 
 TEST(ModelRecognizer, RejectsWhatNoModelExplains) {
   const auto& s = shapes();
-  static const SurfaceSamples slab = test::sample_box({0.25f, 0.02f, 0.09f}, 0.0015f);
+  static const test::SurfaceSamples slab = test::sample_box({0.25f, 0.02f, 0.09f}, 0.0015f);
   const RgbdFrame f = test::render_table_scene(
       {{2, &s.can, TestShapes::on_table(0.12, 0.02, 0, 0.055)},
        {9, &slab, TestShapes::on_table(-0.1, 0.0, 0.2, 0.045)}});

@@ -34,12 +34,18 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() { return std::string(i + 1 < argc ? argv[++i] : ""); };
-    if (a == "--data") data = next();
-    else if (a == "--videos") videos_arg = next();
-    else if (a == "--stride") stride = std::stoi(next());
-    else if (a == "--context") context = true;
-    else if (a == "--verbose") spdlog::set_level(spdlog::level::debug);
-    else if (a == "--set") orpe::apply_config_override(config, next());
+    if (a == "--data")
+      data = next();
+    else if (a == "--videos")
+      videos_arg = next();
+    else if (a == "--stride")
+      stride = std::stoi(next());
+    else if (a == "--context")
+      context = true;
+    else if (a == "--verbose")
+      spdlog::set_level(spdlog::level::debug);
+    else if (a == "--set")
+      orpe::apply_config_override(config, next());
     else {
       std::fprintf(stderr, "unknown argument %s\n", a.c_str());
       return 2;
@@ -140,11 +146,12 @@ int main(int argc, char** argv) {
       std::fflush(stdout);
     }
   }
-  std::printf("\nobjects %d, right class %d (%.1f %%), wrong class %d, spurious %d\n", objects, found,
-              100.0 * found / std::max(1, objects), wrong_class, spurious);
+  std::printf("\nobjects %d, right class %d (%.1f %%), wrong class %d, spurious %d\n", objects,
+              found, 100.0 * found / std::max(1, objects), wrong_class, spurious);
   std::printf("ADD-S AUC (misses count) %.2f\n", orpe::ycb_auc_percent(adds));
   std::printf("time per frame %.0f ms, first frames %.0f ms\n", total_ms / std::max(1, frames),
               first_ms / videos.size());
-  for (const auto& [name, c] : per_class) std::printf("  %-22s %d / %d\n", name.c_str(), c.first, c.second);
+  for (const auto& [name, c] : per_class)
+    std::printf("  %-22s %d / %d\n", name.c_str(), c.first, c.second);
   return 0;
 }

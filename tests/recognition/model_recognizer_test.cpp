@@ -35,7 +35,6 @@ std::map<int, int> class_counts(const std::vector<Detection>& dets) {
   return out;
 }
 
-
 TEST(SceneGeometry, RemovesTheSupportPlaneAndKeepsTheObject) {
   const auto& s = shapes();
   const PlacedObject box{1, &s.box, TestShapes::on_table(0, 0, 0.4, 0.025)};
@@ -64,9 +63,9 @@ TEST(SceneGeometry, RemovesTheSupportPlaneAndKeepsTheObject) {
 
 TEST(SceneGeometry, SplitsSeparateObjectsIntoRegions) {
   const auto& s = shapes();
-  const RgbdFrame f = test::render_table_scene(
-      {{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
-       {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
+                                {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
   const SceneGeometryParams gp;
   SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
   remove_support_planes(g, gp);
@@ -84,9 +83,9 @@ TEST(SceneGeometry, SplitsSeparateObjectsIntoRegions) {
 
 TEST(ModelRecognizer, RecognisesSeparateObjects) {
   const auto& s = shapes();
-  const RgbdFrame f = test::render_table_scene(
-      {{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
-       {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
+                                {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
   const auto dets = make_recognizer().detect(f);
   EXPECT_EQ(class_counts(dets), (std::map<int, int>{{1, 1}, {2, 1}}));
 }
@@ -96,9 +95,9 @@ TEST(ModelRecognizer, RecognisesSeparateObjects) {
 TEST(ModelRecognizer, DISABLED_SplitsTouchingObjectsOfOneRegion) {
   const auto& s = shapes();
   // The box and the cube side by side, touching: one region, two objects.
-  const RgbdFrame f = test::render_table_scene(
-      {{1, &s.box, TestShapes::on_table(-0.03, 0, 0, 0.025)},
-       {3, &s.cube, TestShapes::on_table(0.0525, 0.0, 0, 0.0225)}});
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.03, 0, 0, 0.025)},
+                                {3, &s.cube, TestShapes::on_table(0.0525, 0.0, 0, 0.0225)}});
   const SceneGeometryParams gp;
   SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
   remove_support_planes(g, gp);
@@ -110,7 +109,8 @@ TEST(ModelRecognizer, DISABLED_SplitsTouchingObjectsOfOneRegion) {
 TEST(ModelRecognizer, ExplainsEachPointOnce) {
   const auto& s = shapes();
   // The cube fits inside the box's points; with joint verification only the box survives.
-  const RgbdFrame f = test::render_table_scene({{1, &s.box, TestShapes::on_table(0, 0, 0.5, 0.025)}});
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(0, 0, 0.5, 0.025)}});
   const auto dets = make_recognizer().detect(f);
   EXPECT_EQ(class_counts(dets), (std::map<int, int>{{1, 1}}));
 }
@@ -145,17 +145,17 @@ TEST(ModelRecognizer, MergesFragmentsOfAnOccludedObject) {
 TEST(ModelRecognizer, DISABLED_RejectsWhatNoModelExplains) {
   const auto& s = shapes();
   static const test::SurfaceSamples slab = test::sample_box({0.25f, 0.02f, 0.09f}, 0.0015f);
-  const RgbdFrame f = test::render_table_scene(
-      {{2, &s.can, TestShapes::on_table(0.12, 0.02, 0, 0.055)},
-       {9, &slab, TestShapes::on_table(-0.1, 0.0, 0.2, 0.045)}});
+  const RgbdFrame f =
+      test::render_table_scene({{2, &s.can, TestShapes::on_table(0.12, 0.02, 0, 0.055)},
+                                {9, &slab, TestShapes::on_table(-0.1, 0.0, 0.2, 0.045)}});
   EXPECT_EQ(class_counts(make_recognizer().detect(f)), (std::map<int, int>{{2, 1}}));
 }
 
 TEST(ModelRecognizer, ClassRestriction) {
   const auto& s = shapes();
-  const RgbdFrame f = test::render_table_scene(
-      {{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
-       {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
+                                {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
   const auto only_cans = make_recognizer({2}).detect(f);
   ASSERT_FALSE(only_cans.empty());
   for (const auto& d : only_cans) EXPECT_EQ(d.class_id, 2);

@@ -33,7 +33,7 @@ ObjectRpeParams model_backend_params(const std::string& classes = "") {
 
 struct RunOutput {
   std::vector<std::vector<Detection>> detections;  // per keyframe
-  std::map<int, int> instance_classes;              // instance id -> argmax class
+  std::map<int, int> instance_classes;             // instance id -> argmax class
 };
 
 RunOutput run_pipeline(const std::string& scene, const ObjectRpeParams& params) {

@@ -41,7 +41,8 @@ struct TestShapes {
   }
   /// Pose resting on the table at (x, y), turned by yaw about z; `half_height` of the shape.
   static SE3 on_table(double x, double y, double yaw_rad, double half_height) {
-    return SE3(Eigen::AngleAxisd(yaw_rad, Vec3::UnitZ()).toRotationMatrix(), Vec3(x, y, half_height));
+    return SE3(Eigen::AngleAxisd(yaw_rad, Vec3::UnitZ()).toRotationMatrix(),
+               Vec3(x, y, half_height));
   }
 };
 

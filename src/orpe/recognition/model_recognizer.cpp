@@ -5,8 +5,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -174,7 +174,8 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
     else if (q.z() < z + margin)
       ++supported;
   }
-  h.support = supported + violated > 0 ? static_cast<double>(supported) / (supported + violated) : 0;
+  h.support =
+      supported + violated > 0 ? static_cast<double>(supported) / (supported + violated) : 0;
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
 }
 
@@ -191,7 +192,8 @@ Vec3f principal_extents(const std::vector<Vec3f>& pts) {
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
   Vec3f lo = Vec3f::Constant(1e9f), hi = -lo;
   for (const auto& p : pts) {
-    const Vec3f q = es.eigenvectors().transpose().cast<float>() * (p.cast<float>() - mean.cast<float>());
+    const Vec3f q =
+        es.eigenvectors().transpose().cast<float>() * (p.cast<float>() - mean.cast<float>());
     lo = lo.cwiseMin(q);
     hi = hi.cwiseMax(q);
   }
@@ -359,7 +361,8 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
       const float r = static_cast<float>(0.6 * models_[mi].diameter_m);
       std::vector<int> cells;
       for (size_t k = 0; k < g.kept.size(); ++k)
-        if (g.kept[k] && (g.points[k] - c).squaredNorm() < r * r) cells.push_back(static_cast<int>(k));
+        if (g.kept[k] && (g.points[k] - c).squaredNorm() < r * r)
+          cells.push_back(static_cast<int>(k));
       Hypothesis h;
       ++last_registrations_;
       if (!register_crop(mi, cells, &prior, &h)) continue;

@@ -7,8 +7,8 @@
 //  2. Hypotheses: the objects already known (tracks from earlier keyframes, kept in the world frame
 //     with the tracked camera pose) are refined from their last pose; every region, or the part of
 //     it the refined objects leave unexplained, is searched: each candidate model is registered
-//     (ModelRegistrationEstimator, pose stage) to the region, or, when the region is larger than the
-//     model, to crops of it around seeds spread over the region.
+//     (ModelRegistrationEstimator, pose stage) to the region, or, when the region is larger than
+//     the model, to crops of it around seeds spread over the region.
 //  3. Joint verification: each hypothesis is scored against the whole scene -- the observed points
 //     it explains (within inlier_distance_m of the model surface), the fraction of its visible
 //     surface on the observed depth (support), the model points in observed free space or below
@@ -36,7 +36,7 @@ namespace orpe {
 
 struct RecognitionParams {
   // Search (registration of a model to a region or crop).
-  int search_rotations = 32;    ///< rotation grid of the search (pose stage: 160)
+  int search_rotations = 32;  ///< rotation grid of the search (pose stage: 160)
   int search_coarse_points = 40;
   int search_refine_top_k = 2;
   int search_max_points = 250;
@@ -50,17 +50,17 @@ struct RecognitionParams {
   double inlier_distance_m = 0.01;
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
-  double min_support = 0.55;       ///< visible model points on the observed depth, fraction
-  double max_violation = 0.15;     ///< model points in free space or below the support, fraction
-  int min_explained_points = 25;   ///< grid points a hypothesis must newly explain
-  double min_new_fraction = 0.6;   ///< of its explained points not explained by a kept one
+  double min_support = 0.55;         ///< visible model points on the observed depth, fraction
+  double max_violation = 0.15;       ///< model points in free space or below the support, fraction
+  int min_explained_points = 25;     ///< grid points a hypothesis must newly explain
+  double min_new_fraction = 0.6;     ///< of its explained points not explained by a kept one
   double min_inlier_fraction = 0.5;  ///< of the crop's points the fit explains
   double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
   double max_boundary_leak = 0.25;   ///< outline fraction continuing into unexplained surface
   double boundary_continuation_m = 0.015;
   // Tracks (objects known from earlier keyframes).
-  double track_bonus = 1.5;         ///< ranking factor of a refined known object
-  int track_max_misses = 3;         ///< keyframes in view without being kept before it is dropped
+  double track_bonus = 1.5;          ///< ranking factor of a refined known object
+  int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
   int reject_memory_keyframes = 10;  ///< keyframes a rejected region is not searched again
   double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
   double detection_probability = 0.9;  ///< soft mask value on the explained pixels
@@ -122,8 +122,8 @@ struct RecognitionParams {
 };
 
 /// The class ids named by `spec` (comma-separated names or ids; empty = every class of
-/// `class_names` that `has_model` accepts), sorted. Throws ConfigError for an unknown name or id, or
-/// when no class is left.
+/// `class_names` that `has_model` accepts), sorted. Throws ConfigError for an unknown name or id,
+/// or when no class is left.
 std::vector<int> resolve_model_classes(const std::string& spec,
                                        const std::map<int, std::string>& class_names,
                                        const std::vector<int>& classes_with_models);

@@ -53,16 +53,25 @@ SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
 
 namespace {
 
+/// Mean and covariance (sum of outer products / n) of points.
+void mean_covariance(const std::vector<Eigen::Vector3f>& pts, Eigen::Vector3d* mean,
+                     Eigen::Matrix3d* cov) {
+  *mean = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) *mean += p.cast<double>();
+  *mean /= static_cast<double>(pts.size());
+  *cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = p.cast<double>() - *mean;
+    *cov += q * q.transpose();
+  }
+  *cov /= static_cast<double>(pts.size());
+}
+
 /// Least-squares plane through points, oriented towards the camera (origin).
 Plane fit_plane(const std::vector<Eigen::Vector3f>& pts) {
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& p : pts) mean += p.cast<double>();
-  mean /= static_cast<double>(pts.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = p.cast<double>() - mean;
-    cov += q * q.transpose();
-  }
+  Eigen::Vector3d mean;
+  Eigen::Matrix3d cov;
+  mean_covariance(pts, &mean, &cov);
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
   Eigen::Vector3d n = es.eigenvectors().col(0);
   double d = -n.dot(mean);
@@ -78,22 +87,17 @@ Plane fit_plane(const std::vector<Eigen::Vector3f>& pts) {
 
 /// Spread (4 sigma) of points along the two in-plane principal axes: the smaller one.
 float plane_extent(const std::vector<Eigen::Vector3f>& pts) {
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& p : pts) mean += p.cast<double>();
-  mean /= static_cast<double>(pts.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = p.cast<double>() - mean;
-    cov += q * q.transpose();
-  }
-  cov /= static_cast<double>(pts.size());
+  Eigen::Vector3d mean;
+  Eigen::Matrix3d cov;
+  mean_covariance(pts, &mean, &cov);
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
   return static_cast<float>(4.0 * std::sqrt(std::max(0.0, es.eigenvalues()(1))));
 }
 
 /// Best RANSAC plane over the candidate cells; false when none qualifies.
-bool find_plane(const SceneGrid& g, const std::vector<int>& cells, const SceneGeometryParams& params,
-                std::mt19937& rng, size_t min_inliers, Plane* out) {
+bool find_plane(const SceneGrid& g, const std::vector<int>& cells,
+                const SceneGeometryParams& params, std::mt19937& rng, size_t min_inliers,
+                Plane* out) {
   if (cells.size() < 3) return false;
   const float tol = static_cast<float>(params.plane_distance_m);
   // Score on a strided subset for speed.
@@ -137,8 +141,8 @@ void remove_support_planes(SceneGrid& g, const SceneGeometryParams& params) {
   std::mt19937 rng(static_cast<unsigned>(params.seed));
   size_t valid = 0;
   for (auto v : g.valid) valid += v;
-  const size_t min_inliers =
-      std::max<size_t>(3, static_cast<size_t>(params.min_plane_fraction * static_cast<double>(valid)));
+  const size_t min_inliers = std::max<size_t>(
+      3, static_cast<size_t>(params.min_plane_fraction * static_cast<double>(valid)));
   const float tol = static_cast<float>(params.plane_distance_m);
   for (int k = 0; k < params.max_planes; ++k) {
     std::vector<int> cells;
@@ -166,8 +170,9 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
   auto joined = [&](int a, int b) {
     if (!g.kept[b]) return false;
     const float z = g.points[a].z();
-    const float tol = static_cast<float>(params.region_distance_m + params.region_distance_per_m * z) *
-                      static_cast<float>(g.stride) * 0.5f;
+    const float tol =
+        static_cast<float>(params.region_distance_m + params.region_distance_per_m * z) *
+        static_cast<float>(g.stride) * 0.5f;
     return (g.points[a] - g.points[b]).squaredNorm() < tol * tol;
   };
   std::vector<int> label(g.kept.size(), -1);

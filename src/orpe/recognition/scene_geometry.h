@@ -1,7 +1,7 @@
 // Scene geometry for model-based recognition: the frame's depth as a grid of camera-frame points,
-// support planes (table, floor, shelf boards, walls) found by RANSAC and removed, and the rest split
-// into connected regions at depth discontinuities. No ground truth, no colour: depth and intrinsics
-// only.
+// support planes (table, floor, shelf boards, walls) found by RANSAC and removed, and the rest
+// split into connected regions at depth discontinuities. No ground truth, no colour: depth and
+// intrinsics only.
 #pragma once
 
 #include <Eigen/Core>
@@ -15,16 +15,17 @@
 namespace orpe {
 
 struct SceneGeometryParams {
-  int grid_stride_px = 2;          ///< sample every n-th pixel in both directions
-  double min_depth_m = 0.1;        ///< depths outside [min, max] are ignored
+  int grid_stride_px = 2;    ///< sample every n-th pixel in both directions
+  double min_depth_m = 0.1;  ///< depths outside [min, max] are ignored
   double max_depth_m = 3.0;
-  int max_planes = 3;              ///< support planes removed (largest first)
-  double plane_distance_m = 0.012; ///< a point this close to a plane is on it (removed)
+  int max_planes = 3;                ///< support planes removed (largest first)
+  double plane_distance_m = 0.012;   ///< a point this close to a plane is on it (removed)
   double min_plane_fraction = 0.08;  ///< a plane needs this fraction of the valid points
   double min_plane_extent_m = 0.35;  ///< and inliers spread over at least this (2 sigma, both axes)
   int plane_iterations = 300;        ///< RANSAC samples per plane
   double max_height_above_plane_m = 0.45;  ///< points farther above the first plane are dropped
-  double region_distance_m = 0.008;  ///< neighbours closer than this + region_distance_per_m * z join
+  double region_distance_m =
+      0.008;  ///< neighbours closer than this + region_distance_per_m * z join
   double region_distance_per_m = 0.006;
   int min_region_points = 150;  ///< smaller regions are dropped (grid points)
   int seed = 7;
@@ -35,7 +36,8 @@ struct SceneGeometryParams {
     v("min_depth_m", min_depth_m, "Depths below this (m) are ignored");
     v("max_depth_m", max_depth_m, "Depths above this (m) are ignored");
     v("max_planes", max_planes, "Support planes (table, floor, walls) removed, largest first");
-    v("plane_distance_m", plane_distance_m, "Points within this distance (m) of a plane are removed");
+    v("plane_distance_m", plane_distance_m,
+      "Points within this distance (m) of a plane are removed");
     v("min_plane_fraction", min_plane_fraction,
       "A support plane holds at least this fraction of the valid points");
     v("min_plane_extent_m", min_plane_extent_m,
@@ -64,7 +66,7 @@ struct Plane {
 
 struct SceneGrid {
   int stride = 2;
-  int width = 0, height = 0;  ///< grid size (image size / stride)
+  int width = 0, height = 0;            ///< grid size (image size / stride)
   std::vector<Eigen::Vector3f> points;  ///< per grid cell, camera frame; z = 0 when invalid
   std::vector<std::uint8_t> valid;      ///< valid depth
   std::vector<std::uint8_t> kept;       ///< valid and not removed with a plane

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The README's demo, end to end: dependencies, build, a synthetic scene (orpe synth), the full
-# Object-RPE pipeline on it (orpe run --mode full), and its evaluation (trajectory ATE, 6D pose AUC,
+# Object-RPE pipeline on it (orpe run --mode full), recognising the objects from their models alone
+# (segmentation.backend=model: no labels, no training), and its evaluation (trajectory ATE, 6D pose AUC,
 # reconstruction error), with a short summary at the end.
 #
 #   bash scripts/demo.sh                 # outputs in /tmp/orpe_demo (ORPE_DEMO_DIR to change)
@@ -37,8 +38,8 @@ step "synthetic scene: $FRAMES frames, $OBJECTS objects, sensor noise on (orpe s
 "$ORPE" synth --out "$SCENE" --seed 3 --frames "$FRAMES" --objects "$OBJECTS" --scene table \
   --width 320 --height 240 --span-deg $((FRAMES * 3 / 2)) --preview-stride 0
 
-step "Object-RPE: SLAM + semantic mapping (degraded ground-truth detections) + poses + EKF"
-"$ORPE" run --dataset "$SCENE" --out "$RUN" --mode full \
+step "Object-RPE: SLAM + recognition of the known models (no ground truth) + semantic mapping + poses + EKF"
+"$ORPE" run --dataset "$SCENE" --out "$RUN" --mode full --set segmentation.backend=model \
   --set pipeline.progress_every_n_frames=8 | tee "$OUT/run.log"
 
 step "evaluation"

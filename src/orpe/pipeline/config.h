@@ -13,6 +13,7 @@
 #include "orpe/pipeline/pipeline_params.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
+#include "orpe/recognition/model_recognizer.h"
 #include "orpe/semantic/segmenter.h"
 #include "orpe/semantic/semantic_fusion.h"
 #include "orpe/slam/slam_system.h"
@@ -34,6 +35,8 @@ struct OrpeConfig {
   slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
   SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
   SemanticParams semantic;          ///< instance-aware semantic fusion
+  RecognitionParams recognition;    ///< segmentation.backend=model: hypotheses and verification
+  SceneGeometryParams recognition_geometry;  ///< segmentation.backend=model: planes and regions
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
   SynthParams synth;
@@ -52,6 +55,8 @@ struct OrpeConfig {
     v("slam_fusion", slam_fusion);
     v("segmentation", segmentation);
     v("semantic", semantic);
+    v("recognition", recognition);
+    v("recognition_geometry", recognition_geometry);
     v("pose_registration", pose_registration);
     v("pose_ekf", pose_ekf);
     v("synth", synth);

@@ -48,6 +48,8 @@ ObjectRpeParams ObjectRpeParams::from_config(const OrpeConfig& config) {
   p.slam = config.slam_params();
   p.segmentation = config.segmentation;
   p.semantic = config.semantic;
+  p.recognition = config.recognition;
+  p.recognition_geometry = config.recognition_geometry;
   p.pose_registration = config.pose_registration;
   p.pose_ekf = config.pose_ekf;
   p.pipeline = config.pipeline;
@@ -64,6 +66,8 @@ bool ObjectRpeParams::IsValid(std::string* why) const {
   if (!slam.IsValid(&r)) return fail("slam", r);
   if (!segmentation.IsValid(&r)) return fail("segmentation", r);
   if (!semantic.IsValid(&r)) return fail("semantic", r);
+  if (!recognition.IsValid(&r)) return fail("recognition", r);
+  if (!recognition_geometry.IsValid(&r)) return fail("recognition_geometry", r);
   if (!pose_registration.IsValid(&r)) return fail("pose_registration", r);
   if (!pose_ekf.IsValid(&r)) return fail("pose_ekf", r);
   if (!pipeline.IsValid(&r)) return fail("pipeline", r);
@@ -147,7 +151,12 @@ ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const Datase
   if (params_.semantic_mapping) {
     std::vector<int> class_ids;
     for (const auto& [id, name] : dataset_.class_names) class_ids.push_back(id);
-    semantic_ = std::make_unique<SemanticMapper>(params_.segmentation, params_.semantic, class_ids);
+    if (params_.segmentation.backend == "model")
+      semantic_ = std::make_unique<SemanticMapper>(make_model_recognizer(), params_.segmentation,
+                                                   params_.semantic);
+    else
+      semantic_ =
+          std::make_unique<SemanticMapper>(params_.segmentation, params_.semantic, class_ids);
   }
   if (!params_.variants.empty()) {
     estimator_ = std::make_unique<ModelRegistrationEstimator>(params_.pose_registration);
@@ -162,6 +171,17 @@ ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const Datase
 }
 
 ObjectRpePipeline::~ObjectRpePipeline() = default;
+
+std::unique_ptr<Segmenter> ObjectRpePipeline::make_model_recognizer() {
+  std::vector<int> with_models;
+  for (const auto& [id, path] : dataset_.model_points_paths) with_models.push_back(id);
+  const std::vector<int> classes =
+      resolve_model_classes(params_.segmentation.model_classes, dataset_.class_names, with_models);
+  std::vector<ObjectModel> models;
+  for (int id : classes) models.push_back(models_.get(id));  // IoError names a bad model file
+  return std::make_unique<ModelRecognizer>(params_.segmentation, params_.recognition,
+                                           params_.recognition_geometry, std::move(models));
+}
 
 void ObjectRpePipeline::set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator,
                                                   bool uses_color) {

@@ -44,6 +44,7 @@
 #include "orpe/pipeline/pipeline_params.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
+#include "orpe/recognition/model_recognizer.h"
 #include "orpe/semantic/instance_render.h"
 #include "orpe/semantic/semantic_mapper.h"
 #include "orpe/slam/slam_system.h"
@@ -69,6 +70,8 @@ struct ObjectRpeParams {
   slam::SlamParams slam;
   SegmentationParams segmentation;
   SemanticParams semantic;
+  RecognitionParams recognition;             ///< segmentation.backend=model
+  SceneGeometryParams recognition_geometry;  ///< segmentation.backend=model
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
   PipelineParams pipeline;
@@ -206,6 +209,8 @@ class ObjectRpePipeline {
   /// Moves the pose tracks of instances the semantic map merged onto the survivors (the one with
   /// more fused views wins when both have a track).
   void hand_over_merged_tracks();
+  /// The segmentation.backend=model recogniser over the dataset's (or model_classes') models.
+  std::unique_ptr<Segmenter> make_model_recognizer();
 
   ObjectRpeParams params_;
   DatasetInfo dataset_;

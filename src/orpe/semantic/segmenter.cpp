@@ -11,8 +11,8 @@ bool SegmentationParams::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (backend != "gt" && backend != "files")
-    return fail("backend must be gt or files (got '" + backend + "')");
+  if (backend != "gt" && backend != "files" && backend != "model")
+    return fail("backend must be gt, files or model (got '" + backend + "')");
   if (backend == "files" && files_dir.empty()) return fail("backend files needs files_dir");
   if (!(mask_threshold > 0 && mask_threshold < 1)) return fail("mask_threshold must be in (0, 1)");
   if (!(min_score >= 0 && min_score <= 1)) return fail("min_score must be in [0, 1]");
@@ -57,6 +57,10 @@ std::unique_ptr<Segmenter> make_segmenter(const SegmentationParams& params,
   if (!params.IsValid(&why)) throw ConfigError("segmentation: " + why);
   if (params.backend == "gt")
     return std::make_unique<GroundTruthSegmenter>(params, std::move(class_ids));
+  if (params.backend == "model")
+    throw ConfigError(
+        "segmentation: the model back-end needs the dataset's object models; construct "
+        "ModelRecognizer (orpe/recognition) and pass it to SemanticMapper (orpe run does)");
   return std::make_unique<FileSegmenter>(params);
 }
 

@@ -3,7 +3,9 @@
 //   - "gt":    the frame's ground-truth labels (labels_gt / objects_gt), optionally degraded by a
 //              seeded model of a real detector's errors (boundary erosion/dilation with soft edges
 //              just below 0.5, missed detections, wrong classes, spurious blobs);
-//   - "files": precomputed detections of any external detector (docs/SEMANTIC.md, "files format").
+//   - "files": precomputed detections of any external detector (docs/SEMANTIC.md, "files format");
+//   - "model": recognition of the dataset's object models from geometry alone (src/orpe/recognition;
+//              built by the pipeline, which has the models: make_segmenter() cannot create it).
 // A back-end is deterministic: the same frame (and seed) always gives the same detections.
 #pragma once
 
@@ -15,11 +17,18 @@
 #include "orpe/core/se3.h"
 #include "orpe/semantic/detection.h"
 
+namespace orpe::slam {
+class SurfelMap;
+}
+
 namespace orpe {
 
 struct SegmentationParams {
-  std::string backend = "gt";   ///< gt | files
+  std::string backend = "gt";   ///< gt | files | model
   std::string files_dir;        ///< files back-end: folder of <frame index:06d>.json + mask images
+  /// model back-end: comma-separated class names or ids to look for; empty = every model of the
+  /// dataset.
+  std::string model_classes;
   double mask_threshold = 0.5;  ///< soft mask -> binary mask (Mask R-CNN: 0.5)
   double min_score = 0.5;       ///< detections below this score are dropped (every back-end)
   int min_mask_area_px = 30;    ///< detections with fewer mask pixels are dropped (every back-end)
@@ -59,9 +68,14 @@ struct SegmentationParams {
   template <class V>
   void visit(V&& v) {
     v("backend", backend,
-      "Segmentation back-end: gt (ground-truth labels, optionally degraded) | files");
+      "Segmentation back-end: gt (ground-truth labels, optionally degraded) | files | model "
+      "(recognise the dataset's object models from geometry, no ground truth; section "
+      "recognition)");
     v("files_dir", files_dir,
       "files back-end: folder of <frame index:06d>.json + masks (docs/SEMANTIC.md)");
+    v("model_classes", model_classes,
+      "model back-end: comma-separated class names or ids to look for (empty = every model of "
+      "the dataset)");
     v("mask_threshold", mask_threshold, "Soft mask -> binary mask threshold (Mask R-CNN: 0.5)");
     v("min_score", min_score, "Detections with a lower score are dropped, in [0, 1]");
     v("min_mask_area_px", min_mask_area_px, "Detections with fewer mask pixels are dropped");
@@ -108,6 +122,13 @@ struct SegmentationParams {
   bool IsValid(std::string* why) const;
 };
 
+/// What a back-end may use besides the frame (never ground truth): the tracked camera pose and the
+/// map as fused up to this frame.
+struct SegmentationContext {
+  SE3 T_world_cam;
+  const slam::SurfelMap* map = nullptr;  ///< may be null
+};
+
 class Segmenter {
  public:
   virtual ~Segmenter() = default;
@@ -115,6 +136,14 @@ class Segmenter {
   /// Detections of one frame, already filtered by min_score and min_mask_area_px. Throws IoError
   /// (naming the file) for unreadable detector output, never returns half a frame.
   virtual std::vector<Detection> detect(const RgbdFrame& frame) const = 0;
+  /// The call of SemanticMapper on each keyframe, in order. Back-ends that carry state across
+  /// keyframes (the model back-end refines the objects it already knows) override it; the default
+  /// is detect(frame).
+  virtual std::vector<Detection> detect_in_context(const RgbdFrame& frame,
+                                                   const SegmentationContext& context) {
+    (void)context;
+    return detect(frame);
+  }
 };
 
 /// Creates the back-end named by params.backend. `class_ids` are the dataset's classes (the pool of

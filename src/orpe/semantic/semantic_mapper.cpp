@@ -56,7 +56,10 @@ const SemanticStep& SemanticMapper::process(const RgbdFrame& frame, const SE3& T
   if (!step_.keyframe) return step_;
   ++keyframes_;
   const auto t0 = std::chrono::steady_clock::now();
-  step_.detections = segmenter_->detect(frame);
+  SegmentationContext context;
+  context.T_world_cam = T_world_cam;
+  context.map = &map;
+  step_.detections = segmenter_->detect_in_context(frame, context);
   segment_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   detections_ += static_cast<int>(step_.detections.size());

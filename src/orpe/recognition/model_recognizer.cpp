@@ -1,0 +1,579 @@
+#include "orpe/recognition/model_recognizer.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+#include "orpe/core/error.h"
+#include "orpe/pose/model_search.h"
+
+namespace orpe {
+
+bool RecognitionParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (search_rotations < 1) return fail("search_rotations must be >= 1");
+  if (search_coarse_points < 6) return fail("search_coarse_points must be >= 6");
+  if (search_refine_top_k < 1) return fail("search_refine_top_k must be >= 1");
+  if (search_max_points < 30) return fail("search_max_points must be >= 30");
+  if (!(max_extent_factor > 0) || !(min_extent_factor >= 0) ||
+      !(min_extent_factor < max_extent_factor))
+    return fail("need 0 <= min_extent_factor < max_extent_factor");
+  if (!(crop_radius_factor > 0) || !(crop_spacing_factor > 0))
+    return fail("crop_radius_factor and crop_spacing_factor must be > 0");
+  if (max_crops < 1) return fail("max_crops must be >= 1");
+  if (!(inlier_distance_m > 0) || !(free_space_margin_m > 0) || !(below_plane_margin_m > 0))
+    return fail("inlier_distance_m, free_space_margin_m, below_plane_margin_m must be > 0");
+  for (double f :
+       {min_support, max_violation, min_new_fraction, min_inlier_fraction, min_region_coverage})
+    if (!(f >= 0 && f <= 1))
+      return fail("min_support, max_violation, min_new_fraction, min_inlier_fraction in [0, 1]");
+  if (min_explained_points < 1) return fail("min_explained_points must be >= 1");
+  if (!(max_boundary_leak >= 0 && max_boundary_leak <= 1) || !(boundary_continuation_m > 0))
+    return fail("max_boundary_leak must be in [0, 1], boundary_continuation_m > 0");
+  if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
+  if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
+  if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
+  if (!(reject_radius_m >= 0)) return fail("reject_radius_m must be >= 0");
+  if (!(detection_probability > 0.5 && detection_probability <= 1))
+    return fail("detection_probability must be in (0.5, 1]");
+  return true;
+}
+
+std::vector<int> resolve_model_classes(const std::string& spec,
+                                       const std::map<int, std::string>& class_names,
+                                       const std::vector<int>& classes_with_models) {
+  auto has_model = [&](int id) {
+    return std::find(classes_with_models.begin(), classes_with_models.end(), id) !=
+           classes_with_models.end();
+  };
+  auto known = [&]() {
+    std::string s;
+    for (int id : classes_with_models) {
+      if (!s.empty()) s += ", ";
+      const auto it = class_names.find(id);
+      s += it != class_names.end() ? fmt::format("{} ({})", it->second, id) : std::to_string(id);
+    }
+    return s.empty() ? std::string("none") : s;
+  };
+  if (classes_with_models.empty())
+    throw ConfigError(
+        "segmentation.backend=model: the dataset has no object models (nothing to recognise)");
+  std::vector<int> out;
+  if (spec.find_first_not_of(" ,") == std::string::npos) {
+    out = classes_with_models;
+  } else {
+    std::stringstream ss(spec);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      const auto b = item.find_first_not_of(' '), e = item.find_last_not_of(' ');
+      if (b == std::string::npos) continue;
+      item = item.substr(b, e - b + 1);
+      int id = 0;
+      for (const auto& [cid, name] : class_names)
+        if (name == item) id = cid;
+      if (id == 0 && item.find_first_not_of("0123456789") == std::string::npos && item.size() < 9)
+        id = std::stoi(item);
+      if (id == 0 || !has_model(id))
+        throw ConfigError("segmentation.model_classes: unknown class '" + item +
+                          "' (classes with a model: " + known() + ")");
+      out.push_back(id);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+namespace {
+
+using Vec3f = Eigen::Vector3f;
+
+ModelRegistrationParams search_params(const RecognitionParams& p) {
+  ModelRegistrationParams r;
+  r.num_rotations = p.search_rotations;
+  r.coarse_points = p.search_coarse_points;
+  r.refine_top_k = p.search_refine_top_k;
+  r.max_points = p.search_max_points;
+  r.min_points = 20;
+  r.erode_px = 1;
+  r.refine_iterations = 15;
+  r.translation_search_occlusion = -1;  // crops cut regions: their borders are no occlusion cue
+  r.min_inlier_fraction = p.min_inlier_fraction;
+  return r;
+}
+
+/// A refinement from a prior: one grid rotation (the prior is the other hypothesis).
+ModelRegistrationParams refine_params(const RecognitionParams& p) {
+  ModelRegistrationParams r = search_params(p);
+  r.num_rotations = 1;
+  r.refine_top_k = 1;
+  r.translation_search_occlusion = -1;
+  return r;
+}
+
+struct Hypothesis {
+  int model = 0;  // index into models_
+  SE3 T_cam_obj;
+  std::vector<int> explained;  // grid cells, sorted
+  double support = 0, violation = 0;
+  bool from_track = false;
+  int track = -1;
+  double rank = 0;
+};
+
+/// A hypothesis against the whole scene: explained kept cells, support and violations.
+void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics& K,
+            const ObjectModel& model, const RecognitionParams& p, Hypothesis& h) {
+  const SE3 T_obj_cam = h.T_cam_obj.inverse();
+  const Eigen::Matrix3f R_oc = T_obj_cam.rotation().cast<float>();
+  const Vec3f t_oc = T_obj_cam.translation().cast<float>();
+  const Vec3f centre = (h.T_cam_obj * Vec3::Zero()).cast<float>();
+  const float reach = static_cast<float>(model.diameter_m + p.inlier_distance_m);
+  const float d2 = static_cast<float>(p.inlier_distance_m * p.inlier_distance_m);
+  h.explained.clear();
+  for (size_t c = 0; c < g.kept.size(); ++c) {
+    if (!g.kept[c] || (g.points[c] - centre).squaredNorm() > reach * reach) continue;
+    float dist2 = 0;
+    model.search_index->nearest(R_oc * g.points[c] + t_oc, &dist2);
+    if (dist2 < d2) h.explained.push_back(static_cast<int>(c));
+  }
+  // Visible model points against the observed depth; every model point against the support.
+  const Eigen::Matrix3f R = h.T_cam_obj.rotation().cast<float>();
+  const Vec3f t = h.T_cam_obj.translation().cast<float>();
+  const size_t n = model.points.size();
+  const size_t step = std::max<size_t>(1, n / 400);
+  int supported = 0, violated = 0, checked = 0, below = 0;
+  const float margin = static_cast<float>(p.free_space_margin_m);
+  for (size_t k = 0; k < n; k += step) {
+    const Vec3f q = R * model.points[k] + t;
+    ++checked;
+    if (!g.planes.empty() &&
+        g.planes.front().signed_distance(q) < -static_cast<float>(p.below_plane_margin_m)) {
+      ++below;
+      continue;
+    }
+    if (q.z() <= 0.05f) continue;
+    if (model.has_normals() && (R * model.normals[k]).dot(q) >= 0) continue;  // back-facing
+    const int u = static_cast<int>(std::lround(K.fx * q.x() / q.z() + K.cx));
+    const int v = static_cast<int>(std::lround(K.fy * q.y() / q.z() + K.cy));
+    if (!depth.in_bounds(u, v)) continue;
+    const float z = depth.at(u, v);
+    if (!(z > 0)) continue;
+    if (q.z() < z - margin)
+      ++violated;
+    else if (q.z() < z + margin)
+      ++supported;
+  }
+  h.support =
+      supported + violated > 0 ? static_cast<double>(supported) / (supported + violated) : 0;
+  h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
+}
+
+/// Extents (m) of points along their principal axes, largest first.
+Vec3f principal_extents(const std::vector<Vec3f>& pts) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) mean += p.cast<double>();
+  mean /= std::max<size_t>(1, pts.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = p.cast<double>() - mean;
+    cov += q * q.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  Vec3f lo = Vec3f::Constant(1e9f), hi = -lo;
+  for (const auto& p : pts) {
+    const Vec3f q =
+        es.eigenvectors().transpose().cast<float>() * (p.cast<float>() - mean.cast<float>());
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  Vec3f e = hi - lo;
+  std::sort(e.data(), e.data() + 3, std::greater<float>());
+  return e;
+}
+
+/// Whether observed points with extents `obs` can be a view of a model with extents `model`.
+bool extents_compatible(const Vec3f& obs, const Vec3f& model, const RecognitionParams& p) {
+  const float slack = static_cast<float>(p.extent_slack_m);
+  return obs[0] <= p.max_extent_factor * model[0] + slack &&
+         obs[1] <= p.max_extent_factor * model[1] + slack &&
+         obs[0] >= p.min_extent_factor * model[0];
+}
+
+/// Fraction of the outward neighbours (two cells out) of a kept object's explained cells that
+/// continue its surface (kept cells within 1.5 cm) without being explained by any kept object.
+double boundary_leak(const SceneGrid& g, const std::vector<int>& explained_by, int i,
+                     const RecognitionParams& p) {
+  int tested = 0, leaks = 0;
+  const float reach = static_cast<float>(p.boundary_continuation_m);
+  const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (size_t c = 0; c < explained_by.size(); ++c) {
+    if (explained_by[c] != i) continue;
+    const int gu = static_cast<int>(c) % g.width, gv = static_cast<int>(c) / g.width;
+    for (const auto& s : steps) {
+      const int u1 = gu + s[0], v1 = gv + s[1];
+      if (u1 < 0 || v1 < 0 || u1 >= g.width || v1 >= g.height) continue;
+      if (explained_by[g.cell(u1, v1)] == i) continue;  // not on the outline in this direction
+      const int u2 = gu + 2 * s[0], v2 = gv + 2 * s[1];
+      if (u2 < 0 || v2 < 0 || u2 >= g.width || v2 >= g.height) continue;
+      const int n = g.cell(u2, v2);
+      ++tested;
+      if (g.kept[n] && explained_by[n] < 0 && (g.points[n] - g.points[c]).norm() < reach) ++leaks;
+    }
+  }
+  return tested ? static_cast<double>(leaks) / tested : 0.0;
+}
+
+/// Full-image mask of a crop's grid cells (stride x stride blocks).
+MaskImage crop_mask(const SceneGrid& g, const std::vector<int>& cells, int W, int H) {
+  MaskImage mask(W, H, 0);
+  for (int c : cells) {
+    const int u0 = g.pixel_u(c), v0 = g.pixel_v(c);
+    for (int dv = 0; dv < g.stride && v0 + dv < H; ++dv)
+      for (int du = 0; du < g.stride && u0 + du < W; ++du) mask.at(u0 + du, v0 + dv) = 1;
+  }
+  return mask;
+}
+
+/// Crops of a region for a model: the whole region when its extents fit the model's, else balls
+/// around seeds spread by farthest-point sampling; crops whose extents do not fit are dropped.
+std::vector<std::vector<int>> region_crops(const SceneGrid& g, const std::vector<int>& cells,
+                                           const ObjectModel& model, const Vec3f& model_extents,
+                                           const RecognitionParams& p) {
+  std::vector<std::vector<int>> crops;
+  auto extents_of = [&](const std::vector<int>& cs) {
+    std::vector<Vec3f> pts;
+    pts.reserve(cs.size());
+    for (int c : cs) pts.push_back(g.points[c]);
+    return principal_extents(pts);
+  };
+  const Vec3f whole = extents_of(cells);
+  if (whole[0] <= p.max_extent_factor * model_extents[0] + p.extent_slack_m) {
+    if (extents_compatible(whole, model_extents, p)) crops.push_back(cells);
+    return crops;
+  }
+  const double d = model.diameter_m;
+  const float spacing = static_cast<float>(p.crop_spacing_factor * d);
+  const float radius = static_cast<float>(p.crop_radius_factor * d);
+  std::vector<float> dist(cells.size(), std::numeric_limits<float>::infinity());
+  size_t next = 0;
+  for (int s = 0; s < p.max_crops; ++s) {
+    const Vec3f seed = g.points[cells[next]];
+    std::vector<int> crop;
+    for (size_t i = 0; i < cells.size(); ++i) {
+      const float di = (g.points[cells[i]] - seed).norm();
+      dist[i] = std::min(dist[i], di);
+      if (di < radius) crop.push_back(cells[i]);
+    }
+    if (static_cast<int>(crop.size()) >= p.min_explained_points &&
+        extents_compatible(extents_of(crop), model_extents, p))
+      crops.push_back(std::move(crop));
+    next = static_cast<size_t>(std::max_element(dist.begin(), dist.end()) - dist.begin());
+    if (dist[next] < spacing) break;
+  }
+  return crops;
+}
+
+}  // namespace
+
+ModelRecognizer::ModelRecognizer(const SegmentationParams& segmentation,
+                                 const RecognitionParams& params,
+                                 const SceneGeometryParams& geometry,
+                                 std::vector<ObjectModel> models)
+    : segmentation_(segmentation),
+      params_(params),
+      geometry_(geometry),
+      models_(std::move(models)),
+      search_(search_params(params)),
+      refine_(refine_params(params)) {
+  std::string why;
+  if (!params_.IsValid(&why)) throw ConfigError("recognition: " + why);
+  if (!geometry_.IsValid(&why)) throw ConfigError("recognition_geometry: " + why);
+  if (models_.empty()) throw ConfigError("segmentation.backend=model: no object model to look for");
+  for (auto& m : models_) {
+    if (!m.prepared() || !m.has_normals()) prepare_object_model(m);
+    model_extents_.push_back(principal_extents(m.points));
+  }
+}
+
+std::vector<Detection> ModelRecognizer::detect(const RgbdFrame& frame) const {
+  return run(frame, SE3(), nullptr);
+}
+
+std::vector<Detection> ModelRecognizer::detect_in_context(const RgbdFrame& frame,
+                                                          const SegmentationContext& context) {
+  return run(frame, context.T_world_cam, &state_);
+}
+
+std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T_world_cam,
+                                            State* state) const {
+  PinholeIntrinsics K = frame.intrinsics;
+  const int W = frame.depth.width(), H = frame.depth.height();
+  K.width = W;
+  K.height = H;
+  last_registrations_ = 0;
+  SceneGrid g = make_scene_grid(frame.depth, K, geometry_);
+  remove_support_planes(g, geometry_);
+  const std::vector<SceneRegion> regions = split_regions(g, geometry_);
+  const SE3 T_cam_world = T_world_cam.inverse();
+  if (state) ++state->keyframe;
+
+  std::vector<Hypothesis> hyps;
+  auto register_crop = [&](int mi, const std::vector<int>& cells, const SE3* prior,
+                           Hypothesis* out) {
+    if (static_cast<int>(cells.size()) < params_.min_explained_points) return false;
+    const MaskImage mask = crop_mask(g, cells, W, H);
+    SingleViewInput in;
+    in.mask = &mask;
+    in.depth = &frame.depth;
+    in.intrinsics = K;
+    in.model = &models_[static_cast<size_t>(mi)];
+    in.class_id = in.model->class_id;
+    if (prior) in.T_cam_obj_prior = *prior;
+    const SingleViewPose pose = (prior ? refine_ : search_).estimate(in);
+    if (!pose.valid) return false;
+    out->model = mi;
+    out->T_cam_obj = pose.T_cam_obj;
+    verify(g, frame.depth, K, *in.model, params_, *out);
+    return true;
+  };
+
+  // 1. Known objects, refined from their last pose.
+  if (state) {
+    for (size_t ti = 0; ti < state->tracks.size(); ++ti) {
+      const Track& t = state->tracks[ti];
+      int mi = -1;
+      for (size_t m = 0; m < models_.size(); ++m)
+        if (models_[m].class_id == t.class_id) mi = static_cast<int>(m);
+      if (mi < 0) continue;
+      const SE3 prior = T_cam_world * t.T_world_obj;
+      const Vec3f c = prior.translation().cast<float>();
+      const float r = static_cast<float>(0.6 * models_[mi].diameter_m);
+      std::vector<int> cells;
+      for (size_t k = 0; k < g.kept.size(); ++k)
+        if (g.kept[k] && (g.points[k] - c).squaredNorm() < r * r)
+          cells.push_back(static_cast<int>(k));
+      Hypothesis h;
+      ++last_registrations_;
+      if (!register_crop(mi, cells, &prior, &h)) continue;
+      h.from_track = true;
+      h.track = static_cast<int>(ti);
+      hyps.push_back(std::move(h));
+    }
+  }
+
+  auto select = [&](std::vector<Hypothesis>& all, std::vector<int>* explained_by) {
+    for (auto& h : all)
+      h.rank = static_cast<double>(h.explained.size()) * h.support *
+               (h.from_track ? params_.track_bonus : 1.0);
+    std::vector<int> order(all.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return all[a].rank > all[b].rank; });
+    std::vector<int> kept;
+    explained_by->assign(g.kept.size(), -1);
+    for (int i : order) {
+      const Hypothesis& h = all[static_cast<size_t>(i)];
+      if (h.support < params_.min_support || h.violation > params_.max_violation) continue;
+      int fresh = 0;
+      for (int c : h.explained) fresh += (*explained_by)[c] < 0;
+      if (fresh < params_.min_explained_points ||
+          fresh < params_.min_new_fraction * static_cast<double>(h.explained.size()))
+        continue;
+      for (int c : h.explained)
+        if ((*explained_by)[c] < 0) (*explained_by)[c] = i;
+      kept.push_back(i);
+    }
+    return kept;
+  };
+
+  // 2. Search what the known objects leave unexplained, region by region.
+  std::vector<int> explained_by;
+  select(hyps, &explained_by);
+  for (const SceneRegion& region : regions) {
+    std::vector<int> rest;
+    for (int c : region.cells)
+      if (explained_by[c] < 0) rest.push_back(c);
+    if (static_cast<int>(rest.size()) < geometry_.min_region_points) continue;
+    Vec3f lo = Vec3f::Constant(1e9f), hi = -lo, centroid = Vec3f::Zero();
+    for (int c : rest) {
+      lo = lo.cwiseMin(g.points[c]);
+      hi = hi.cwiseMax(g.points[c]);
+      centroid += g.points[c];
+    }
+    centroid /= static_cast<float>(rest.size());
+    const Vec3 centroid_world = T_world_cam * centroid.cast<double>();
+    if (state) {
+      bool skip = false;
+      for (const auto& r : state->rejected)
+        skip |= (r.centroid_world - centroid_world).norm() < params_.reject_radius_m;
+      if (skip) continue;
+    }
+    const float extent = (hi - lo).norm();
+    std::vector<std::pair<int, std::vector<int>>> tasks;
+    for (size_t mi = 0; mi < models_.size(); ++mi)
+      for (auto& crop : region_crops(g, rest, models_[mi], model_extents_[mi], params_))
+        tasks.emplace_back(static_cast<int>(mi), std::move(crop));
+    std::vector<Hypothesis> found(tasks.size());
+    std::vector<char> ok(tasks.size(), 0);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int k = 0; k < static_cast<int>(tasks.size()); ++k)
+      ok[k] = register_crop(tasks[k].first, tasks[k].second, nullptr, &found[k]);
+    last_registrations_ += static_cast<int>(tasks.size());
+    bool any = false;
+    for (size_t k = 0; k < tasks.size(); ++k) {
+      if (!ok[k]) continue;
+      any |= found[k].support >= params_.min_support && found[k].violation <= params_.max_violation;
+      hyps.push_back(std::move(found[k]));
+    }
+    spdlog::debug("recognition: region of {} points ({} unexplained), extent {:.3f} m: {} searches",
+                  region.cells.size(), rest.size(), extent, tasks.size());
+    if (!any && state) state->rejected.push_back({centroid_world, state->keyframe});
+  }
+  std::vector<int> kept = select(hyps, &explained_by);
+  // Clutter: an object whose observed surface continues past its outline into points no kept
+  // object explains is a part of something larger; a region the kept objects explain poorly holds
+  // no object. Both are dropped, then the selection runs again.
+  for (int round = 0; round < 4; ++round) {
+    bool leaked = false;
+    for (int i : kept) {
+      const double leak = boundary_leak(g, explained_by, i, params_);
+      if (leak > params_.max_boundary_leak) {
+        hyps[static_cast<size_t>(i)].support = -1;
+        leaked = true;
+      }
+    }
+    if (leaked) {
+      kept = select(hyps, &explained_by);
+      continue;
+    }
+    std::vector<int> explained(regions.size(), 0);
+    std::map<int, std::map<int, int>> owned;  // hypothesis -> region -> cells
+    for (size_t c = 0; c < explained_by.size(); ++c)
+      if (explained_by[c] >= 0 && g.region[c] >= 0) {
+        ++explained[g.region[c]];
+        ++owned[explained_by[c]][g.region[c]];
+      }
+    bool dropped = false;
+    for (int i : kept) {
+      int total = 0, in_poor = 0;
+      for (const auto& [r, n] : owned[i]) {
+        total += n;
+        if (explained[r] < params_.min_region_coverage * regions[r].cells.size()) in_poor += n;
+      }
+      if (total > 0 && in_poor > total / 2) {
+        hyps[static_cast<size_t>(i)].support = -1;  // out of the next selection
+        dropped = true;
+      }
+    }
+    if (!dropped) break;
+    kept = select(hyps, &explained_by);
+  }
+
+  // 3. Detections: pixels within the inlier distance of their nearest kept model.
+  const float d_in = static_cast<float>(params_.inlier_distance_m);
+  Image<float> best(W, H, d_in);
+  Image<int> owner(W, H, -1);
+  for (int i : kept) {
+    const Hypothesis& h = hyps[static_cast<size_t>(i)];
+    const ObjectModel& model = models_[static_cast<size_t>(h.model)];
+    BoxPx box;
+    for (int c : h.explained) box.include(g.pixel_u(c), g.pixel_v(c));
+    const int pad = g.stride + 2;
+    const SE3 T_obj_cam = h.T_cam_obj.inverse();
+    const Eigen::Matrix3f R = T_obj_cam.rotation().cast<float>();
+    const Vec3f t = T_obj_cam.translation().cast<float>();
+    for (int v = std::max(0, box.v_min - pad); v <= std::min(H - 1, box.v_max + pad); ++v)
+      for (int u = std::max(0, box.u_min - pad); u <= std::min(W - 1, box.u_max + pad); ++u) {
+        const float z = frame.depth.at(u, v);
+        if (!(z > 0)) continue;
+        const int c = g.cell(u / g.stride, v / g.stride);
+        if (explained_by[c] >= 0 && explained_by[c] != i) continue;
+        const Vec3f p = K.backproject(u, v, z).cast<float>();
+        float dist2 = 0;
+        model.search_index->nearest(R * p + t, &dist2);
+        const float dist = std::sqrt(dist2);
+        if (dist < best.at(u, v)) {
+          best.at(u, v) = dist;
+          owner.at(u, v) = i;
+        }
+      }
+  }
+  std::vector<Detection> out;
+  last_objects_.clear();
+  const float prob = static_cast<float>(params_.detection_probability);
+  for (int i : kept) {
+    const Hypothesis& h = hyps[static_cast<size_t>(i)];
+    Detection d;
+    d.class_id = models_[static_cast<size_t>(h.model)].class_id;
+    d.score = static_cast<float>(std::clamp(0.5 + 0.5 * h.support - h.violation, 0.0, 1.0));
+    d.probability = ProbabilityImage(W, H, 0.0f);
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u)
+        if (owner.at(u, v) == i) {
+          d.probability.at(u, v) = prob;
+          d.box.include(u, v);
+        }
+    if (d.score < segmentation_.min_score ||
+        mask_area(d.probability, static_cast<float>(segmentation_.mask_threshold)) <
+            segmentation_.min_mask_area_px)
+      continue;
+    out.push_back(std::move(d));
+    last_objects_.push_back({out.back().class_id, h.T_cam_obj, static_cast<int>(h.explained.size()),
+                             h.support, h.violation, h.from_track});
+  }
+
+  // 4. Tracks: kept objects update (or start) theirs; known objects in view but not kept miss.
+  if (state) {
+    std::vector<int> confirmed(state->tracks.size(), 0);
+    for (int i : kept) {
+      const Hypothesis& h = hyps[static_cast<size_t>(i)];
+      const SE3 T_world_obj = T_world_cam * h.T_cam_obj;
+      int ti = h.track;
+      if (ti < 0) {
+        for (size_t k = 0; k < state->tracks.size(); ++k)
+          if (state->tracks[k].class_id == models_[h.model].class_id &&
+              (state->tracks[k].T_world_obj.translation() - T_world_obj.translation()).norm() <
+                  0.3 * models_[h.model].diameter_m)
+            ti = static_cast<int>(k);
+      }
+      if (ti < 0) {
+        state->tracks.push_back({models_[h.model].class_id, T_world_obj, 0, 0});
+        confirmed.push_back(0);
+        ti = static_cast<int>(state->tracks.size()) - 1;
+      }
+      Track& t = state->tracks[static_cast<size_t>(ti)];
+      t.T_world_obj = T_world_obj;
+      ++t.hits;
+      t.misses = 0;
+      confirmed[static_cast<size_t>(ti)] = 1;
+    }
+    std::vector<Track> alive;
+    for (size_t k = 0; k < state->tracks.size(); ++k) {
+      Track t = state->tracks[k];
+      if (!confirmed[k]) {
+        const Vec3 c = T_cam_world * t.T_world_obj.translation();
+        const Eigen::Vector2d px = c.z() > 0.05 ? K.project(c) : Eigen::Vector2d(-1, -1);
+        if (px.x() >= 0 && px.y() >= 0 && px.x() < W && px.y() < H) ++t.misses;
+      }
+      if (t.misses < params_.track_max_misses) alive.push_back(t);
+    }
+    state->tracks = std::move(alive);
+    std::erase_if(state->rejected, [&](const Rejected& r) {
+      return state->keyframe - r.keyframe >= params_.reject_memory_keyframes;
+    });
+  }
+  return out;
+}
+
+}  // namespace orpe

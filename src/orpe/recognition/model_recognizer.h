@@ -1,0 +1,185 @@
+// The `model` segmentation back-end: recognises instances of known object models from the depth
+// alone (no labels, no training, no ground truth), as detections (class, score, box, soft mask).
+//
+// Per keyframe (docs/SEMANTIC.md, "model"):
+//  1. Scene geometry (scene_geometry.h): the depth as a grid of points, support planes removed, the
+//     rest split into connected regions.
+//  2. Hypotheses: the objects already known (tracks from earlier keyframes, kept in the world frame
+//     with the tracked camera pose) are refined from their last pose; every region, or the part of
+//     it the refined objects leave unexplained, is searched: each candidate model is registered
+//     (ModelRegistrationEstimator, pose stage) to the region, or, when the region is larger than
+//     the model, to crops of it around seeds spread over the region.
+//  3. Joint verification: each hypothesis is scored against the whole scene -- the observed points
+//     it explains (within inlier_distance_m of the model surface), the fraction of its visible
+//     surface on the observed depth (support), the model points in observed free space or below
+//     the support plane (violations). Greedy selection, best first: a hypothesis is kept when it
+//     explains enough points that no kept hypothesis explains already, so each observed point is
+//     explained once (a small model inside a larger object's points loses to the larger object;
+//     touching objects are separate hypotheses). Regions no model explains are rejected and, for a
+//     while, not searched again.
+//  4. Detection: the pixels whose back-projected depth lies within inlier_distance_m of the fitted
+//     model (the model render clipped by the observed depth), nearest model wins; probability and
+//     score from the fit.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "orpe/core/se3.h"
+#include "orpe/pose/model_registration.h"
+#include "orpe/pose/object_model.h"
+#include "orpe/recognition/scene_geometry.h"
+#include "orpe/semantic/segmenter.h"
+
+namespace orpe {
+
+struct RecognitionParams {
+  // Search (registration of a model to a region or crop).
+  int search_rotations = 32;  ///< rotation grid of the search (pose stage: 160)
+  int search_coarse_points = 40;
+  int search_refine_top_k = 2;
+  int search_max_points = 250;
+  double max_extent_factor = 1.15;  ///< observed extents up to this x the model's (+ slack)
+  double min_extent_factor = 0.35;  ///< observed largest extent at least this x the model's
+  double extent_slack_m = 0.01;
+  double crop_radius_factor = 0.55;   ///< crops: region points within this x diameter of a seed
+  double crop_spacing_factor = 0.45;  ///< seeds this x diameter apart (farthest-point sampling)
+  int max_crops = 5;                  ///< per region and model
+  // Verification.
+  double inlier_distance_m = 0.01;
+  double free_space_margin_m = 0.015;
+  double below_plane_margin_m = 0.02;
+  double min_support = 0.55;         ///< visible model points on the observed depth, fraction
+  double max_violation = 0.15;       ///< model points in free space or below the support, fraction
+  int min_explained_points = 25;     ///< grid points a hypothesis must newly explain
+  double min_new_fraction = 0.6;     ///< of its explained points not explained by a kept one
+  double min_inlier_fraction = 0.5;  ///< of the crop's points the fit explains
+  double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
+  double max_boundary_leak = 0.25;   ///< outline fraction continuing into unexplained surface
+  double boundary_continuation_m = 0.015;
+  // Tracks (objects known from earlier keyframes).
+  double track_bonus = 1.5;          ///< ranking factor of a refined known object
+  int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
+  int reject_memory_keyframes = 10;  ///< keyframes a rejected region is not searched again
+  double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
+  double detection_probability = 0.9;  ///< soft mask value on the explained pixels
+
+  template <class V>
+  void visit(V&& v) {
+    v("search_rotations", search_rotations, "Rotation hypotheses per model and region (search)");
+    v("search_coarse_points", search_coarse_points, "Points per rotation in the coarse stage");
+    v("search_refine_top_k", search_refine_top_k, "Coarse hypotheses refined per search");
+    v("search_max_points", search_max_points, "Points of a region used for refinement and scoring");
+    v("max_extent_factor", max_extent_factor,
+      "A region whose principal extents are at most this x the model's (+ extent_slack_m) is "
+      "fitted whole; larger ones in crops");
+    v("min_extent_factor", min_extent_factor,
+      "A region (crop) whose largest extent is under this x the model's is not searched for it");
+    v("extent_slack_m", extent_slack_m, "Slack (m) of the extent test (depth noise, mixed pixels)");
+    v("crop_radius_factor", crop_radius_factor,
+      "Crop of a large region: its points within this x the model diameter of a seed");
+    v("crop_spacing_factor", crop_spacing_factor,
+      "Seeds of the crops this x the model diameter apart (farthest-point sampling)");
+    v("max_crops", max_crops, "Crops per region and model");
+    v("inlier_distance_m", inlier_distance_m,
+      "An observed point within this distance (m) of the model surface is explained");
+    v("free_space_margin_m", free_space_margin_m,
+      "A visible model point this far (m) in front of the observed depth is a violation");
+    v("below_plane_margin_m", below_plane_margin_m,
+      "A model point this far (m) below the support plane is a violation");
+    v("min_support", min_support,
+      "A hypothesis needs this fraction of its visible model points on the observed depth");
+    v("max_violation", max_violation,
+      "A hypothesis may have at most this fraction of model points in free space / below the "
+      "support");
+    v("min_explained_points", min_explained_points,
+      "Grid points a hypothesis must newly explain to be kept");
+    v("min_new_fraction", min_new_fraction,
+      "Fraction of a hypothesis' explained points that no kept hypothesis explains");
+    v("min_inlier_fraction", min_inlier_fraction,
+      "Fraction of the searched crop's points the fit must explain");
+    v("min_region_coverage", min_region_coverage,
+      "A region whose points the kept objects explain less than this fraction of is clutter: the "
+      "objects it mostly holds are dropped");
+    v("max_boundary_leak", max_boundary_leak,
+      "An object whose outline continues, for more than this fraction, into observed surface no "
+      "kept object explains is a part of something larger (clutter) and dropped");
+    v("boundary_continuation_m", boundary_continuation_m,
+      "Outline test: a point two grid cells outside within this distance (m) continues the "
+      "surface");
+    v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
+    v("track_max_misses", track_max_misses,
+      "A known object in view but not confirmed this many keyframes is forgotten");
+    v("reject_memory_keyframes", reject_memory_keyframes,
+      "Keyframes during which a region no model explained is not searched again");
+    v("reject_radius_m", reject_radius_m,
+      "A region whose centroid is within this distance (m) of a rejected one is skipped");
+    v("detection_probability", detection_probability,
+      "Soft mask probability of the pixels a kept hypothesis explains");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+/// The class ids named by `spec` (comma-separated names or ids; empty = every class of
+/// `class_names` that `has_model` accepts), sorted. Throws ConfigError for an unknown name or id,
+/// or when no class is left.
+std::vector<int> resolve_model_classes(const std::string& spec,
+                                       const std::map<int, std::string>& class_names,
+                                       const std::vector<int>& classes_with_models);
+
+/// One verified object hypothesis (for diagnosis and tests).
+struct RecognizedObject {
+  int class_id = 0;
+  SE3 T_cam_obj;
+  int explained_points = 0;  ///< grid points
+  double support = 0;
+  double violation = 0;
+  bool from_track = false;
+};
+
+class ModelRecognizer final : public Segmenter {
+ public:
+  /// `models`: the candidate models (prepared). Throws ConfigError for invalid params or no model.
+  ModelRecognizer(const SegmentationParams& segmentation, const RecognitionParams& params,
+                  const SceneGeometryParams& geometry, std::vector<ObjectModel> models);
+  std::string name() const override { return "model"; }
+  /// One frame on its own (no memory of earlier keyframes).
+  std::vector<Detection> detect(const RgbdFrame& frame) const override;
+  /// With the tracked pose: known objects are refined, then the rest is searched.
+  std::vector<Detection> detect_in_context(const RgbdFrame& frame,
+                                           const SegmentationContext& context) override;
+  /// The objects kept in the last call.
+  const std::vector<RecognizedObject>& last_objects() const { return last_objects_; }
+  /// Registrations run in the last call (searches and refinements).
+  int last_registrations() const { return last_registrations_; }
+
+  struct Track {
+    int class_id = 0;
+    SE3 T_world_obj;
+    int hits = 0, misses = 0;
+  };
+  struct Rejected {
+    Vec3 centroid_world;
+    int keyframe = 0;
+  };
+  struct State {
+    std::vector<Track> tracks;
+    std::vector<Rejected> rejected;
+    int keyframe = 0;
+  };
+
+ private:
+  std::vector<Detection> run(const RgbdFrame& frame, const SE3& T_world_cam, State* state) const;
+  SegmentationParams segmentation_;
+  RecognitionParams params_;
+  SceneGeometryParams geometry_;
+  std::vector<ObjectModel> models_;
+  std::vector<Eigen::Vector3f> model_extents_;  ///< principal extents, largest first
+  ModelRegistrationEstimator search_, refine_;
+  State state_;
+  mutable std::vector<RecognizedObject> last_objects_;
+  mutable int last_registrations_ = 0;
+};
+
+}  // namespace orpe

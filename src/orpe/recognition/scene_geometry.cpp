@@ -1,0 +1,224 @@
+#include "orpe/recognition/scene_geometry.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace orpe {
+
+bool SceneGeometryParams::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (grid_stride_px < 1 || grid_stride_px > 8) return fail("grid_stride_px must be in [1, 8]");
+  if (!(min_depth_m >= 0 && max_depth_m > min_depth_m))
+    return fail("need 0 <= min_depth_m < max_depth_m");
+  if (max_planes < 0 || max_planes > 10) return fail("max_planes must be in [0, 10]");
+  if (!(plane_distance_m > 0)) return fail("plane_distance_m must be > 0");
+  if (!(min_plane_fraction > 0 && min_plane_fraction <= 1))
+    return fail("min_plane_fraction must be in (0, 1]");
+  if (!(min_plane_extent_m >= 0)) return fail("min_plane_extent_m must be >= 0");
+  if (plane_iterations < 1) return fail("plane_iterations must be >= 1");
+  if (!(max_height_above_plane_m >= 0)) return fail("max_height_above_plane_m must be >= 0");
+  if (!(region_distance_m > 0) || !(region_distance_per_m >= 0))
+    return fail("region_distance_m must be > 0 and region_distance_per_m >= 0");
+  if (min_region_points < 1) return fail("min_region_points must be >= 1");
+  return true;
+}
+
+SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
+                          const SceneGeometryParams& params) {
+  SceneGrid g;
+  g.stride = params.grid_stride_px;
+  g.width = (depth.width() + g.stride - 1) / g.stride;
+  g.height = (depth.height() + g.stride - 1) / g.stride;
+  const size_t n = static_cast<size_t>(g.width) * g.height;
+  g.points.assign(n, Eigen::Vector3f::Zero());
+  g.valid.assign(n, 0);
+  g.region.assign(n, -1);
+  for (int gv = 0; gv < g.height; ++gv)
+    for (int gu = 0; gu < g.width; ++gu) {
+      const int u = gu * g.stride, v = gv * g.stride;
+      const float z = depth.at(u, v);
+      if (!(z >= params.min_depth_m && z <= params.max_depth_m)) continue;
+      const int c = g.cell(gu, gv);
+      g.points[c] = K.backproject(u, v, z).cast<float>();
+      g.valid[c] = 1;
+    }
+  g.kept = g.valid;
+  return g;
+}
+
+namespace {
+
+/// Mean and covariance (sum of outer products / n) of points.
+void mean_covariance(const std::vector<Eigen::Vector3f>& pts, Eigen::Vector3d* mean,
+                     Eigen::Matrix3d* cov) {
+  *mean = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) *mean += p.cast<double>();
+  *mean /= static_cast<double>(pts.size());
+  *cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = p.cast<double>() - *mean;
+    *cov += q * q.transpose();
+  }
+  *cov /= static_cast<double>(pts.size());
+}
+
+/// Least-squares plane through points, oriented towards the camera (origin).
+Plane fit_plane(const std::vector<Eigen::Vector3f>& pts) {
+  Eigen::Vector3d mean;
+  Eigen::Matrix3d cov;
+  mean_covariance(pts, &mean, &cov);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  Eigen::Vector3d n = es.eigenvectors().col(0);
+  double d = -n.dot(mean);
+  if (d < 0) {
+    n = -n;
+    d = -d;
+  }
+  Plane pl;
+  pl.normal = n.cast<float>();
+  pl.d = static_cast<float>(d);
+  return pl;
+}
+
+/// Spread (4 sigma) of points along the two in-plane principal axes: the smaller one.
+float plane_extent(const std::vector<Eigen::Vector3f>& pts) {
+  Eigen::Vector3d mean;
+  Eigen::Matrix3d cov;
+  mean_covariance(pts, &mean, &cov);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  return static_cast<float>(4.0 * std::sqrt(std::max(0.0, es.eigenvalues()(1))));
+}
+
+/// Best RANSAC plane over the candidate cells; false when none qualifies.
+bool find_plane(const SceneGrid& g, const std::vector<int>& cells,
+                const SceneGeometryParams& params, std::mt19937& rng, size_t min_inliers,
+                Plane* out) {
+  if (cells.size() < 3) return false;
+  const float tol = static_cast<float>(params.plane_distance_m);
+  // Score on a strided subset for speed.
+  const size_t step = std::max<size_t>(1, cells.size() / 4000);
+  std::uniform_int_distribution<size_t> pick(0, cells.size() - 1);
+  size_t best_count = 0;
+  Plane best;
+  for (int it = 0; it < params.plane_iterations; ++it) {
+    const Eigen::Vector3f& a = g.points[cells[pick(rng)]];
+    const Eigen::Vector3f& b = g.points[cells[pick(rng)]];
+    const Eigen::Vector3f& c = g.points[cells[pick(rng)]];
+    Eigen::Vector3f n = (b - a).cross(c - a);
+    if (n.norm() < 1e-6f) continue;
+    n.normalize();
+    Plane pl{n, -n.dot(a)};
+    size_t count = 0;
+    for (size_t k = 0; k < cells.size(); k += step)
+      count += std::abs(pl.signed_distance(g.points[cells[k]])) < tol;
+    if (count > best_count) {
+      best_count = count;
+      best = pl;
+    }
+  }
+  if (best_count * step < min_inliers) return false;
+  // Refine on the inliers, twice.
+  for (int r = 0; r < 2; ++r) {
+    std::vector<Eigen::Vector3f> in;
+    for (int c : cells)
+      if (std::abs(best.signed_distance(g.points[c])) < tol) in.push_back(g.points[c]);
+    if (in.size() < min_inliers) return false;
+    best = fit_plane(in);
+    if (r == 1 && plane_extent(in) < params.min_plane_extent_m) return false;
+  }
+  *out = best;
+  return true;
+}
+
+}  // namespace
+
+void remove_support_planes(SceneGrid& g, const SceneGeometryParams& params) {
+  std::mt19937 rng(static_cast<unsigned>(params.seed));
+  size_t valid = 0;
+  for (auto v : g.valid) valid += v;
+  const size_t min_inliers = std::max<size_t>(
+      3, static_cast<size_t>(params.min_plane_fraction * static_cast<double>(valid)));
+  const float tol = static_cast<float>(params.plane_distance_m);
+  for (int k = 0; k < params.max_planes; ++k) {
+    std::vector<int> cells;
+    for (size_t c = 0; c < g.kept.size(); ++c)
+      if (g.kept[c]) cells.push_back(static_cast<int>(c));
+    Plane pl;
+    if (!find_plane(g, cells, params, rng, min_inliers, &pl)) break;
+    // Remove the plane's points and what lies behind it (below a table, behind a wall: what the
+    // sensor sees there is not on the support).
+    const bool first = g.planes.empty();
+    for (int c : cells) {
+      const float s = pl.signed_distance(g.points[c]);
+      if (s < tol) g.kept[c] = 0;
+      if (first && params.max_height_above_plane_m > 0 && s > params.max_height_above_plane_m)
+        g.kept[c] = 0;
+    }
+    g.planes.push_back(pl);
+  }
+}
+
+std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& params) {
+  std::fill(g.region.begin(), g.region.end(), -1);
+  std::vector<std::vector<int>> comps;
+  std::vector<int> stack;
+  auto joined = [&](int a, int b) {
+    if (!g.kept[b]) return false;
+    const float z = g.points[a].z();
+    const float tol =
+        static_cast<float>(params.region_distance_m + params.region_distance_per_m * z) *
+        static_cast<float>(g.stride) * 0.5f;
+    return (g.points[a] - g.points[b]).squaredNorm() < tol * tol;
+  };
+  std::vector<int> label(g.kept.size(), -1);
+  for (int start = 0; start < static_cast<int>(g.kept.size()); ++start) {
+    if (!g.kept[start] || label[start] >= 0) continue;
+    const int id = static_cast<int>(comps.size());
+    comps.emplace_back();
+    stack = {start};
+    label[start] = id;
+    while (!stack.empty()) {
+      const int c = stack.back();
+      stack.pop_back();
+      comps[id].push_back(c);
+      const int gu = c % g.width, gv = c / g.width;
+      const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+      for (const auto& d : nb) {
+        const int uu = gu + d[0], vv = gv + d[1];
+        if (uu < 0 || vv < 0 || uu >= g.width || vv >= g.height) continue;
+        const int n = g.cell(uu, vv);
+        if (label[n] >= 0 || !joined(c, n)) continue;
+        label[n] = id;
+        stack.push_back(n);
+      }
+    }
+  }
+  std::vector<SceneRegion> regions;
+  for (auto& cells : comps) {
+    if (static_cast<int>(cells.size()) < params.min_region_points) continue;
+    SceneRegion r;
+    std::sort(cells.begin(), cells.end());
+    r.cells = std::move(cells);
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
+    for (int c : r.cells) {
+      r.centroid += g.points[c];
+      lo = lo.cwiseMin(g.points[c]);
+      hi = hi.cwiseMax(g.points[c]);
+    }
+    r.centroid /= static_cast<float>(r.cells.size());
+    r.extent_m = (hi - lo).norm();
+    regions.push_back(std::move(r));
+  }
+  std::stable_sort(regions.begin(), regions.end(),
+                   [](const auto& a, const auto& b) { return a.cells.size() > b.cells.size(); });
+  for (size_t i = 0; i < regions.size(); ++i)
+    for (int c : regions[i].cells) g.region[c] = static_cast<int>(i);
+  return regions;
+}
+
+}  // namespace orpe

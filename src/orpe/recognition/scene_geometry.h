@@ -1,0 +1,96 @@
+// Scene geometry for model-based recognition: the frame's depth as a grid of camera-frame points,
+// support planes (table, floor, shelf boards, walls) found by RANSAC and removed, and the rest
+// split into connected regions at depth discontinuities. No ground truth, no colour: depth and
+// intrinsics only.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "orpe/core/camera.h"
+#include "orpe/core/image.h"
+
+namespace orpe {
+
+struct SceneGeometryParams {
+  int grid_stride_px = 2;    ///< sample every n-th pixel in both directions
+  double min_depth_m = 0.1;  ///< depths outside [min, max] are ignored
+  double max_depth_m = 3.0;
+  int max_planes = 3;                ///< support planes removed (largest first)
+  double plane_distance_m = 0.012;   ///< a point this close to a plane is on it (removed)
+  double min_plane_fraction = 0.08;  ///< a plane needs this fraction of the valid points
+  double min_plane_extent_m = 0.35;  ///< and inliers spread over at least this (2 sigma, both axes)
+  int plane_iterations = 300;        ///< RANSAC samples per plane
+  double max_height_above_plane_m = 0.45;  ///< points farther above the first plane are dropped
+  double region_distance_m =
+      0.008;  ///< neighbours closer than this + region_distance_per_m * z join
+  double region_distance_per_m = 0.006;
+  int min_region_points = 150;  ///< smaller regions are dropped (grid points)
+  int seed = 7;
+
+  template <class V>
+  void visit(V&& v) {
+    v("grid_stride_px", grid_stride_px, "Recognition works on every n-th pixel (both directions)");
+    v("min_depth_m", min_depth_m, "Depths below this (m) are ignored");
+    v("max_depth_m", max_depth_m, "Depths above this (m) are ignored");
+    v("max_planes", max_planes, "Support planes (table, floor, walls) removed, largest first");
+    v("plane_distance_m", plane_distance_m,
+      "Points within this distance (m) of a plane are removed");
+    v("min_plane_fraction", min_plane_fraction,
+      "A support plane holds at least this fraction of the valid points");
+    v("min_plane_extent_m", min_plane_extent_m,
+      "A support plane's inliers spread at least this far (m, 4 sigma) in both in-plane directions "
+      "(an object's face is not a support plane)");
+    v("plane_iterations", plane_iterations, "RANSAC samples per plane");
+    v("max_height_above_plane_m", max_height_above_plane_m,
+      "Points farther than this (m) above the first support plane are dropped; 0 = keep");
+    v("region_distance_m", region_distance_m,
+      "Neighbouring grid points closer than this (m, plus region_distance_per_m * depth) are one "
+      "region");
+    v("region_distance_per_m", region_distance_per_m,
+      "Depth-proportional part of the region distance (m per m of depth)");
+    v("min_region_points", min_region_points, "Regions with fewer grid points are dropped");
+    v("seed", seed, "Seed of the RANSAC sampling");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+/// A plane n . p + d = 0 (camera frame), n unit, oriented towards the camera (d > 0).
+struct Plane {
+  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();
+  float d = 0;
+  float signed_distance(const Eigen::Vector3f& p) const { return normal.dot(p) + d; }
+};
+
+struct SceneGrid {
+  int stride = 2;
+  int width = 0, height = 0;            ///< grid size (image size / stride)
+  std::vector<Eigen::Vector3f> points;  ///< per grid cell, camera frame; z = 0 when invalid
+  std::vector<std::uint8_t> valid;      ///< valid depth
+  std::vector<std::uint8_t> kept;       ///< valid and not removed with a plane
+  std::vector<int> region;              ///< region index per cell, -1 = none
+  std::vector<Plane> planes;            ///< removed support planes, first = the support
+
+  int cell(int gu, int gv) const { return gv * width + gu; }
+  int pixel_u(int c) const { return (c % width) * stride; }
+  int pixel_v(int c) const { return (c / width) * stride; }
+};
+
+struct SceneRegion {
+  std::vector<int> cells;  ///< grid cells
+  Eigen::Vector3f centroid = Eigen::Vector3f::Zero();
+  float extent_m = 0;  ///< diagonal of the axis-aligned box of its points
+};
+
+/// Back-projects every stride-th pixel's depth.
+SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
+                          const SceneGeometryParams& params);
+/// Finds and removes support planes (grid.kept, grid.planes). Deterministic.
+void remove_support_planes(SceneGrid& grid, const SceneGeometryParams& params);
+/// Connected regions of the kept cells (4-neighbourhood, split at depth discontinuities); fills
+/// grid.region. Regions under min_region_points are dropped. Sorted by size, largest first.
+std::vector<SceneRegion> split_regions(SceneGrid& grid, const SceneGeometryParams& params);
+
+}  // namespace orpe

@@ -1,0 +1,204 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+
+#include "orpe/core/error.h"
+#include "orpe/recognition/model_recognizer.h"
+#include "orpe/recognition/scene_geometry.h"
+#include "orpe/semantic/detection.h"
+#include "recognition/recognition_scene.h"
+
+namespace orpe {
+namespace {
+
+using test::PlacedObject;
+using test::TestShapes;
+
+const TestShapes& shapes() {
+  static const TestShapes s;
+  return s;
+}
+
+ModelRecognizer make_recognizer(const std::vector<int>& classes = {1, 2, 3},
+                                const RecognitionParams& params = {},
+                                const SceneGeometryParams& geometry = {}) {
+  std::vector<ObjectModel> models;
+  for (const auto& m : shapes().models())
+    if (std::count(classes.begin(), classes.end(), m.class_id)) models.push_back(m);
+  return ModelRecognizer(SegmentationParams{}, params, geometry, models);
+}
+
+std::map<int, int> class_counts(const std::vector<Detection>& dets) {
+  std::map<int, int> out;
+  for (const auto& d : dets) ++out[d.class_id];
+  return out;
+}
+
+TEST(SceneGeometry, RemovesTheSupportPlaneAndKeepsTheObject) {
+  const auto& s = shapes();
+  const PlacedObject box{1, &s.box, TestShapes::on_table(0, 0, 0.4, 0.025)};
+  const RgbdFrame f = test::render_table_scene({box});
+  const SceneGeometryParams gp;
+  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+  remove_support_planes(g, gp);
+  ASSERT_FALSE(g.planes.empty());
+  // The table is z = 0: its normal in the camera frame is the world z axis.
+  const Vec3 n_cam = f.T_world_cam_gt->rotation().transpose() * Vec3::UnitZ();
+  EXPECT_GT(std::abs(n_cam.dot(g.planes.front().normal.cast<double>())), 0.999);
+  int table_kept = 0, table = 0, object_kept = 0, object = 0;
+  for (size_t c = 0; c < g.points.size(); ++c) {
+    if (!g.valid[c]) continue;
+    const Vec3 w = *f.T_world_cam_gt * g.points[c].cast<double>();
+    const bool on_object = w.z() > 0.004;
+    (on_object ? object : table) += 1;
+    if (g.kept[c]) (on_object ? object_kept : table_kept) += 1;
+  }
+  ASSERT_GT(object, 300);
+  EXPECT_EQ(table_kept, 0);
+  EXPECT_GT(object_kept, 0.75 * object);  // the box's bottom centimetre goes with the plane
+  const auto regions = split_regions(g, gp);
+  ASSERT_EQ(regions.size(), 1u);
+}
+
+TEST(SceneGeometry, SplitsSeparateObjectsIntoRegions) {
+  const auto& s = shapes();
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
+                                {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
+  const SceneGeometryParams gp;
+  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+  remove_support_planes(g, gp);
+  const auto regions = split_regions(g, gp);
+  ASSERT_EQ(regions.size(), 2u);
+  SceneGeometryParams no_planes = gp;
+  no_planes.max_planes = 0;
+  SceneGrid g2 = make_scene_grid(f.depth, f.intrinsics, no_planes);
+  remove_support_planes(g2, no_planes);
+  const auto with_table = split_regions(g2, no_planes);
+  ASSERT_FALSE(with_table.empty());  // without plane removal the table is the largest region
+  EXPECT_GT(with_table.front().cells.size(),
+            3 * (regions[0].cells.size() + regions[1].cells.size()));
+}
+
+TEST(ModelRecognizer, RecognisesSeparateObjects) {
+  const auto& s = shapes();
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
+                                {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
+  const auto dets = make_recognizer().detect(f);
+  EXPECT_EQ(class_counts(dets), (std::map<int, int>{{1, 1}, {2, 1}}));
+}
+
+// Open limitation (issue #11): the box's hypotheses explain the touching cube's points too, so the
+// cube is not split off. Disabled until the verification separates touching objects.
+TEST(ModelRecognizer, DISABLED_SplitsTouchingObjectsOfOneRegion) {
+  const auto& s = shapes();
+  // The box and the cube side by side, touching: one region, two objects.
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.03, 0, 0, 0.025)},
+                                {3, &s.cube, TestShapes::on_table(0.0525, 0.0, 0, 0.0225)}});
+  const SceneGeometryParams gp;
+  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+  remove_support_planes(g, gp);
+  ASSERT_EQ(split_regions(g, gp).size(), 1u);
+  const auto dets = make_recognizer().detect(f);
+  EXPECT_EQ(class_counts(dets), (std::map<int, int>{{1, 1}, {3, 1}}));
+}
+
+TEST(ModelRecognizer, ExplainsEachPointOnce) {
+  const auto& s = shapes();
+  // The cube fits inside the box's points; with joint verification only the box survives.
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(0, 0, 0.5, 0.025)}});
+  const auto dets = make_recognizer().detect(f);
+  EXPECT_EQ(class_counts(dets), (std::map<int, int>{{1, 1}}));
+}
+
+TEST(ModelRecognizer, MergesFragmentsOfAnOccludedObject) {
+  const auto& s = shapes();
+  // A thin pole in front of the box splits its visible surface in two regions.
+  static const test::SurfaceSamples pole = test::sample_box({0.012f, 0.012f, 0.30f}, 0.0015f);
+  const RgbdFrame f = test::render_table_scene(
+      {{1, &s.box, TestShapes::on_table(0, 0, 0.0, 0.025)}}, Vec3(0.05, -0.5, 0.45),
+      Vec3(0, 0, 0.03), 0, {{9, &pole, TestShapes::on_table(0.005, -0.15, 0, 0.15)}});
+  const SceneGeometryParams gp;
+  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+  remove_support_planes(g, gp);
+  const auto regions = split_regions(g, gp);
+  ASSERT_GE(regions.size(), 2u);  // box fragments and the pole
+  const auto dets = make_recognizer({1}).detect(f);
+  ASSERT_EQ(dets.size(), 1u);
+  // One detection covers both fragments: pixels left and right of the pole.
+  int left = 0, right = 0;
+  const int u_pole = static_cast<int>(
+      f.intrinsics.project(f.T_world_cam_gt->inverse() * Vec3(0.005, -0.15, 0.05)).x());
+  for (int v = 0; v < f.depth.height(); ++v)
+    for (int u = 0; u < f.depth.width(); ++u)
+      if (dets[0].probability.at(u, v) >= 0.5f) (u < u_pole ? left : right) += 1;
+  EXPECT_GT(left, 100);
+  EXPECT_GT(right, 100);
+}
+
+// Open limitation (issue #11): two box hypotheses tile the slab (each explains the other's
+// neighbourhood, so neither outline leaks). Disabled until tiling of clutter is rejected.
+TEST(ModelRecognizer, DISABLED_RejectsWhatNoModelExplains) {
+  const auto& s = shapes();
+  static const test::SurfaceSamples slab = test::sample_box({0.25f, 0.02f, 0.09f}, 0.0015f);
+  const RgbdFrame f =
+      test::render_table_scene({{2, &s.can, TestShapes::on_table(0.12, 0.02, 0, 0.055)},
+                                {9, &slab, TestShapes::on_table(-0.1, 0.0, 0.2, 0.045)}});
+  EXPECT_EQ(class_counts(make_recognizer().detect(f)), (std::map<int, int>{{2, 1}}));
+}
+
+TEST(ModelRecognizer, ClassRestriction) {
+  const auto& s = shapes();
+  const RgbdFrame f =
+      test::render_table_scene({{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
+                                {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}});
+  const auto only_cans = make_recognizer({2}).detect(f);
+  ASSERT_FALSE(only_cans.empty());
+  for (const auto& d : only_cans) EXPECT_EQ(d.class_id, 2);
+  const auto only_boxes = make_recognizer({1}).detect(f);
+  ASSERT_FALSE(only_boxes.empty());
+  for (const auto& d : only_boxes) EXPECT_EQ(d.class_id, 1);
+  const std::map<int, std::string> names = {{1, "box"}, {2, "can"}, {3, "cube"}};
+  EXPECT_EQ(resolve_model_classes("", names, {1, 2, 3}), (std::vector<int>{1, 2, 3}));
+  EXPECT_EQ(resolve_model_classes("can, 3", names, {1, 2, 3}), (std::vector<int>{2, 3}));
+  try {
+    resolve_model_classes("can,mug", names, {1, 2, 3});
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown class 'mug'"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(resolve_model_classes("7", names, {1, 2, 3}), ConfigError);
+  try {
+    resolve_model_classes("", names, {});
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("no object models"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ModelRecognizer(SegmentationParams{}, {}, {}, {}), ConfigError);
+}
+
+TEST(ModelRecognizer, KnownObjectsAreRefinedNotSearched) {
+  const auto& s = shapes();
+  const std::vector<PlacedObject> scene = {{1, &s.box, TestShapes::on_table(-0.12, 0, 0.3, 0.025)},
+                                           {2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)}};
+  ModelRecognizer rec = make_recognizer();
+  const RgbdFrame f0 = test::render_table_scene(scene);
+  SegmentationContext c0;
+  c0.T_world_cam = *f0.T_world_cam_gt;
+  EXPECT_EQ(rec.detect_in_context(f0, c0).size(), 2u);
+  const int search = rec.last_registrations();
+  const RgbdFrame f1 = test::render_table_scene(scene, Vec3(0.1, -0.48, 0.45));
+  SegmentationContext c1;
+  c1.T_world_cam = *f1.T_world_cam_gt;
+  EXPECT_EQ(class_counts(rec.detect_in_context(f1, c1)), (std::map<int, int>{{1, 1}, {2, 1}}));
+  EXPECT_EQ(rec.last_registrations(), 2);  // one refinement per known object
+  EXPECT_GT(search, 4);
+  for (const auto& o : rec.last_objects()) EXPECT_TRUE(o.from_track);
+}
+
+}  // namespace
+}  // namespace orpe

@@ -48,6 +48,12 @@ CommandRegistrar reg(20, [](CLI::App& root) {
                 "Allow several instances of one object type (sharing an obj_id); default: one type "
                 "per instance");
   app->add_option(
+         "--distractors", s->p.distractors,
+         "Distractors: plain-coloured boxes and cylinders unlike the objects, placed among "
+         "them but not targets (scene_gt_distractors.json, distractor/, "
+         "models_distractors/; not in scene_gt.json, masks or models/); 0 = none")
+      ->capture_default_str();
+  app->add_option(
          "--noise", s->noise,
          "on: structured-light depth noise + colour noise; off: exact rendered depth and colour")
       ->check(CLI::IsMember({"on", "off"}))
@@ -107,6 +113,7 @@ CommandRegistrar reg(20, [](CLI::App& root) {
     }
     if (given("--model-unit-m")) p.model_unit_m = s->p.model_unit_m;
     if (given("--repeat-types")) p.repeat_types = true;
+    if (given("--distractors")) p.distractors = s->p.distractors;
     if (given("--noise")) p.noise = s->noise == "on";
     if (given("--width")) p.width = s->p.width;
     if (given("--height")) p.height = s->p.height;

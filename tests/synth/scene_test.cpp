@@ -205,18 +205,6 @@ TEST(SynthTrajectory, HandHeldPathLooksAtTheSceneFromWideBaselines) {
               0.8, 0.25);
 }
 
-std::map<std::string, std::string> read_tree(const std::string& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    if (!e.is_regular_file()) continue;
-    std::ifstream is(e.path(), std::ios::binary);
-    std::ostringstream ss;
-    ss << is.rdbuf();
-    files[fs::relative(e.path(), dir).string()] = ss.str();
-  }
-  return files;
-}
-
 TEST(SynthDeterminism, SameSeedGivesByteIdenticalOutput) {
   const std::string a = scratch_dir("a"), b = scratch_dir("b"), c = scratch_dir("c");
   SynthParams p = small_synth(11, 3, true);

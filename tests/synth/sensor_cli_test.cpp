@@ -123,6 +123,7 @@ TEST(SynthCli, HelpDocumentsEveryOption) {
                           "--models",
                           "--model-unit-m",
                           "--repeat-types",
+                          "--distractors",
                           "--noise",
                           "--width",
                           "--height",

@@ -27,6 +27,8 @@ struct BopFrameRecord {
   std::vector<SE3> T_cam_obj;  ///< per GT entry
   std::vector<int> obj_ids;    ///< per GT entry
   std::vector<ObjectFrameInfo> info;
+  std::vector<SE3> T_cam_distractor;  ///< per distractor (distractor_id = index + 1)
+  std::vector<ObjectFrameInfo> distractor_info;
 };
 
 /// Writes obj_XXXXXX.ply (+ texture), obj_XXXXXX_points.xyz and models_info.json for types[i] as
@@ -38,6 +40,11 @@ void write_bop_models(const std::string& models_dir, const std::vector<ObjectMod
 void write_bop_scene_json(const std::string& dir, const PinholeIntrinsics& K,
                           double depth_scale_mm_per_unit,
                           const std::vector<BopFrameRecord>& frames);
+
+/// Not BOP (its readers ignore them): scene_gt_distractors.json and
+/// scene_gt_info_distractors.json, the distractors' poses and visibility in the format of
+/// scene_gt.json / scene_gt_info.json with "distractor_id" in place of "obj_id".
+void write_distractor_json(const std::string& dir, const std::vector<BopFrameRecord>& frames);
 
 /// TUM trajectory: `timestamp tx ty tz qx qy qz qw`, camera-to-world, metres.
 void write_tum_trajectory(const std::string& path, const std::vector<BopFrameRecord>& frames);

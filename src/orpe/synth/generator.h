@@ -44,6 +44,11 @@ struct SynthFrame {
   std::vector<MaskImage> masks_visib;  ///< per instance: visible part (0/1)
   std::vector<SE3> T_cam_obj;          ///< per instance
   std::vector<ObjectFrameInfo> info;   ///< per instance
+  // Distractors (objects outside the model set): rendered into rgb/depth/normals like the objects,
+  // but 0 (background) in `instances`, and no masks.
+  LabelImage distractor_labels;       ///< j + 1 where distractor j is the visible surface, else 0
+  std::vector<SE3> T_cam_distractor;  ///< per distractor
+  std::vector<ObjectFrameInfo> distractor_info;  ///< per distractor
 };
 
 struct SynthReport {
@@ -51,6 +56,7 @@ struct SynthReport {
   int frames = 0;
   int objects = 0;
   int types = 0;
+  int distractors = 0;  ///< placed
   std::string scene;
   double trajectory_extent_m = 0;  ///< largest distance between two camera centres
   double arc_deg = 0;              ///< azimuth swept around the scene centre
@@ -86,6 +92,8 @@ class SyntheticSceneGenerator {
   SynthReport write_bop(const std::string& dir) const;
 
  private:
+  void add_distractors(const SceneLayoutParams& layout);
+
   SynthParams params_;
   PinholeIntrinsics K_;
   DepthSensorParams sensor_;

@@ -14,6 +14,7 @@
 #include "orpe/eval/bop_pose_metrics.h"
 #include "orpe/io/bop_results.h"
 #include "orpe/io/dataset.h"
+#include "orpe/synth/bop_writer.h"
 #include "orpe/synth/generator.h"
 #include "support/test_data.h"
 
@@ -43,8 +44,8 @@ Scene make_scene(const std::string& dir) {
   s.dir = dir;
   s.reader = open_dataset(dir, DatasetParams{});
   s.info = read_bop_models_info(dir + "/models/models_info.json");
-  std::ifstream(dir + "/scene_gt.json") >> s.gt;
-  std::ifstream(dir + "/scene_gt_info.json") >> s.gt_info;
+  std::ifstream(synth::bop_scene_dir(dir) + "/scene_gt.json") >> s.gt;
+  std::ifstream(synth::bop_scene_dir(dir) + "/scene_gt_info.json") >> s.gt_info;
   return s;
 }
 

@@ -10,6 +10,7 @@
 
 #include "orpe/io/dataset.h"
 #include "orpe/semantic/segmenter.h"
+#include "orpe/synth/bop_writer.h"
 #include "orpe/synth/generator.h"
 #include "support/test_data.h"
 #include "synth_test_util.h"
@@ -125,20 +126,21 @@ TEST(SynthDistractors, AbsentFromTheBopTargetsAndFromGtSegmentation) {
 
   // The targets' poses are those of the scene without distractors; the distractors have their own
   // files.
-  EXPECT_EQ(read_bytes(dir + "/scene_gt.json"), read_bytes(plain + "/scene_gt.json"));
+  EXPECT_EQ(read_bytes(synth::bop_scene_dir(dir) + "/scene_gt.json"),
+            read_bytes(synth::bop_scene_dir(plain) + "/scene_gt.json"));
   EXPECT_EQ(read_json(dir + "/models/models_info.json").size(), g.scene().types.size());
-  EXPECT_FALSE(fs::exists(plain + "/scene_gt_distractors.json"));
-  EXPECT_FALSE(fs::exists(plain + "/distractor"));
+  EXPECT_FALSE(fs::exists(synth::bop_scene_dir(plain) + "/scene_gt_distractors.json"));
+  EXPECT_FALSE(fs::exists(synth::bop_scene_dir(plain) + "/distractor"));
   EXPECT_FALSE(read_json(plain + "/synth_info.json")["params"].contains("distractors"));
-  const auto dgt = read_json(dir + "/scene_gt_distractors.json");
-  const auto dinfo = read_json(dir + "/scene_gt_info_distractors.json");
+  const auto dgt = read_json(synth::bop_scene_dir(dir) + "/scene_gt_distractors.json");
+  const auto dinfo = read_json(synth::bop_scene_dir(dir) + "/scene_gt_info_distractors.json");
   ASSERT_EQ(dgt["0"].size(), nd);
   EXPECT_EQ(dinfo["1"].size(), nd);
   EXPECT_EQ(dgt["0"][2]["distractor_id"], 3);
   EXPECT_FALSE(dgt["0"][0].contains("obj_id"));
   EXPECT_EQ(read_json(dir + "/models_distractors/models_info.json").size(), nd);
   EXPECT_EQ(read_json(dir + "/synth_info.json")["distractors"].size(), nd);
-  for (const auto& e : fs::directory_iterator(dir + "/mask_visib"))
+  for (const auto& e : fs::directory_iterator(synth::bop_scene_dir(dir) + "/mask_visib"))
     EXPECT_LT(std::stoi(e.path().filename().string().substr(7, 6)), static_cast<int>(n));
 
   // Through the dataset reader and the gt back-end: targets only, nothing on a distractor.
@@ -177,8 +179,8 @@ TEST(SynthDistractors, DeterministicPerSeed) {
   p.threads = 1;
   SyntheticSceneGenerator(p).write_bop(b);
   const auto fa = read_tree(a), fb = read_tree(b);
-  ASSERT_TRUE(fa.count("scene_gt_distractors.json"));
-  ASSERT_TRUE(fa.count("distractor/000001.png"));
+  ASSERT_TRUE(fa.count("test/000000/scene_gt_distractors.json"));
+  ASSERT_TRUE(fa.count("test/000000/distractor/000001.png"));
   ASSERT_EQ(fa.size(), fb.size());
   for (const auto& [name, data] : fa) {
     ASSERT_TRUE(fb.count(name)) << name;

@@ -222,8 +222,8 @@ TEST(SynthDeterminism, SameSeedGivesByteIdenticalOutput) {
     ASSERT_TRUE(fb.count(name)) << name;
     EXPECT_TRUE(bytes == fb.at(name)) << name << " differs between two runs with the same seed";
   }
-  EXPECT_NE(fa.at("rgb/000000.png"), fc.at("rgb/000000.png"));
-  EXPECT_NE(fa.at("scene_gt.json"), fc.at("scene_gt.json"));
+  EXPECT_NE(fa.at("test/000000/rgb/000000.png"), fc.at("test/000000/rgb/000000.png"));
+  EXPECT_NE(fa.at("test/000000/scene_gt.json"), fc.at("test/000000/scene_gt.json"));
   // No temporary files left behind (atomic writes).
   for (const auto& [name, bytes] : fa) EXPECT_EQ(name.find(".tmp"), std::string::npos) << name;
 }

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <ostream>
 
@@ -155,6 +156,26 @@ void write_distractor_json(const std::string& dir, const std::vector<BopFrameRec
   }
   write_json(dir + "/scene_gt_distractors.json", gt);
   write_json(dir + "/scene_gt_info_distractors.json", gt_info);
+}
+
+std::string bop_scene_dir(const std::string& dataset_dir) {
+  return fmt::format("{}/test/{:06d}", dataset_dir, kBopSceneId);
+}
+
+void write_bop_targets(const std::string& path, int scene_id,
+                       const std::vector<BopFrameRecord>& frames, double min_visib) {
+  ojson targets = ojson::array();
+  for (size_t i = 0; i < frames.size(); ++i) {
+    std::map<int, int> count;
+    for (size_t k = 0; k < frames[i].obj_ids.size(); ++k)
+      if (frames[i].info[k].visib_fract >= min_visib) ++count[frames[i].obj_ids[k]];
+    for (const auto& [obj, n] : count)
+      targets.push_back({{"im_id", static_cast<int>(i)},
+                         {"inst_count", n},
+                         {"obj_id", obj},
+                         {"scene_id", scene_id}});
+  }
+  write_json(path, targets);
 }
 
 void write_tum_trajectory(const std::string& path, const std::vector<BopFrameRecord>& frames) {

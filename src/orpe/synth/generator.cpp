@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -158,6 +159,57 @@ void object_frame_info(const LabelImage& visible, const std::vector<MaskImage>& 
   }
 }
 
+/// bop_toolkit's px_count_all counts the whole silhouette, also the part cut off by the image
+/// border (it renders into an image three times as large, the original in its middle). Adds the
+/// pixels of the mesh's silhouette outside the image (within that larger image) to `info` and
+/// widens bbox_obj to them; objects entirely inside the image are left alone (nothing is rendered).
+void add_silhouette_outside_image(const TriangleMesh& mesh, const SE3& T_cam_obj,
+                                  const PinholeIntrinsics& K, const RasterizerParams& rp,
+                                  ObjectFrameInfo& info) {
+  const int W = K.width, H = K.height;
+  Eigen::Vector2d lo(1e30, 1e30), hi(-1e30, -1e30);
+  bool behind = false;
+  for (const auto& v : mesh.vertices) {
+    const Vec3 p = T_cam_obj * v.cast<double>();
+    if (p.z() <= rp.near_m) {
+      behind = true;
+      break;
+    }
+    const Eigen::Vector2d q = K.project(p);
+    lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+  }
+  if (behind) lo = Eigen::Vector2d(-W, -H), hi = Eigen::Vector2d(2 * W, 2 * H);
+  // Pixel centres outside the image are at -1 or W, H and beyond.
+  if (lo.x() > -1 && lo.y() > -1 && hi.x() < W && hi.y() < H) return;
+  const int u0 = static_cast<int>(std::max<double>(-W, std::floor(lo.x())));
+  const int v0 = static_cast<int>(std::max<double>(-H, std::floor(lo.y())));
+  const int u1 = static_cast<int>(std::min<double>(2 * W, std::ceil(hi.x()) + 1));
+  const int v1 = static_cast<int>(std::min<double>(2 * H, std::ceil(hi.y()) + 1));
+  if (u1 <= u0 || v1 <= v0) return;
+  PinholeIntrinsics crop = K;  // a crop of the larger image: the principal point shifted
+  crop.width = u1 - u0, crop.height = v1 - v0, crop.cx = K.cx - u0, crop.cy = K.cy - v0;
+  Rasterizer rast(rp);
+  const RenderItem item{&mesh, T_cam_obj, 1};
+  RenderBuffers buf;
+  rast.render(crop, std::span<const RenderItem>(&item, 1), buf, kRenderDepth);
+  int* b = info.bbox_obj;  // x, y, w, h (-1s when empty)
+  int x0 = b[2] > 0 ? b[0] : INT_MAX, y0 = b[3] > 0 ? b[1] : INT_MAX;
+  int x1 = b[2] > 0 ? b[0] + b[2] - 1 : INT_MIN, y1 = b[3] > 0 ? b[1] + b[3] - 1 : INT_MIN;
+  for (int v = 0; v < crop.height; ++v)
+    for (int u = 0; u < crop.width; ++u) {
+      const int x = u + u0, y = v + v0;
+      if (buf.depth.at(u, v) <= 0 || (x >= 0 && x < W && y >= 0 && y < H)) continue;
+      ++info.px_count_all;
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    }
+  if (x1 >= x0) {
+    const int box[4] = {x0, y0, x1 - x0 + 1, y1 - y0 + 1};
+    std::copy(box, box + 4, b);
+  }
+  info.visib_fract =
+      info.px_count_all > 0 ? static_cast<double>(info.px_count_visib) / info.px_count_all : 0.0;
+}
+
 std::vector<double> row_major_4x4(const SE3& T) {
   const Mat4 M = T.matrix();
   std::vector<double> rm;
@@ -192,10 +244,11 @@ std::string SynthReport::report() const {
       "orpe synth: {} frames, {} objects of {} types{}, scene '{}'\n"
       "  camera: arc {:.0f} deg around the scene, largest camera distance {:.2f} m\n"
       "  mean visible fraction {:.2f}, valid depth {:.0f} % of pixels\n"
-      "  written to {} in {:.1f} s\n",
+      "  written to {} (BOP dataset; the scene in {}) in {:.1f} s\n",
       frames, objects, types,
       distractors > 0 ? fmt::format(" and {} distractors", distractors) : std::string(), scene,
-      arc_deg, trajectory_extent_m, mean_visib_fract, 100 * mean_valid_depth, out_dir, seconds);
+      arc_deg, trajectory_extent_m, mean_visib_fract, 100 * mean_valid_depth, out_dir, scene_dir,
+      seconds);
   for (const auto& w : warnings) s += "  warning: " + w + "\n";
   return s;
 }
@@ -406,6 +459,9 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
   f.masks.resize(n);
   for (int k = 0; k < n; ++k) f.masks[k] = std::move(buf.silhouettes[first_object + k]);
   object_frame_info(f.instances, f.masks, f.depth, f.masks_visib, f.info);
+  for (int k = 0; k < n; ++k)
+    add_silhouette_outside_image(*scene_.types[scene_.objects[k].type].mesh, f.T_cam_obj[k], K_, rp,
+                                 f.info[k]);
   if (nd > 0) {
     // Distractors leave the instance image (they are background to everything reading it).
     f.distractor_labels = LabelImage(W, H, 0);
@@ -416,14 +472,19 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
         std::make_move_iterator(buf.silhouettes.begin() + first_object + n + nd));
     std::vector<MaskImage> visible;
     object_frame_info(f.distractor_labels, silhouettes, f.depth, visible, f.distractor_info);
+    for (int j = 0; j < nd; ++j)
+      add_silhouette_outside_image(*scene_.distractor_types[scene_.distractors[j].type].mesh,
+                                   f.T_cam_distractor[j], K_, rp, f.distractor_info[j]);
   }
   return f;
 }
 
 SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   const auto t0 = std::chrono::steady_clock::now();
+  // A BOP dataset: models/, camera.json and the targets at its root, the scene in test/000000.
+  const std::string scene = bop_scene_dir(dir);
   std::error_code ec;
-  fs::create_directories(dir, ec);
+  fs::create_directories(scene, ec);
   if (ec) throw IoError(dir, "cannot create output folder: " + ec.message());
   const int n = static_cast<int>(scene_.objects.size());
   write_bop_models(dir + "/models", scene_.types, params_.model_points,
@@ -452,18 +513,18 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
     try {
       const SynthFrame f = render_frame(i, 1);
       const std::string name = bop_image_name(i);
-      write_color_png(dir + "/rgb/" + name + ".png", f.rgb);
-      write_depth_png(dir + "/depth/" + name + ".png", f.depth, kDepthUnitsPerM);
-      write_label_png(dir + "/instance/" + name + ".png", f.instances, n < 255);
+      write_color_png(scene + "/rgb/" + name + ".png", f.rgb);
+      write_depth_png(scene + "/depth/" + name + ".png", f.depth, kDepthUnitsPerM);
+      write_label_png(scene + "/instance/" + name + ".png", f.instances, n < 255);
       if (nd > 0)
-        write_label_png(dir + "/distractor/" + name + ".png", f.distractor_labels, nd < 255);
+        write_label_png(scene + "/distractor/" + name + ".png", f.distractor_labels, nd < 255);
       if (params_.write_masks)
         for (int k = 0; k < n; ++k) {
-          write_mask_png(dir + "/mask/" + bop_mask_name(i, k) + ".png", f.masks[k]);
-          write_mask_png(dir + "/mask_visib/" + bop_mask_name(i, k) + ".png", f.masks_visib[k]);
+          write_mask_png(scene + "/mask/" + bop_mask_name(i, k) + ".png", f.masks[k]);
+          write_mask_png(scene + "/mask_visib/" + bop_mask_name(i, k) + ".png", f.masks_visib[k]);
         }
       if (params_.preview_stride > 0 && i % params_.preview_stride == 0)
-        write_color_png(dir + "/preview/" + name + ".png", make_preview(f, max_preview_depth));
+        write_color_png(scene + "/preview/" + name + ".png", make_preview(f, max_preview_depth));
       BopFrameRecord& r = records[i];
       r.timestamp_s = f.timestamp_s;
       r.T_world_cam = f.T_world_cam;
@@ -486,11 +547,12 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
       }
     }
   }
-  if (failed) throw IoError(dir, "writing the synthetic sequence failed: " + first_error);
+  if (failed) throw IoError(scene, "writing the synthetic sequence failed: " + first_error);
 
-  write_bop_scene_json(dir, K_, kDepthScaleMm, records);
-  if (nd > 0) write_distractor_json(dir, records);
-  write_tum_trajectory(dir + "/groundtruth.txt", records);
+  write_bop_scene_json(scene, K_, kDepthScaleMm, records);
+  if (nd > 0) write_distractor_json(scene, records);
+  write_tum_trajectory(scene + "/groundtruth.txt", records);
+  write_bop_targets(dir + "/test_targets_bop19.json", kBopSceneId, records, kBopTargetMinVisib);
   // BOP's dataset-level camera file, and what this scene is made of.
   nlohmann::ordered_json cam = {{"cx", K_.cx},      {"cy", K_.cy}, {"depth_scale", kDepthScaleMm},
                                 {"fx", K_.fx},      {"fy", K_.fy}, {"height", K_.height},
@@ -523,6 +585,7 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
 
   SynthReport rep;
   rep.out_dir = dir;
+  rep.scene_dir = scene;
   rep.frames = num_frames();
   rep.objects = n;
   rep.types = static_cast<int>(scene_.types.size());

@@ -52,7 +52,8 @@ struct SynthFrame {
 };
 
 struct SynthReport {
-  std::string out_dir;
+  std::string out_dir;    ///< the BOP dataset root
+  std::string scene_dir;  ///< its scene folder (bop_scene_dir(out_dir))
   int frames = 0;
   int objects = 0;
   int types = 0;
@@ -88,7 +89,9 @@ class SyntheticSceneGenerator {
   /// OpenMP threads of the rasteriser (0 = default; 1 when frames are rendered in parallel).
   SynthFrame render_frame(int i, int render_threads = 0) const;
 
-  /// Writes the whole sequence in BOP layout into `dir` (created; existing files are overwritten).
+  /// Writes the whole sequence as a BOP dataset into `dir` (created; existing files are
+  /// overwritten): models/, camera.json, test_targets_bop19.json and synth_info.json at its root,
+  /// the scene's images and ground truth in bop_scene_dir(dir) = dir/test/000000.
   SynthReport write_bop(const std::string& dir) const;
 
  private:

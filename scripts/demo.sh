@@ -28,8 +28,8 @@ step "build"
 ORPE_JOBS=${ORPE_JOBS:-2} bash scripts/build.sh --target orpe_cli
 ORPE=build/bin/orpe
 
-# The scene folder is named 000000 (its BOP scene id), so keyframe lists name it.
-SCENE=$OUT/scene/000000
+# A BOP dataset (models/, camera.json at its root); its one scene is test/000000 (BOP scene id 0).
+SCENE=$OUT/scene
 RUN=$OUT/run
 rm -rf "$OUT"
 mkdir -p "$OUT"
@@ -43,7 +43,7 @@ step "Object-RPE: SLAM + recognition of the known models (no ground truth) + sem
   --set pipeline.progress_every_n_frames=8 | tee "$OUT/run.log"
 
 step "evaluation"
-"$ORPE" eval traj "$SCENE/groundtruth.txt" "$RUN/trajectory.txt" --json "$OUT/traj.json" | head -2
+"$ORPE" eval traj "$SCENE/test/000000/groundtruth.txt" "$RUN/trajectory.txt" --json "$OUT/traj.json" | head -2
 "$ORPE" eval poses --dataset "$SCENE" --result "$RUN/poses.csv" --keyframes "$RUN/evaluated_frames.txt" \
   --json "$OUT/poses_eval.json"
 "$ORPE" eval poses --dataset "$SCENE" --result "$RUN/poses_final.csv" \

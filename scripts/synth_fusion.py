@@ -75,7 +75,7 @@ def main():
         rdir = os.path.join(sdir, "run")
         edir = os.path.join(sdir, "eval")
         os.makedirs(edir, exist_ok=True)
-        if not (args.reuse and os.path.isfile(os.path.join(scene, "scene_gt.json"))):
+        if not (args.reuse and os.path.isfile(os.path.join(scene, "test", "000000", "scene_gt.json"))):
             run([orpe, "synth", "--out", scene, "--seed", str(seed), "--frames", str(args.frames),
                  "--objects", str(args.objects), "--scene", args.scene, "--width", str(args.width),
                  "--height", str(args.height), "--span-deg", str(args.span_deg), "--preview-stride", "0"])

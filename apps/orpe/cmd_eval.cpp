@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <ostream>
 #include <set>
@@ -12,6 +13,7 @@
 
 #include "command.h"
 #include "orpe/core/error.h"
+#include "orpe/eval/bop_pose_metrics.h"
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/bop_results.h"
@@ -71,6 +73,7 @@ struct PosesCommand {
   std::string dataset_path, result_path, json_path, keyframes_path;
   std::vector<std::string> scenes;
   bool markdown = false;
+  bool bop = false;
 };
 
 void run_poses(const PosesCommand& c) {
@@ -117,7 +120,17 @@ void run_poses(const PosesCommand& c) {
     spdlog::info("{}: {} rows without a ground-truth instance, {} rows of other scenes (ignored)",
                  c.result_path, ev.unmatched_rows, ev.other_scene_rows);
   std::cout << (c.markdown ? ev.markdown() : ev.report());
-  if (!c.json_path.empty()) write_text_atomic(c.json_path, ev.to_json());
+  std::string json = ev.to_json();
+  if (c.bop) {
+    if (!config.eval_bop.IsValid(&why)) throw ConfigError("eval poses: eval_bop: " + why);
+    const BopPoseEvaluation bop = evaluate_bop_pose_results(reader_ptrs, rows, config.eval_bop,
+                                                            keyframes ? &*keyframes : nullptr);
+    std::cout << "\n" << bop.report();
+    nlohmann::json j = nlohmann::json::parse(json);
+    j["bop"] = nlohmann::json::parse(bop.to_json());
+    json = j.dump(2);
+  }
+  if (!c.json_path.empty()) write_text_atomic(c.json_path, json);
 }
 
 CommandRegistrar reg(70, [](CLI::App& root) {
@@ -157,6 +170,10 @@ CommandRegistrar reg(70, [](CLI::App& root) {
                 "Evaluate only these frames: YCB-Video keyframe.txt ('0048/000001' per line)");
   p->add_option("--json", poses->json_path, "Also write the figures as JSON to this file");
   p->add_flag("--markdown", poses->markdown, "Print the table as Markdown");
+  p->add_flag(
+      "--bop", poses->bop,
+      "Also the BOP 2019-2023 average recall: VSD, MSSD, MSPD and their mean AR (BOP layout: "
+      "models_info.json; bop_toolkit's thresholds; --json adds them under \"bop\")");
   add_config_options(*p, poses->options);
   p->callback([poses] { run_poses(*poses); });
 });

@@ -1,5 +1,5 @@
-// `orpe run --dataset D --out OUT --mode slam|semantic|full [--ablation NAME|all]`: the pipeline over a
-// dataset, outputs in OUT (src/orpe/pipeline/run.h lists them).
+// `orpe run --dataset D --out OUT --mode slam|semantic|full [--ablation NAME|all]`: the pipeline
+// over a dataset, outputs in OUT (src/orpe/pipeline/run.h lists them).
 #include <spdlog/spdlog.h>
 
 #include <iostream>
@@ -19,16 +19,18 @@ struct RunCommand {
   std::string mode = "full";
   std::vector<std::string> ablations;
   std::string render_view;
-  double view_back_m = 1.5, view_up_m = 0.6;
+  double view_back_m = 0, view_up_m = 0;
   bool write_masks = false;
 };
 
 CommandRegistrar reg(30, [](CLI::App& root) {
   auto s = std::make_shared<RunCommand>();
   CLI::App* app = root.add_subcommand(
-      "run", "Run the pipeline on a dataset: SLAM (slam), + instance-aware semantic mapping (semantic), "
-             "+ object poses with the per-object EKF (full)");
-  app->add_option("--dataset", s->dataset, "Dataset folder (TUM, 7-Scenes, YCB-Video, BOP / orpe synth)")
+      "run",
+      "Run the pipeline on a dataset: SLAM (slam), + instance-aware semantic mapping (semantic), "
+      "+ object poses with the per-object EKF (full)");
+  app->add_option("--dataset", s->dataset,
+                  "Dataset folder (TUM, 7-Scenes, YCB-Video, BOP / orpe synth)")
       ->required();
   app->add_option("--out", s->out, "Output folder (created)")->required();
   app->add_option("--mode", s->mode, "slam | semantic | full")
@@ -36,28 +38,38 @@ CommandRegistrar reg(30, [](CLI::App& root) {
       ->capture_default_str();
   std::vector<std::string> choices = PipelineParams::ablation_names();
   choices.push_back("all");
-  app->add_option("--ablation", s->ablations,
-                  "Pose inputs as in the paper's ablation: DF (detection mask, camera depth/colour), "
-                  "DF-PM, DF-PM-PD, DF-PM-PD-PC (map-projected mask/depth/colour), Object-RPE (+EKF); "
-                  "repeatable; 'all' = the five in one pass (shared SLAM and semantic mapping), written "
-                  "to OUT/ablation/<name>/. Default: the pipeline.use_* switches")
+  app->add_option(
+         "--ablation", s->ablations,
+         "Pose inputs as in the paper's ablation: DF (detection mask, camera depth/colour), "
+         "DF-PM, DF-PM-PD, DF-PM-PD-PC (map-projected mask/depth/colour), Object-RPE (+EKF); "
+         "repeatable; 'all' = the five in one pass (shared SLAM and semantic mapping), written "
+         "to OUT/ablation/<name>/. Default: the pipeline.use_* switches")
       ->check(CLI::IsMember(choices));
-  app->add_option("--render-view", s->render_view,
-                  "Also render the final map to this PNG (relative to --out), from behind and above the first "
-                  "camera, so a person can look at it");
-  app->add_option("--view-back-m", s->view_back_m, "Render view: distance behind the first camera (m)")
+  app->add_option(
+      "--render-view", s->render_view,
+      "Also render the final map to this PNG (relative to --out), so a person can look at it: "
+      "framed on the objects (else the whole map) from the first camera's side");
+  app->add_option(
+         "--view-back-m", s->view_back_m,
+         "Render view: instead of framing, this far behind the first camera (m); 0 = frame")
       ->capture_default_str();
-  app->add_option("--view-up-m", s->view_up_m, "Render view: height above the first camera (m)")
+  app->add_option(
+         "--view-up-m", s->view_up_m,
+         "Render view: instead of framing, this high above the first camera (m); 0 = frame")
       ->capture_default_str();
-  app->add_flag("--write-masks", s->write_masks,
-                "semantic/full: also write each keyframe's detections and the map's projected instance "
-                "masks to OUT/masks/ (scored by `orpe eval masks`)");
+  app->add_flag(
+      "--write-masks", s->write_masks,
+      "semantic/full: also write each keyframe's detections and the map's projected instance "
+      "masks to OUT/masks/ (scored by `orpe eval masks`)");
   add_config_options(*app, s->options);
   app->footer(
       "Outputs: OUT/trajectory.txt (TUM), map.ply, summary.json; semantic/full: semantic_map.ply,\n"
-      "semantic_map_instances.ply, instances.json; full: poses.csv (BOP results, camera-frame poses per\n"
-      "evaluated frame), poses_final.csv (EKF: final world poses in each evaluated frame), objects.json.\n"
-      "Select frames / scene with --set dataset.scene=0001 --set dataset.last_frame=99. docs/PIPELINE.md.");
+      "semantic_map_instances.ply, instances.json; full: poses.csv (BOP results, camera-frame "
+      "poses per\n"
+      "evaluated frame), poses_final.csv (EKF: final world poses in each evaluated frame), "
+      "objects.json.\n"
+      "Select frames / scene with --set dataset.scene=0001 --set dataset.last_frame=99. "
+      "docs/PIPELINE.md.");
   app->callback([s] {
     const OrpeConfig config = resolve_config(s->options);
     RunOptions ro;

@@ -26,7 +26,9 @@ CommandRegistrar reg(20, [](CLI::App& root) {
       "Generate a synthetic RGB-D sequence with exact ground truth (BOP layout): known objects "
       "resting on a floor, "
       "table or shelf, seen by a hand-held structured-light camera. See docs/SYNTH.md.");
-  app->add_option("--out", s->out, "Output folder (BOP scene folder; created)")->required();
+  app->add_option("--out", s->out,
+                  "Output folder: a BOP dataset, the scene in DIR/test/000000 (created)")
+      ->required();
   app->add_option("--seed", s->p.seed,
                   "Random seed; the same seed and options give byte-identical output")
       ->capture_default_str();
@@ -47,6 +49,12 @@ CommandRegistrar reg(20, [](CLI::App& root) {
   app->add_flag("--repeat-types", s->p.repeat_types,
                 "Allow several instances of one object type (sharing an obj_id); default: one type "
                 "per instance");
+  app->add_option(
+         "--distractors", s->p.distractors,
+         "Distractors: plain-coloured boxes and cylinders unlike the objects, placed among "
+         "them but not targets (scene_gt_distractors.json, distractor/, "
+         "models_distractors/; not in scene_gt.json, masks or models/); 0 = none")
+      ->capture_default_str();
   app->add_option(
          "--noise", s->noise,
          "on: structured-light depth noise + colour noise; off: exact rendered depth and colour")
@@ -86,12 +94,15 @@ CommandRegistrar reg(20, [](CLI::App& root) {
       "can be set\n"
       "with --set synth.KEY=VALUE or a --config file; explicit options win. List them: orpe config "
       "| grep synth.\n"
-      "Output: DIR/{rgb,depth,mask,mask_visib,instance,preview}/, scene_camera.json, "
+      "Output: a BOP dataset (bop_toolkit's layout): DIR/camera.json, DIR/models/ (obj_XXXXXX.ply "
+      "in mm,\n"
+      "obj_XXXXXX_points.xyz in m, models_info.json), DIR/test_targets_bop19.json, "
+      "DIR/synth_info.json, and the\n"
+      "scene DIR/test/000000/: {rgb,depth,mask,mask_visib,instance,preview}/, scene_camera.json, "
       "scene_gt.json,\n"
-      "scene_gt_info.json, camera.json, groundtruth.txt (TUM), synth_info.json, models/ "
-      "(obj_XXXXXX.ply in mm,\n"
-      "obj_XXXXXX_points.xyz in m, models_info.json). Depth PNGs: depth_scale 0.1 (raw units of "
-      "0.1 mm).");
+      "scene_gt_info.json, groundtruth.txt (TUM). Depth PNGs: depth_scale 0.1 (raw units of 0.1 "
+      "mm). orpe run/eval\n"
+      "take DIR as --dataset.");
   app->callback([s, app] {
     OrpeConfig config = resolve_config(s->options);
     SynthParams p = config.synth;
@@ -107,6 +118,7 @@ CommandRegistrar reg(20, [](CLI::App& root) {
     }
     if (given("--model-unit-m")) p.model_unit_m = s->p.model_unit_m;
     if (given("--repeat-types")) p.repeat_types = true;
+    if (given("--distractors")) p.distractors = s->p.distractors;
     if (given("--noise")) p.noise = s->noise == "on";
     if (given("--width")) p.width = s->p.width;
     if (given("--height")) p.height = s->p.height;

@@ -146,6 +146,19 @@ TEST(BopReader, DatasetRootPicksSceneAndFindsModels) {
   EXPECT_EQ(other->size(), 1u);
   p.scene = "000009";
   EXPECT_THROW(open_dataset(root + "/test", p), ConfigError);
+  // The dataset root itself (as orpe synth writes it): the scenes are found in its split folder,
+  // test/ before the others.
+  EXPECT_EQ(detect_dataset_format(root), "bop");
+  EXPECT_EQ(open_dataset(root, DatasetParams{})->info().scene_id, 2);
+  std::filesystem::create_directories(root + "/train/000001/rgb");
+  test::write_text(root + "/train/000001/scene_camera.json",
+                   R"({"3": {"cam_K": [1, 0, 0, 0, 1, 0, 0, 0, 1], "depth_scale": 1.0}})");
+  p.scene = "5";
+  EXPECT_EQ(open_dataset(root, p)->info().scene_id, 5);
+  EXPECT_EQ(open_dataset(root, p)->info().class_names.size(), 2u);  // <root>/models
+  const std::string no_scenes = test::scratch_dir("empty");
+  std::filesystem::create_directories(no_scenes + "/test/000001");
+  EXPECT_THROW(open_dataset(no_scenes, DatasetParams{}), IoError);
 }
 
 TEST(BopReader, BadEntriesAreErrorsNamingTheFile) {

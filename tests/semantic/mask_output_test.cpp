@@ -12,6 +12,7 @@
 #include "orpe/eval/mask_run.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/image_io.h"
+#include "orpe/io/point_cloud_io.h"
 #include "orpe/semantic/mask_eval.h"
 #include "orpe/synth/generator.h"
 #include "support/test_data.h"
@@ -131,10 +132,26 @@ TEST(MaskOutput, RunWritesMasksAndEvalMasksScoresThem) {
   EXPECT_EQ(index.frames.size(), 10u);  // every frame a keyframe by default
   EXPECT_EQ(index.dataset_format, "bop");
   EXPECT_EQ(index.dataset_scene, "000000");
+  int labelled = 0;  // pixels with a label, over every colour image
   for (const auto& f : index.frames) {
     EXPECT_TRUE(std::filesystem::is_regular_file(exact + "/masks/" + f.input.file));
     EXPECT_TRUE(std::filesystem::is_regular_file(exact + "/masks/" + f.projected.file));
+    // Beside each 16-bit label PNG a viewable colour copy: the projected one by instance id, the
+    // input one by class.
+    for (const auto* m : {&f.projected, &f.input}) {
+      const LabelImage labels = read_label_image(exact + "/masks/" + m->file);
+      const ColorImage colour = read_color_image(exact + "/masks/" + color_file_name(m->file));
+      ASSERT_EQ(colour.width(), labels.width());
+      ASSERT_EQ(colour.height(), labels.height());
+      for (size_t k = 0; k < labels.size(); ++k) {
+        const int value =
+            labels[k] > 0 ? (m == &f.input ? m->classes.at(labels[k]) : labels[k]) : 0;
+        ASSERT_EQ(colour[k], value > 0 ? label_color(value) : Rgb8{}) << m->file << " pixel " << k;
+        labelled += value > 0;
+      }
+    }
   }
+  EXPECT_GT(labelled, 1000);
 
   // Exact detections (objects under the segmenter's 100 px minimum are never detected, so they are
   // not scored): every input mask is its object's ground truth.

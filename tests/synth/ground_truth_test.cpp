@@ -3,11 +3,14 @@
 // caster.
 #include <gtest/gtest.h>
 
+#include <climits>
 #include <filesystem>
 #include <map>
 
 #include "orpe/io/image_io.h"
 #include "orpe/render/mesh_io.h"
+#include "orpe/render/rasterizer.h"
+#include "orpe/synth/bop_writer.h"
 #include "orpe/synth/generator.h"
 #include "support/test_data.h"
 #include "synth_test_util.h"
@@ -79,8 +82,8 @@ PinholeIntrinsics camera_of(const nlohmann::json& cam, int w, int h) {
 TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
   for (const std::string scene : {"floor", "table"}) {
     const std::string dir = generated(3, false, scene);
-    const auto cams = read_json(dir + "/scene_camera.json");
-    const auto gts = read_json(dir + "/scene_gt.json");
+    const auto cams = read_json(synth::bop_scene_dir(dir) + "/scene_camera.json");
+    const auto gts = read_json(synth::bop_scene_dir(dir) + "/scene_gt.json");
     ASSERT_DOUBLE_EQ(cams["0"]["depth_scale"].get<double>(), 0.1);
     std::map<int, ModelData> models;
     size_t visible = 0, on_mask = 0;
@@ -88,8 +91,8 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
       const int im = std::stoi(it.key());
       char name[32];
       std::snprintf(name, sizeof(name), "%06d", im);
-      const DepthImage depth =
-          read_depth_image(dir + "/depth/" + name + ".png", 10000.0);  // 1000 / depth_scale
+      const DepthImage depth = read_depth_image(
+          synth::bop_scene_dir(dir) + "/depth/" + name + ".png", 10000.0);  // 1000 / depth_scale
       const PinholeIntrinsics K = camera_of(cams[it.key()], depth.width(), depth.height());
       for (size_t k = 0; k < it.value().size(); ++k) {
         const auto& e = it.value()[k];
@@ -99,7 +102,8 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
         const SE3 T = bop_pose(e);
         char mname[48];
         std::snprintf(mname, sizeof(mname), "%06d_%06zu", im, k);
-        const LabelImage mask = read_label_image(dir + "/mask_visib/" + mname + ".png");
+        const LabelImage mask =
+            read_label_image(synth::bop_scene_dir(dir) + "/mask_visib/" + mname + ".png");
         for (size_t i = 0; i < m.points.size(); ++i) {
           const Vec3 p = T * m.points[i];
           if (p.z() <= 0.05) continue;
@@ -117,7 +121,8 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
           ++visible;
           on_mask += mask.at(u, v) > 0;
           if (!mask.at(u, v) && std::getenv("ORPE_DEBUG_SYNTH")) {
-            const LabelImage inst = read_label_image(dir + "/instance/" + name + ".png");
+            const LabelImage inst =
+                read_label_image(synth::bop_scene_dir(dir) + "/instance/" + name + ".png");
             std::cerr << scene << " im " << im << " obj " << k << " px " << uv.transpose()
                       << " inst " << inst.at(u, v) << " dz " << q.z() - p.z() << " plane "
                       << n.dot(q - p) << "\n";
@@ -133,13 +138,14 @@ TEST(SynthGroundTruth, ModelPointsLandOnTheirOwnVisibleMask) {
 
 TEST(SynthGroundTruth, DepthWithoutNoiseIsTheExactModelSurface) {
   const std::string dir = generated(3, false, "floor");
-  const auto cams = read_json(dir + "/scene_camera.json");
-  const auto gts = read_json(dir + "/scene_gt.json");
+  const auto cams = read_json(synth::bop_scene_dir(dir) + "/scene_camera.json");
+  const auto gts = read_json(synth::bop_scene_dir(dir) + "/scene_gt.json");
   std::map<int, TriangleMesh> meshes;
   int checked = 0, edge_pixels = 0;
   double worst = 0;
   for (const std::string key : {"0", "4"}) {
-    const DepthImage depth = read_depth_image(dir + "/depth/00000" + key + ".png", 10000.0);
+    const DepthImage depth =
+        read_depth_image(synth::bop_scene_dir(dir) + "/depth/00000" + key + ".png", 10000.0);
     const PinholeIntrinsics K = camera_of(cams[key], depth.width(), depth.height());
     for (size_t k = 0; k < gts[key].size(); ++k) {
       const auto& e = gts[key][k];
@@ -149,7 +155,8 @@ TEST(SynthGroundTruth, DepthWithoutNoiseIsTheExactModelSurface) {
       if (!meshes.count(obj_id)) meshes[obj_id] = load_ply(dir + stem, {0.001, false});
       char mname[48];
       std::snprintf(mname, sizeof(mname), "%06d_%06zu", std::stoi(key), k);
-      const LabelImage mask = read_label_image(dir + "/mask_visib/" + mname + ".png");
+      const LabelImage mask =
+          read_label_image(synth::bop_scene_dir(dir) + "/mask_visib/" + mname + ".png");
       int n = 0;
       for (int v = 0; v < mask.height(); ++v)
         for (int u = 0; u < mask.width(); ++u) {
@@ -227,18 +234,21 @@ TEST(SynthGroundTruth, NoisyDepthStaysWithinTheSensorModelBound) {
 
 TEST(SynthGroundTruth, GtInfoIsConsistentWithTheMasks) {
   const std::string dir = generated(3, true, "floor");
-  const auto info = read_json(dir + "/scene_gt_info.json");
-  const auto gts = read_json(dir + "/scene_gt.json");
+  const auto info = read_json(synth::bop_scene_dir(dir) + "/scene_gt_info.json");
+  const auto gts = read_json(synth::bop_scene_dir(dir) + "/scene_gt.json");
   ASSERT_EQ(info.size(), gts.size());
   for (auto it = info.begin(); it != info.end(); ++it) {
     ASSERT_EQ(it.value().size(), gts[it.key()].size());
-    const LabelImage inst = read_label_image(dir + "/instance/00000" + it.key() + ".png");
+    const LabelImage inst =
+        read_label_image(synth::bop_scene_dir(dir) + "/instance/00000" + it.key() + ".png");
     for (size_t k = 0; k < it.value().size(); ++k) {
       const auto& e = it.value()[k];
       char mname[48];
       std::snprintf(mname, sizeof(mname), "%06d_%06zu", std::stoi(it.key()), k);
-      const LabelImage vis = read_label_image(dir + "/mask_visib/" + mname + ".png");
-      const LabelImage all = read_label_image(dir + "/mask/" + mname + ".png");
+      const LabelImage vis =
+          read_label_image(synth::bop_scene_dir(dir) + "/mask_visib/" + mname + ".png");
+      const LabelImage all =
+          read_label_image(synth::bop_scene_dir(dir) + "/mask/" + mname + ".png");
       int n_vis = 0, n_all = 0, vis_outside_all = 0, inst_agree = 0;
       for (size_t i = 0; i < vis.size(); ++i) {
         n_vis += vis[i] > 0;
@@ -247,20 +257,30 @@ TEST(SynthGroundTruth, GtInfoIsConsistentWithTheMasks) {
         inst_agree += (vis[i] > 0) == (inst[i] == static_cast<int>(k) + 1);
       }
       EXPECT_EQ(e["px_count_visib"].get<int>(), n_vis);
-      EXPECT_EQ(e["px_count_all"].get<int>(), n_all);
+      // px_count_all also counts the silhouette outside the image (as bop_toolkit): then bbox_obj
+      // reaches beyond the image.
+      const int px_all = e["px_count_all"].get<int>();
+      const auto& b = e["bbox_obj"];
+      const bool inside = b[0].get<int>() >= 0 && b[1].get<int>() >= 0 &&
+                          b[0].get<int>() + b[2].get<int>() <= vis.width() &&
+                          b[1].get<int>() + b[3].get<int>() <= vis.height();
+      if (inside)
+        EXPECT_EQ(px_all, n_all);
+      else
+        EXPECT_GT(px_all, n_all);
       EXPECT_EQ(vis_outside_all, 0);
       EXPECT_EQ(inst_agree, static_cast<int>(vis.size()));
       EXPECT_LE(e["px_count_valid"].get<int>(), n_vis);
       const double fract = e["visib_fract"].get<double>();
-      EXPECT_NEAR(fract, n_all > 0 ? static_cast<double>(n_vis) / n_all : 0.0, 1e-12);
+      EXPECT_NEAR(fract, px_all > 0 ? static_cast<double>(n_vis) / px_all : 0.0, 1e-12);
     }
   }
   // The TUM trajectory and the BOP cameras describe the same poses.
-  std::ifstream tum(dir + "/groundtruth.txt");
+  std::ifstream tum(synth::bop_scene_dir(dir) + "/groundtruth.txt");
   std::string line;
   std::getline(tum, line);
   ASSERT_EQ(line[0], '#');
-  const auto cams = read_json(dir + "/scene_camera.json");
+  const auto cams = read_json(synth::bop_scene_dir(dir) + "/scene_camera.json");
   for (int i = 0; std::getline(tum, line); ++i) {
     std::istringstream ls(line);
     double ts, tx, ty, tz, qx, qy, qz, qw;
@@ -275,6 +295,45 @@ TEST(SynthGroundTruth, GtInfoIsConsistentWithTheMasks) {
     EXPECT_LT(((T_cam_world * T_world_cam).log()).norm(), 1e-6);
     EXPECT_NEAR(ts, i / 30.0, 1e-6);
   }
+}
+
+TEST(SynthGroundTruth, VisibleFractionCountsThePartOutsideTheImage) {
+  // A long lens: objects are often cut by the image border. bop_toolkit renders each object into
+  // an image three times as large (the original in its middle) and divides by all of its pixels.
+  SynthParams p = small_synth(4, 6, false);
+  p.fx = 4 * 145;
+  const synth::SyntheticSceneGenerator g(p);
+  PinholeIntrinsics big = g.intrinsics();
+  const int W = big.width, H = big.height;
+  big.width = 3 * W, big.height = 3 * H, big.cx += W, big.cy += H;
+  Rasterizer rast;
+  int cut = 0;
+  for (int i = 0; i < g.num_frames(); ++i) {
+    const synth::SynthFrame f = g.render_frame(i);
+    for (size_t k = 0; k < f.info.size(); ++k) {
+      const RenderItem item{g.scene().types[g.scene().objects[k].type].mesh.get(), f.T_cam_obj[k],
+                            1};
+      const RenderBuffers b = rast.render(big, std::span<const RenderItem>(&item, 1), kRenderDepth);
+      int all = 0, x0 = INT_MAX, x1 = INT_MIN;
+      for (int v = 0; v < b.depth.height(); ++v)
+        for (int u = 0; u < b.depth.width(); ++u)
+          if (b.depth.at(u, v) > 0) ++all, x0 = std::min(x0, u - W), x1 = std::max(x1, u - W);
+      const auto& inf = f.info[k];
+      int in_image = 0;
+      for (const auto m : f.masks[k]) in_image += m > 0;
+      EXPECT_EQ(inf.px_count_all, std::max(all, inf.px_count_visib)) << "frame " << i << " " << k;
+      EXPECT_NEAR(inf.visib_fract, all > 0 ? double(inf.px_count_visib) / all : 0.0, 1e-12);
+      if (all > 0) {
+        EXPECT_EQ(inf.bbox_obj[0], x0);
+        EXPECT_EQ(inf.bbox_obj[2], x1 - x0 + 1);
+      }
+      if (inf.px_count_visib > 0 && in_image < 0.8 * all) {
+        ++cut;  // the old ratio (visible / in-image silhouette) would have been larger
+        EXPECT_LT(inf.visib_fract, 0.81 * inf.px_count_visib / in_image);
+      }
+    }
+  }
+  EXPECT_GT(cut, 3) << "too few objects cut by the border to test anything";
 }
 
 }  // namespace

@@ -123,6 +123,7 @@ TEST(SynthCli, HelpDocumentsEveryOption) {
                           "--models",
                           "--model-unit-m",
                           "--repeat-types",
+                          "--distractors",
                           "--noise",
                           "--width",
                           "--height",
@@ -151,12 +152,32 @@ TEST(SynthCli, WritesABopSceneAndRejectsBadOptions) {
           " --seed 2 --frames 2 --objects 4 --scene table --width 160 --height 120 --noise off"
           " --preview-stride 1 --set synth.model_points=500");
   EXPECT_NE(out.find("[exit 0]"), std::string::npos) << out;
-  for (const char* f : {"scene_camera.json", "scene_gt.json", "scene_gt_info.json",
-                        "groundtruth.txt", "camera.json", "rgb/000001.png", "depth/000001.png",
-                        "mask/000001_000000.png", "mask_visib/000001_000003.png",
-                        "instance/000000.png", "preview/000001.png", "models/models_info.json",
-                        "models/obj_000001.ply", "models/obj_000004_points.xyz", "synth_info.json"})
+  // A BOP dataset: models and cameras at its root, the scene in test/000000 (bop_toolkit's layout).
+  for (const char* f :
+       {"camera.json", "models/models_info.json", "models/obj_000001.ply",
+        "models/obj_000004_points.xyz", "synth_info.json", "test_targets_bop19.json"})
     EXPECT_TRUE(fs::exists(dir + "/" + f)) << f;
+  for (const char* f :
+       {"scene_camera.json", "scene_gt.json", "scene_gt_info.json", "groundtruth.txt",
+        "rgb/000001.png", "depth/000001.png", "mask/000001_000000.png",
+        "mask_visib/000001_000003.png", "instance/000000.png", "preview/000001.png"})
+    EXPECT_TRUE(fs::exists(dir + "/test/000000/" + f)) << f;
+  const auto camera = read_json(dir + "/camera.json");
+  EXPECT_EQ(camera["width"], 160);
+  EXPECT_DOUBLE_EQ(camera["depth_scale"].get<double>(), 0.1);
+  // test_targets_bop19.json: the instances at least 10 % visible, counted per image and object.
+  const auto targets = read_json(dir + "/test_targets_bop19.json");
+  const auto gt_info = read_json(dir + "/test/000000/scene_gt_info.json");
+  size_t visible = 0;
+  for (const auto& [im, list] : gt_info.items())
+    for (const auto& e : list) visible += e["visib_fract"].get<double>() >= 0.1;
+  size_t counted = 0;
+  for (const auto& t : targets) {
+    EXPECT_EQ(t["scene_id"], 0);
+    counted += t["inst_count"].get<size_t>();
+  }
+  EXPECT_EQ(counted, visible);
+  EXPECT_GT(visible, 0u);
   EXPECT_EQ(read_xyz(dir + "/models/obj_000001_points.xyz").size(), 500u);
   const auto info = read_json(dir + "/synth_info.json");
   EXPECT_EQ(info["params"]["scene"], "table");

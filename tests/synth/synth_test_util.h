@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -33,6 +35,22 @@ inline nlohmann::json read_json(const std::string& path) {
   std::ifstream is(path);
   if (!is) throw std::runtime_error("cannot open " + path);
   return nlohmann::json::parse(is);
+}
+
+inline std::string read_bytes(const std::string& path) {
+  std::ifstream is(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << is.rdbuf();
+  return ss.str();
+}
+
+/// Every regular file under `dir` (relative path -> bytes).
+inline std::map<std::string, std::string> read_tree(const std::string& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
+    if (e.is_regular_file())
+      files[std::filesystem::relative(e.path(), dir).string()] = read_bytes(e.path().string());
+  return files;
 }
 
 /// BOP pose entry -> T_cam_obj in metres.

@@ -39,7 +39,8 @@ std::string detect_dataset_format(const std::string& path) {
   if (detail::looks_like_7scenes(path)) return "7scenes";
   throw IoError(
       path,
-      "unknown dataset layout; looked for: BOP (scene_camera.json here or in scene sub-folders), "
+      "unknown dataset layout; looked for: BOP (scene_camera.json here, in scene sub-folders or in "
+      "split/scene sub-folders), "
       "YCB-Video (data/NNNN/NNNNNN-meta.mat, or NNNNNN-color.png + NNNNNN-meta.mat here), "
       "TUM RGB-D (rgb.txt + depth.txt, or associations.txt), 7-Scenes (frame-NNNNNN.depth.png); "
       "set dataset.format to force one");

@@ -1,7 +1,8 @@
 // BOP scene layout (https://github.com/thodan/bop_toolkit/blob/master/docs/bop_datasets_format.md):
 // <scene>/scene_camera.json, scene_gt.json, scene_gt_info.json, rgb/ (or gray/), depth/,
 // mask_visib/, with models in <scene>/models, <scene>/../models or <scene>/../../models
-// (obj_XXXXXX.ply, mm).
+// (obj_XXXXXX.ply, mm). Opens a scene folder, a folder of scene folders, or a dataset root with
+// split folders (<root>/test/<scene>, as orpe synth writes).
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
@@ -99,6 +100,25 @@ std::vector<std::string> scene_folders(const fs::path& root) {
   return out;
 }
 
+/// The folder holding the scene folders: `root` itself, or (a BOP dataset root) its split folder
+/// that has scene folders: test/, then val/, train/, then any other sub-folder in name order.
+fs::path scenes_parent(const fs::path& root) {
+  if (!scene_folders(root).empty()) return root;
+  std::vector<std::string> splits;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(root, ec))
+    if (e.is_directory()) splits.push_back(e.path().filename().string());
+  auto rank = [](const std::string& s) {
+    return s == "test" ? 0 : s == "val" ? 1 : s == "train" ? 2 : 3;
+  };
+  std::sort(splits.begin(), splits.end(), [&](const std::string& a, const std::string& b) {
+    return std::make_pair(rank(a), a) < std::make_pair(rank(b), b);
+  });
+  for (const auto& s : splits)
+    if (!scene_folders(root / s).empty()) return root / s;
+  return {};
+}
+
 /// First existing file among stem + each extension.
 std::string first_existing(const fs::path& dir, const std::string& stem,
                            std::initializer_list<const char*> exts) {
@@ -117,8 +137,10 @@ class BopReader final : public SelectedFramesReader {
         throw ConfigError(fmt::format("dataset.scene = '{}' but {} is the scene folder {}",
                                       params.scene, path, scene_dir_.filename().string()));
     } else {
-      const auto scenes = scene_folders(path);
-      if (scenes.empty()) throw IoError(path, "no scene folders with scene_camera.json");
+      const fs::path parent = scenes_parent(path);
+      const auto scenes = parent.empty() ? std::vector<std::string>() : scene_folders(parent);
+      if (scenes.empty())
+        throw IoError(path, "no scene folders with scene_camera.json (here or in a split folder)");
       std::string pick = scenes.front();
       if (!params.scene.empty()) {
         auto it = std::find_if(scenes.begin(), scenes.end(),
@@ -128,7 +150,7 @@ class BopReader final : public SelectedFramesReader {
                                         params.scene, path, fmt::join(scenes, ", ")));
         pick = *it;
       }
-      scene_dir_ = fs::path(path) / pick;
+      scene_dir_ = parent / pick;
     }
     const std::string scene_name = scene_dir_.filename().string();
     info_.format = "bop";
@@ -349,7 +371,7 @@ class BopReader final : public SelectedFramesReader {
 }  // namespace
 
 bool looks_like_bop(const std::string& path) {
-  return fs::exists(fs::path(path) / "scene_camera.json") || !scene_folders(path).empty();
+  return fs::exists(fs::path(path) / "scene_camera.json") || !scenes_parent(path).empty();
 }
 
 std::unique_ptr<DatasetReader> open_bop(const std::string& path, const DatasetParams& params) {

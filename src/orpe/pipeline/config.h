@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "orpe/core/params.h"
+#include "orpe/eval/bop_pose_metrics.h"
 #include "orpe/eval/mask_metrics.h"
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/eval/trajectory_metrics.h"
@@ -25,14 +26,17 @@ struct OrpeConfig {
   DatasetParams dataset;
   TrajectoryMetricsParams eval_trajectory;
   PoseMetricsParams eval_pose;
+  BopPoseMetricsParams eval_bop;  ///< `orpe eval poses --bop`: VSD / MSSD / MSPD average recall
   MaskMetricsParams eval_masks;
-  slam::SlamOptions slam;                 ///< dense SLAM system options
-  slam::PreprocessParams slam_preprocess; ///< SLAM depth filter / pyramids
-  slam::TrackerParams slam_tracking;      ///< SLAM frame-to-model tracking
-  slam::FusionParams slam_fusion;         ///< SLAM surfel fusion
+  slam::SlamOptions slam;                  ///< dense SLAM system options
+  slam::PreprocessParams slam_preprocess;  ///< SLAM depth filter / pyramids
+  slam::TrackerParams slam_tracking;       ///< SLAM frame-to-model tracking
+  slam::FusionParams slam_fusion;          ///< SLAM surfel fusion
 
   /// The SLAM system's parameters assembled from the slam* sections.
-  slam::SlamParams slam_params() const { return {slam_preprocess, slam_tracking, slam_fusion, slam}; }
+  slam::SlamParams slam_params() const {
+    return {slam_preprocess, slam_tracking, slam_fusion, slam};
+  }
   SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
   SemanticParams semantic;          ///< instance-aware semantic fusion
   RecognitionParams recognition;    ///< segmentation.backend=model: hypotheses and verification
@@ -40,7 +44,8 @@ struct OrpeConfig {
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
   SynthParams synth;
-  PipelineParams pipeline;  ///< Object-RPE pipeline switches (ablation inputs, EKF, evaluated frames)
+  PipelineParams
+      pipeline;  ///< Object-RPE pipeline switches (ablation inputs, EKF, evaluated frames)
 
   /// Visits (section name, Params&) for every stage. Add a stage's Params here and nowhere else.
   template <class V>
@@ -48,6 +53,7 @@ struct OrpeConfig {
     v("dataset", dataset);
     v("eval_trajectory", eval_trajectory);
     v("eval_pose", eval_pose);
+    v("eval_bop", eval_bop);
     v("eval_masks", eval_masks);
     v("slam", slam);
     v("slam_preprocess", slam_preprocess);
@@ -72,10 +78,11 @@ void load_config_file(OrpeConfig& config, const std::string& path);
 void apply_config_override(OrpeConfig& config, const std::string& assignment);
 /// Named presets (applied before a config file and overrides):
 ///  - "default": the documented defaults (ElasticFusion's constants where they apply).
-///  - "realtime": SLAM at >= 15 frames/s at 640x480 on two CPU cores -- level-0 tracking on every 2nd
+///  - "realtime": SLAM at >= 15 frames/s at 640x480 on two CPU cores -- level-0 tracking on every
+///  2nd
 ///    row and column (slam_tracking.level0_pixel_step=2), 5 instead of 10 level-0 iterations, and
-///    fusion at half resolution (slam_fusion.fusion_level=1: a 4x sparser map). Measured on 7-Scenes:
-///    same ATE, 2.3x faster (docs/BENCHMARKS.md).
+///    fusion at half resolution (slam_fusion.fusion_level=1: a 4x sparser map). Measured on
+///    7-Scenes: same ATE, 2.3x faster (docs/BENCHMARKS.md).
 std::vector<std::string> config_preset_names();
 /// Applies the preset `name` to `config`. Throws ConfigError for an unknown name.
 void apply_config_preset(OrpeConfig& config, const std::string& name);

@@ -57,9 +57,10 @@ void write_single_view_csv(const std::string& path,
           "R_cam_obj,t_cam_obj_m,R_world_cam,t_world_cam_m,mask_px\n";
     auto pose = [](const SE3& T) {
       const Mat3& R = T.rotation();
-      return fmt::format("{:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f},{:.9f} {:.9f} {:.9f}",
-                         R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1),
-                         R(2, 2), T.translation().x(), T.translation().y(), T.translation().z());
+      return fmt::format(
+          "{:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f} {:.9f},{:.9f} {:.9f} {:.9f}",
+          R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2),
+          T.translation().x(), T.translation().y(), T.translation().z());
     };
     for (const auto& r : records)
       os << fmt::format("{},{},{},{:.6f},{},{:.6f},{:.6g},{:.4f},{},{},{},{}\n", r.frame_index,
@@ -70,15 +71,17 @@ void write_single_view_csv(const std::string& path,
   });
 }
 
-std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const PoseVariant& variant) {
+std::string object_poses_json(const std::vector<ObjectWorldPose>& objects,
+                              const PoseVariant& variant) {
   nlohmann::json j;
   j["configuration"] = variant.name;
   j["inputs"] = {{"projected_mask", variant.projected_mask},
                  {"projected_depth", variant.projected_depth},
                  {"projected_color", variant.projected_color},
                  {"ekf", variant.ekf}};
-  j["frames"] = "world = the SLAM map's frame (the first camera, or the dataset's world when the "
-                "first frame has a ground-truth pose and pipeline.init_from_ground_truth is on)";
+  j["frames"] =
+      "world = the SLAM map's frame (the first camera, or the dataset's world when the "
+      "first frame has a ground-truth pose and pipeline.init_from_ground_truth is on)";
   j["covariance"] = "6x6, body-frame tangent [rho; phi] of T_world_obj (m^2, rad^2), row-major";
   j["objects"] = nlohmann::json::array();
   for (const auto& o : objects) {
@@ -110,28 +113,31 @@ std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const
 }
 
 std::string RunSummary::report() const {
-  std::string s = fmt::format("orpe run ({}): {} frames ({} skipped), {} keyframes, {} evaluated; "
-                              "{} surfels, {} instances\n",
-                              mode, frames, skipped_frames, stats.keyframes, stats.evaluated_frames,
-                              surfels, instances);
+  std::string s = fmt::format(
+      "orpe run ({}): {} frames ({} skipped), {} keyframes, {} evaluated; "
+      "{} surfels, {} instances\n",
+      mode, frames, skipped_frames, stats.keyframes, stats.evaluated_frames, surfels, instances);
   if (stats.lost_frames || stats.degraded_frames)
     s += fmt::format("tracking: {} degraded, {} lost frames\n", stats.degraded_frames,
                      stats.lost_frames);
   for (size_t v = 0; v < variants.size(); ++v)
     s += fmt::format("poses [{}]: {} rows\n", variants[v], pose_rows[v]);
   if (stats.single_view_estimates)
-    s += fmt::format("single-view: {} estimates ({} valid, {} reused); EKF: {} accepted, {} gated\n",
-                     stats.single_view_estimates, stats.single_view_valid,
-                     stats.single_view_cache_hits, stats.ekf_accepted, stats.ekf_rejected);
+    s +=
+        fmt::format("single-view: {} estimates ({} valid, {} reused); EKF: {} accepted, {} gated\n",
+                    stats.single_view_estimates, stats.single_view_valid,
+                    stats.single_view_cache_hits, stats.ekf_accepted, stats.ekf_rejected);
   const double n = std::max(frames, 1);
   s += fmt::format(
       "time per frame: read {:.0f} ms, slam {:.0f} ms, semantic {:.0f} ms, render {:.0f} ms, "
       "single-view {:.0f} ms, ekf {:.1f} ms; wall {:.1f} s\n",
       read_ms / n, stats.slam_ms / n, stats.semantic_ms / n, stats.render_ms / n,
       stats.single_view_ms / n, stats.ekf_ms / n, wall_ms / 1000);
-  s += fmt::format("frames/s {:.1f}; map {:.1f} MB; peak RSS {:.0f} MB\n", frames / std::max(wall_ms / 1000, 1e-9),
-                   map_bytes / 1048576.0, peak_rss_mb);
-  if (ate_rmse_m) s += fmt::format("camera ATE RMSE {:.4f} m (rigid alignment to the ground truth)\n", *ate_rmse_m);
+  s += fmt::format("frames/s {:.1f}; map {:.1f} MB; peak RSS {:.0f} MB\n",
+                   frames / std::max(wall_ms / 1000, 1e-9), map_bytes / 1048576.0, peak_rss_mb);
+  if (ate_rmse_m)
+    s += fmt::format("camera ATE RMSE {:.4f} m (rigid alignment to the ground truth)\n",
+                     *ate_rmse_m);
   s += "outputs in " + out_dir + ":";
   for (const auto& f : files) s += " " + f;
   return s + "\n";
@@ -152,13 +158,15 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     if (options.ablations.empty()) {
       params.variants.push_back(PoseVariant::from(config.pipeline));
     } else {
-      for (const auto& name : options.ablations) params.variants.push_back(PoseVariant::named(name));
+      for (const auto& name : options.ablations)
+        params.variants.push_back(PoseVariant::named(name));
     }
   }
   const auto reader = open_dataset(options.dataset_path, config.dataset);
   const DatasetInfo& info = reader->info();
   if (reader->size() == 0)
-    throw IoError(options.dataset_path, "no frames selected (check dataset.first_frame/last_frame)");
+    throw IoError(options.dataset_path,
+                  "no frames selected (check dataset.first_frame/last_frame)");
   if (options.mode == "full" && info.model_points_paths.empty())
     throw IoError(options.dataset_path,
                   "the dataset has no object models (full mode estimates object poses)");
@@ -184,9 +192,9 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   std::unique_ptr<MaskRecorder> masks;
   if (options.write_masks) {
     if (!pipeline.semantic()) throw ConfigError("run: --write-masks needs --mode semantic or full");
-    masks = std::make_unique<MaskRecorder>(
-        (std::filesystem::path(options.out_dir) / "masks").string(),
-        static_cast<float>(config.segmentation.mask_threshold));
+    masks =
+        std::make_unique<MaskRecorder>((std::filesystem::path(options.out_dir) / "masks").string(),
+                                       static_cast<float>(config.segmentation.mask_threshold));
   }
   FrameStream stream(*reader);
   RgbdFrame frame;
@@ -227,11 +235,10 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     summary.instances = static_cast<int>(semantic->fusion().instances().size());
   }
   if (masks) {
-    const std::string scene =
-        !config.dataset.scene.empty() ? config.dataset.scene
-        : info.format == "bop"        ? fmt::format("{:06d}", info.scene_id)
-        : info.format == "ycbv"       ? fmt::format("{:04d}", info.scene_id)
-                                      : std::string();
+    const std::string scene = !config.dataset.scene.empty() ? config.dataset.scene
+                              : info.format == "bop"        ? fmt::format("{:06d}", info.scene_id)
+                              : info.format == "ycbv"       ? fmt::format("{:04d}", info.scene_id)
+                                                            : std::string();
     masks->finish(options.dataset_path, info.format, scene);
     summary.files.push_back("masks/index.json");
   }
@@ -239,7 +246,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     // The evaluated frames as a YCB-Video keyframe list (`orpe eval poses --keyframes`), so that
     // frames without pose estimates on purpose are not scored as misses.
     write_file_atomic(path("evaluated_frames.txt"), [&](std::ostream& os) {
-      for (int f : pipeline.evaluated_frames()) os << fmt::format("{:04d}/{:06d}\n", info.scene_id, f);
+      for (int f : pipeline.evaluated_frames())
+        os << fmt::format("{:04d}/{:06d}\n", info.scene_id, f);
     });
     summary.files.push_back("evaluated_frames.txt");
   }
@@ -259,13 +267,15 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
       write_single_view_csv(path(dir + "single_view.csv"), pipeline.single_view_records(v));
       summary.files.push_back(dir + "single_view.csv");
       const std::string objects = object_poses_json(pipeline.object_poses(v), variant);
-      write_file_atomic(path(dir + "objects.json"), [&](std::ostream& os) { os << objects << "\n"; });
+      write_file_atomic(path(dir + "objects.json"),
+                        [&](std::ostream& os) { os << objects << "\n"; });
       summary.files.push_back(dir + "objects.json");
     }
   }
   std::string render_png;
   if (!options.render_view.empty()) {
-    render_png = fs::path(options.render_view).is_absolute() ? options.render_view : path(options.render_view);
+    render_png = fs::path(options.render_view).is_absolute() ? options.render_view
+                                                             : path(options.render_view);
     PinholeIntrinsics K;  // a fixed 640x480 viewer camera, whatever the dataset's
     K.width = 640;
     K.height = 480;
@@ -273,10 +283,20 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     K.cx = 319.5;
     K.cy = 239.5;
     const auto& traj = pipeline.trajectory();
-    const SE3 view = slam::overview_pose(pipeline.slam().map(), traj.front().T_world_cam, min_conf,
-                                         options.view_back_m, options.view_up_m);
+    const auto& map = pipeline.slam().map();
+    const SE3& first = traj.front().T_world_cam;
+    // Framed on the objects (else the map), seen from the first camera's side; a fixed offset only
+    // when one is asked for, or for a map too small to have a box.
+    const Eigen::AlignedBox3d box = slam::map_focus_box(map, min_conf);
+    const bool fixed = options.view_back_m > 0 || options.view_up_m > 0 || box.isEmpty();
+    const SE3 view = fixed
+                         ? slam::overview_pose(map, first, min_conf,
+                                               options.view_back_m > 0 ? options.view_back_m : 1.5,
+                                               options.view_up_m > 0 ? options.view_up_m : 0.6)
+                         : slam::framing_pose(box, first, K);
     slam::MapRenderer viewer;
-    write_color_png(render_png, slam::render_map_image(viewer, pipeline.slam().map(), view, K, min_conf));
+    write_color_png(render_png,
+                    slam::render_map_image(viewer, pipeline.slam().map(), view, K, min_conf));
     summary.files.push_back(fs::path(render_png).lexically_relative(out).string());
   }
   summary.stats = pipeline.stats();
@@ -324,7 +344,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("memory.peak_rss_mb", summary.peak_rss_mb);
   const auto gt = reader->ground_truth_trajectory();
   if (!gt.empty()) {
-    const TrajectoryEvaluation ev = evaluate_trajectory(gt, pipeline.trajectory(), config.eval_trajectory);
+    const TrajectoryEvaluation ev =
+        evaluate_trajectory(gt, pipeline.trajectory(), config.eval_trajectory);
     if (!ev.matches.empty()) {
       js.set_json("trajectory_eval", ev.to_json());
       summary.ate_rmse_m = ev.ate.translation_m.rmse;

@@ -1,8 +1,9 @@
 // `orpe run`: a whole dataset through the pipeline, with every output written atomically.
 //
 //  OUT/trajectory.txt        TUM trajectory (T_world_cam per frame; timestamps of the dataset)
-//  OUT/map.ply               the surfel map (position, normal, colour, radius, confidence, instance)
-//  OUT/summary.json          timings per stage, counts, map bytes, peak memory, ATE (when the
+//  OUT/map.ply               the surfel map (position, normal, colour, radius, confidence,
+//  instance) OUT/summary.json          timings per stage, counts, map bytes, peak memory, ATE (when
+//  the
 //                            dataset has camera ground truth), the effective configuration
 //  semantic and full modes:
 //  OUT/semantic_map.ply      surfels with instance and class ids (semantic/semantic_output.h)
@@ -14,9 +15,10 @@
 //  OUT/poses.csv             BOP results: one row per object per evaluated frame (camera frame)
 //  OUT/poses_final.csv       (EKF) the final fused world poses moved into each evaluated frame
 //  OUT/objects.json          per instance: class, world pose, covariance, number of fused views
-//  OUT/single_view.csv      every single-view estimate with the tracked camera pose (write_single_view_csv)
-//  OUT/evaluated_frames.txt  the frames with pose estimates, as a keyframe list (scene/frame per line)
-//  OUT/ablation/<name>/{poses.csv, poses_final.csv, objects.json}  per configuration named in
+//  OUT/single_view.csv      every single-view estimate with the tracked camera pose
+//  (write_single_view_csv) OUT/evaluated_frames.txt  the frames with pose estimates, as a keyframe
+//  list (scene/frame per line) OUT/ablation/<name>/{poses.csv, poses_final.csv, objects.json}  per
+//  configuration named in
 //                            RunOptions::ablations (the first-listed one is also written to OUT/)
 #pragma once
 
@@ -37,12 +39,14 @@ struct RunOptions {
   /// Pose configurations (ablation names) to run in one pass; empty = config.pipeline's switches.
   /// The first one is the primary, written to OUT/ directly.
   std::vector<std::string> ablations;
-  /// Also render the final map to this PNG (relative to out_dir unless absolute); empty = no picture.
-  /// The viewpoint is behind (view_back_m along the first camera's -z) and above (view_up_m along its
-  /// -y) the first camera, looking at the centroid of the written surfels.
+  /// Also render the final map to this PNG (relative to out_dir unless absolute); empty = no
+  /// picture. The viewpoint frames the objects' surfels (else the map's; slam::map_focus_box) from
+  /// the first camera's side, 25 deg higher (slam::framing_pose). When view_back_m or view_up_m is
+  /// > 0 it is instead behind (view_back_m along the first camera's -z) and above (view_up_m along
+  /// its -y) the first camera, looking at the centroid of the written surfels.
   std::string render_view;
-  double view_back_m = 1.5;
-  double view_up_m = 0.6;
+  double view_back_m = 0;
+  double view_up_m = 0;
   /// semantic / full: also write per-keyframe input and projected instance masks to OUT/masks/.
   bool write_masks = false;
   /// Called with each progress line; null = spdlog::info.
@@ -63,13 +67,13 @@ struct RunSummary {
   double peak_rss_mb = 0;
   size_t map_bytes = 0;
   std::optional<double> ate_rmse_m;  ///< when the dataset has camera ground truth
-  std::vector<std::string> files;  ///< written, relative to out_dir
+  std::vector<std::string> files;    ///< written, relative to out_dir
   std::string report() const;
 };
 
 /// Runs the pipeline over the dataset at options.dataset_path (config.dataset selects the scene and
-/// frames) and writes the outputs above. Throws IoError / ConfigError with the file and the problem;
-/// outputs already written stay complete (each file is atomic).
+/// frames) and writes the outputs above. Throws IoError / ConfigError with the file and the
+/// problem; outputs already written stay complete (each file is atomic).
 RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options);
 
 /// single_view.csv: every single-view estimate of a variant, one line each:
@@ -79,6 +83,7 @@ void write_single_view_csv(const std::string& path,
                            const std::vector<ObjectRpePipeline::SingleViewRecord>& records);
 
 /// objects.json text for a set of final object poses.
-std::string object_poses_json(const std::vector<ObjectWorldPose>& objects, const PoseVariant& variant);
+std::string object_poses_json(const std::vector<ObjectWorldPose>& objects,
+                              const PoseVariant& variant);
 
 }  // namespace orpe

@@ -6,8 +6,14 @@
 
 #include "orpe/core/error.h"
 #include "orpe/io/image_io.h"
+#include "orpe/semantic/semantic_output.h"
 
 namespace orpe {
+
+std::string color_file_name(const std::string& label_file) {
+  const std::filesystem::path p(label_file);
+  return (p.parent_path() / (p.stem().string() + "_color" + p.extension().string())).string();
+}
 
 LabelImage detection_label_image(const std::vector<Detection>& detections, int width, int height,
                                  float threshold, LabelClasses* classes) {
@@ -77,6 +83,16 @@ bool MaskRecorder::record(const RgbdFrame& frame, const SE3& T_world_cam,
   f.projected.file = fmt::format("{:06d}_projected.png", frame.index);
   write_label_png((fs::path(dir_) / f.input.file).string(), input);
   write_label_png((fs::path(dir_) / f.projected.file).string(), projected);
+  // For people (a 16-bit label PNG looks black): detections coloured by class (they have no
+  // identity across frames), the map's instances by instance id (as semantic_map_instances.ply).
+  LabelImage input_by_class(W, H, 0);
+  for (size_t p = 0; p < input.size(); ++p)
+    if (const auto c = f.input.classes.find(input[p]); input[p] > 0 && c != f.input.classes.end())
+      input_by_class[p] = c->second;
+  write_color_png((fs::path(dir_) / color_file_name(f.input.file)).string(),
+                  colorize_instances(input_by_class));
+  write_color_png((fs::path(dir_) / color_file_name(f.projected.file)).string(),
+                  colorize_instances(projected));
   index_.frames.push_back(std::move(f));
   return true;
 }

@@ -17,6 +17,11 @@
 
 namespace orpe {
 
+/// The colour-coded copy MaskRecorder writes beside each label PNG, for looking at:
+/// "000012_input.png" -> "000012_input_color.png" (io's label_color; black = no label). Input
+/// masks are coloured by class, projected masks by instance id.
+std::string color_file_name(const std::string& label_file);
+
 /// The detections as one instance label image: value d + 1 where detection d's probability is
 /// >= threshold and the highest of the detections there (ties: the first). `classes` (optional)
 /// receives label value -> class for every detection.

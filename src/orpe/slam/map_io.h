@@ -25,9 +25,25 @@ size_t write_surfel_ply(const std::string& path, const SurfelMap& map, float min
 SE3 overview_pose(const SurfelMap& map, const SE3& T_world_cam, float min_confidence, double back_m,
                   double up_m);
 
+/// The part of the map a picture should show: the box of the surfels that belong to an object
+/// instance (instance_id > 0) when there are at least `min_points` of them, else of all surfels
+/// with confidence >= min_confidence; per axis from the 2nd to the 98th percentile, so that a few
+/// stray far surfels (a wall seen through a window) do not shrink the scene to a dot. Empty when
+/// the map has fewer than `min_points` such surfels.
+Eigen::AlignedBox3d map_focus_box(const SurfelMap& map, float min_confidence,
+                                  size_t min_points = 50);
+
+/// A viewpoint that frames `box` (world): it looks at the box's centre from the side the given
+/// camera saw it from (that camera's viewing direction, tilted `elevation_deg` further down about
+/// its x axis, with its up vector), at the nearest distance at which all eight corners project
+/// into the central `fill` fraction of the image of K (in width and height).
+SE3 framing_pose(const Eigen::AlignedBox3d& box, const SE3& T_world_cam, const PinholeIntrinsics& K,
+                 double elevation_deg = 25, double fill = 0.9);
+
 /// Renders the map (surfel colours, shaded by the normal for depth cues) into an RGB image; empty
 /// pixels get `background`.
 ColorImage render_map_image(MapRenderer& renderer, const SurfelMap& map, const SE3& T_world_cam,
-                            const PinholeIntrinsics& K, float min_confidence, Rgb8 background = {255, 255, 255});
+                            const PinholeIntrinsics& K, float min_confidence,
+                            Rgb8 background = {255, 255, 255});
 
 }  // namespace orpe::slam

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <ostream>
 
@@ -39,6 +40,26 @@ double tidy(double x) {
 
 ojson bbox(const int b[4]) {
   return ojson::array({b[0], b[1], b[2], b[3]});
+}
+
+/// One image's entries of scene_gt.json (`gt`) and scene_gt_info.json (`gt_info`).
+void add_gt_entries(const std::vector<SE3>& T_cam_obj, const std::vector<int>& ids,
+                    const char* id_key, const std::vector<ObjectFrameInfo>& info, ojson& gt,
+                    ojson& gt_info) {
+  gt = ojson::array();
+  gt_info = ojson::array();
+  for (size_t k = 0; k < T_cam_obj.size(); ++k) {
+    gt.push_back({{"cam_R_m2c", row_major(T_cam_obj[k].rotation())},
+                  {"cam_t_m2c", mm(T_cam_obj[k].translation())},
+                  {id_key, ids[k]}});
+    const ObjectFrameInfo& o = info[k];
+    gt_info.push_back({{"bbox_obj", bbox(o.bbox_obj)},
+                       {"bbox_visib", bbox(o.bbox_visib)},
+                       {"px_count_all", o.px_count_all},
+                       {"px_count_valid", o.px_count_valid},
+                       {"px_count_visib", o.px_count_visib},
+                       {"visib_fract", o.visib_fract}});
+  }
 }
 
 }  // namespace
@@ -116,25 +137,45 @@ void write_bop_scene_json(const std::string& dir, const PinholeIntrinsics& K, do
                 {"depth_scale", depth_scale},
                 {"cam_R_w2c", row_major(T_cam_world.rotation())},
                 {"cam_t_w2c", mm(T_cam_world.translation())}};
-    ojson list = ojson::array(), ilist = ojson::array();
-    for (size_t k = 0; k < f.T_cam_obj.size(); ++k) {
-      list.push_back({{"cam_R_m2c", row_major(f.T_cam_obj[k].rotation())},
-                      {"cam_t_m2c", mm(f.T_cam_obj[k].translation())},
-                      {"obj_id", f.obj_ids[k]}});
-      const ObjectFrameInfo& o = f.info[k];
-      ilist.push_back({{"bbox_obj", bbox(o.bbox_obj)},
-                       {"bbox_visib", bbox(o.bbox_visib)},
-                       {"px_count_all", o.px_count_all},
-                       {"px_count_valid", o.px_count_valid},
-                       {"px_count_visib", o.px_count_visib},
-                       {"visib_fract", o.visib_fract}});
-    }
-    gt[key] = list;
-    gt_info[key] = ilist;
+    add_gt_entries(f.T_cam_obj, f.obj_ids, "obj_id", f.info, gt[key], gt_info[key]);
   }
   write_json(dir + "/scene_camera.json", cam);
   write_json(dir + "/scene_gt.json", gt);
   write_json(dir + "/scene_gt_info.json", gt_info);
+}
+
+void write_distractor_json(const std::string& dir, const std::vector<BopFrameRecord>& frames) {
+  ojson gt = ojson::object(), gt_info = ojson::object();
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const BopFrameRecord& f = frames[i];
+    std::vector<int> ids(f.T_cam_distractor.size());
+    for (size_t j = 0; j < ids.size(); ++j) ids[j] = static_cast<int>(j) + 1;
+    const std::string key = std::to_string(i);
+    add_gt_entries(f.T_cam_distractor, ids, "distractor_id", f.distractor_info, gt[key],
+                   gt_info[key]);
+  }
+  write_json(dir + "/scene_gt_distractors.json", gt);
+  write_json(dir + "/scene_gt_info_distractors.json", gt_info);
+}
+
+std::string bop_scene_dir(const std::string& dataset_dir) {
+  return fmt::format("{}/test/{:06d}", dataset_dir, kBopSceneId);
+}
+
+void write_bop_targets(const std::string& path, int scene_id,
+                       const std::vector<BopFrameRecord>& frames, double min_visib) {
+  ojson targets = ojson::array();
+  for (size_t i = 0; i < frames.size(); ++i) {
+    std::map<int, int> count;
+    for (size_t k = 0; k < frames[i].obj_ids.size(); ++k)
+      if (frames[i].info[k].visib_fract >= min_visib) ++count[frames[i].obj_ids[k]];
+    for (const auto& [obj, n] : count)
+      targets.push_back({{"im_id", static_cast<int>(i)},
+                         {"inst_count", n},
+                         {"obj_id", obj},
+                         {"scene_id", scene_id}});
+  }
+  write_json(path, targets);
 }
 
 void write_tum_trajectory(const std::string& path, const std::vector<BopFrameRecord>& frames) {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -111,16 +112,143 @@ Rgb8 instance_colour(int k) {
   return {q(r), q(g), q(b)};
 }
 
+/// Per instance k (label k + 1 in `visible`; `silhouettes[k]` its amodal mask): the visible mask
+/// and the BOP scene_gt_info counts and boxes.
+void object_frame_info(const LabelImage& visible, const std::vector<MaskImage>& silhouettes,
+                       const DepthImage& depth, std::vector<MaskImage>& masks_visib,
+                       std::vector<ObjectFrameInfo>& info) {
+  const int W = visible.width(), H = visible.height(), n = static_cast<int>(silhouettes.size());
+  masks_visib.assign(n, MaskImage(W, H, 0));
+  info.assign(n, ObjectFrameInfo{});
+  std::vector<int> vx0(n, W), vy0(n, H), vx1(n, -1), vy1(n, -1), ax0(n, W), ay0(n, H), ax1(n, -1),
+      ay1(n, -1);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const int id = visible.at(u, v);
+      if (id > 0 && id <= n) {
+        const int k = id - 1;
+        masks_visib[k].at(u, v) = 1;
+        ObjectFrameInfo& inf = info[k];
+        ++inf.px_count_visib;
+        if (depth.at(u, v) > 0) ++inf.px_count_valid;
+        vx0[k] = std::min(vx0[k], u), vx1[k] = std::max(vx1[k], u), vy0[k] = std::min(vy0[k], v),
+        vy1[k] = std::max(vy1[k], v);
+      }
+      for (int k = 0; k < n; ++k)
+        if (silhouettes[k].at(u, v)) {
+          ++info[k].px_count_all;
+          ax0[k] = std::min(ax0[k], u), ax1[k] = std::max(ax1[k], u), ay0[k] = std::min(ay0[k], v),
+          ay1[k] = std::max(ay1[k], v);
+        }
+    }
+  for (int k = 0; k < n; ++k) {
+    ObjectFrameInfo& inf = info[k];
+    // The visible surface is always part of the silhouette; guard against a 1-pixel disagreement at
+    // clipped edges anyway so that visib_fract stays in [0, 1].
+    inf.px_count_all = std::max(inf.px_count_all, inf.px_count_visib);
+    inf.visib_fract =
+        inf.px_count_all > 0 ? static_cast<double>(inf.px_count_visib) / inf.px_count_all : 0.0;
+    if (vx1[k] >= 0) {
+      const int b[4] = {vx0[k], vy0[k], vx1[k] - vx0[k] + 1, vy1[k] - vy0[k] + 1};
+      std::copy(b, b + 4, inf.bbox_visib);
+    }
+    if (ax1[k] >= 0) {
+      const int b[4] = {ax0[k], ay0[k], ax1[k] - ax0[k] + 1, ay1[k] - ay0[k] + 1};
+      std::copy(b, b + 4, inf.bbox_obj);
+    }
+  }
+}
+
+/// bop_toolkit's px_count_all counts the whole silhouette, also the part cut off by the image
+/// border (it renders into an image three times as large, the original in its middle). Adds the
+/// pixels of the mesh's silhouette outside the image (within that larger image) to `info` and
+/// widens bbox_obj to them; objects entirely inside the image are left alone (nothing is rendered).
+void add_silhouette_outside_image(const TriangleMesh& mesh, const SE3& T_cam_obj,
+                                  const PinholeIntrinsics& K, const RasterizerParams& rp,
+                                  ObjectFrameInfo& info) {
+  const int W = K.width, H = K.height;
+  Eigen::Vector2d lo(1e30, 1e30), hi(-1e30, -1e30);
+  bool behind = false;
+  for (const auto& v : mesh.vertices) {
+    const Vec3 p = T_cam_obj * v.cast<double>();
+    if (p.z() <= rp.near_m) {
+      behind = true;
+      break;
+    }
+    const Eigen::Vector2d q = K.project(p);
+    lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+  }
+  if (behind) lo = Eigen::Vector2d(-W, -H), hi = Eigen::Vector2d(2 * W, 2 * H);
+  // Pixel centres outside the image are at -1 or W, H and beyond.
+  if (lo.x() > -1 && lo.y() > -1 && hi.x() < W && hi.y() < H) return;
+  const int u0 = static_cast<int>(std::max<double>(-W, std::floor(lo.x())));
+  const int v0 = static_cast<int>(std::max<double>(-H, std::floor(lo.y())));
+  const int u1 = static_cast<int>(std::min<double>(2 * W, std::ceil(hi.x()) + 1));
+  const int v1 = static_cast<int>(std::min<double>(2 * H, std::ceil(hi.y()) + 1));
+  if (u1 <= u0 || v1 <= v0) return;
+  PinholeIntrinsics crop = K;  // a crop of the larger image: the principal point shifted
+  crop.width = u1 - u0, crop.height = v1 - v0, crop.cx = K.cx - u0, crop.cy = K.cy - v0;
+  Rasterizer rast(rp);
+  const RenderItem item{&mesh, T_cam_obj, 1};
+  RenderBuffers buf;
+  rast.render(crop, std::span<const RenderItem>(&item, 1), buf, kRenderDepth);
+  int* b = info.bbox_obj;  // x, y, w, h (-1s when empty)
+  int x0 = b[2] > 0 ? b[0] : INT_MAX, y0 = b[3] > 0 ? b[1] : INT_MAX;
+  int x1 = b[2] > 0 ? b[0] + b[2] - 1 : INT_MIN, y1 = b[3] > 0 ? b[1] + b[3] - 1 : INT_MIN;
+  for (int v = 0; v < crop.height; ++v)
+    for (int u = 0; u < crop.width; ++u) {
+      const int x = u + u0, y = v + v0;
+      if (buf.depth.at(u, v) <= 0 || (x >= 0 && x < W && y >= 0 && y < H)) continue;
+      ++info.px_count_all;
+      x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+    }
+  if (x1 >= x0) {
+    const int box[4] = {x0, y0, x1 - x0 + 1, y1 - y0 + 1};
+    std::copy(box, box + 4, b);
+  }
+  info.visib_fract =
+      info.px_count_all > 0 ? static_cast<double>(info.px_count_visib) / info.px_count_all : 0.0;
+}
+
+std::vector<double> row_major_4x4(const SE3& T) {
+  const Mat4 M = T.matrix();
+  std::vector<double> rm;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) rm.push_back(M(r, c));
+  return rm;
+}
+
+/// synth_info.json "distractors": what each distractor is and where it stands.
+nlohmann::ordered_json distractors_json(const SynthScene& scene) {
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (size_t j = 0; j < scene.distractors.size(); ++j) {
+    const auto& d = scene.distractors[j];
+    const ObjectModel& m = scene.distractor_types[d.type];
+    const auto b = m.mesh->bounds();
+    const Eigen::Vector3d size = (b.max() - b.min()).cast<double>();
+    const Rgb8 c = m.mesh->base_color;
+    list.push_back({{"distractor_id", d.type + 1},
+                    {"label", static_cast<int>(j) + 1},
+                    {"name", m.name},
+                    {"size_m", {size.x(), size.y(), size.z()}},
+                    {"colour_rgb", {c.r, c.g, c.b}},
+                    {"T_world_obj_m", row_major_4x4(d.T_world_obj)}});
+  }
+  return list;
+}
+
 }  // namespace
 
 std::string SynthReport::report() const {
   std::string s = fmt::format(
-      "orpe synth: {} frames, {} objects of {} types, scene '{}'\n"
+      "orpe synth: {} frames, {} objects of {} types{}, scene '{}'\n"
       "  camera: arc {:.0f} deg around the scene, largest camera distance {:.2f} m\n"
       "  mean visible fraction {:.2f}, valid depth {:.0f} % of pixels\n"
-      "  written to {} in {:.1f} s\n",
-      frames, objects, types, scene, arc_deg, trajectory_extent_m, mean_visib_fract,
-      100 * mean_valid_depth, out_dir, seconds);
+      "  written to {} (BOP dataset; the scene in {}) in {:.1f} s\n",
+      frames, objects, types,
+      distractors > 0 ? fmt::format(" and {} distractors", distractors) : std::string(), scene,
+      arc_deg, trajectory_extent_m, mean_visib_fract, 100 * mean_valid_depth, out_dir, scene_dir,
+      seconds);
   for (const auto& w : warnings) s += "  warning: " + w + "\n";
   return s;
 }
@@ -245,10 +373,25 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
   tp.azimuth_centre_rad = params_.scene == "shelf" ? scene_.view_azimuth_rad : 2 * M_PI * U(rng);
   tp.min_height_m = 0.25;
   T_world_cam_ = make_handheld_trajectory(tp, scene_.centre_world, rng);
+  add_distractors(layout);
   for (const auto& T : T_world_cam_) {
     const Vec3 d = T.translation() - scene_.centre_world;
     arc_azimuths_.push_back(std::atan2(d.y(), d.x()));
   }
+}
+
+void SyntheticSceneGenerator::add_distractors(const SceneLayoutParams& layout) {
+  if (params_.distractors <= 0) return;
+  // Their own random stream: with or without distractors, the objects and the camera path are the
+  // same.
+  std::mt19937_64 rng(static_cast<std::uint64_t>(params_.seed) * 0xD1B54A32D192ED03ull + 0xd15);
+  std::vector<ObjectModel> types;
+  for (int j = 0; j < params_.distractors; ++j)
+    types.push_back(make_distractor_object(scene_.types, j, rng));
+  const size_t warned = scene_.warnings.size();
+  place_distractors(scene_, std::move(types), layout, rng);
+  for (size_t w = warned; w < scene_.warnings.size(); ++w)
+    spdlog::warn("synth: {}", scene_.warnings[w]);
 }
 
 SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) const {
@@ -269,6 +412,13 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
     const auto& o = scene_.objects[k];
     f.T_cam_obj.push_back(T_cam_world * o.T_world_obj);
     items.push_back({scene_.types[o.type].mesh.get(), f.T_cam_obj.back(), k + 1});
+  }
+  const int nd = static_cast<int>(scene_.distractors.size());
+  for (int j = 0; j < nd; ++j) {
+    const auto& d = scene_.distractors[j];
+    f.T_cam_distractor.push_back(T_cam_world * d.T_world_obj);
+    items.push_back(
+        {scene_.distractor_types[d.type].mesh.get(), f.T_cam_distractor.back(), n + 1 + j});
   }
   // Light fixed in the world (from above, slightly to one side), brightness drifting slowly.
   const Vec3 light_world = Vec3(0.35, -0.45, 1.0).normalized();
@@ -307,57 +457,42 @@ SynthFrame SyntheticSceneGenerator::render_frame(int i, int render_threads) cons
     f.depth = f.depth_clean;
   }
   f.masks.resize(n);
-  f.masks_visib.assign(n, MaskImage(W, H, 0));
-  f.info.resize(n);
   for (int k = 0; k < n; ++k) f.masks[k] = std::move(buf.silhouettes[first_object + k]);
-  std::vector<int> vx0(n, W), vy0(n, H), vx1(n, -1), vy1(n, -1), ax0(n, W), ay0(n, H), ax1(n, -1),
-      ay1(n, -1);
-  for (int v = 0; v < H; ++v)
-    for (int u = 0; u < W; ++u) {
-      const int id = f.instances.at(u, v);
-      if (id > 0) {
-        const int k = id - 1;
-        f.masks_visib[k].at(u, v) = 1;
-        ObjectFrameInfo& inf = f.info[k];
-        ++inf.px_count_visib;
-        if (f.depth.at(u, v) > 0) ++inf.px_count_valid;
-        vx0[k] = std::min(vx0[k], u), vx1[k] = std::max(vx1[k], u), vy0[k] = std::min(vy0[k], v),
-        vy1[k] = std::max(vy1[k], v);
-      }
-      for (int k = 0; k < n; ++k)
-        if (f.masks[k].at(u, v)) {
-          ++f.info[k].px_count_all;
-          ax0[k] = std::min(ax0[k], u), ax1[k] = std::max(ax1[k], u), ay0[k] = std::min(ay0[k], v),
-          ay1[k] = std::max(ay1[k], v);
-        }
-    }
-  for (int k = 0; k < n; ++k) {
-    ObjectFrameInfo& inf = f.info[k];
-    // The visible surface is always part of the silhouette; guard against a 1-pixel disagreement at
-    // clipped edges anyway so that visib_fract stays in [0, 1].
-    inf.px_count_all = std::max(inf.px_count_all, inf.px_count_visib);
-    inf.visib_fract =
-        inf.px_count_all > 0 ? static_cast<double>(inf.px_count_visib) / inf.px_count_all : 0.0;
-    if (vx1[k] >= 0) {
-      const int b[4] = {vx0[k], vy0[k], vx1[k] - vx0[k] + 1, vy1[k] - vy0[k] + 1};
-      std::copy(b, b + 4, inf.bbox_visib);
-    }
-    if (ax1[k] >= 0) {
-      const int b[4] = {ax0[k], ay0[k], ax1[k] - ax0[k] + 1, ay1[k] - ay0[k] + 1};
-      std::copy(b, b + 4, inf.bbox_obj);
-    }
+  object_frame_info(f.instances, f.masks, f.depth, f.masks_visib, f.info);
+  for (int k = 0; k < n; ++k)
+    add_silhouette_outside_image(*scene_.types[scene_.objects[k].type].mesh, f.T_cam_obj[k], K_, rp,
+                                 f.info[k]);
+  if (nd > 0) {
+    // Distractors leave the instance image (they are background to everything reading it).
+    f.distractor_labels = LabelImage(W, H, 0);
+    for (size_t p = 0; p < f.instances.size(); ++p)
+      if (f.instances[p] > n) f.distractor_labels[p] = f.instances[p] - n, f.instances[p] = 0;
+    const std::vector<MaskImage> silhouettes(
+        std::make_move_iterator(buf.silhouettes.begin() + first_object + n),
+        std::make_move_iterator(buf.silhouettes.begin() + first_object + n + nd));
+    std::vector<MaskImage> visible;
+    object_frame_info(f.distractor_labels, silhouettes, f.depth, visible, f.distractor_info);
+    for (int j = 0; j < nd; ++j)
+      add_silhouette_outside_image(*scene_.distractor_types[scene_.distractors[j].type].mesh,
+                                   f.T_cam_distractor[j], K_, rp, f.distractor_info[j]);
   }
   return f;
 }
 
 SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   const auto t0 = std::chrono::steady_clock::now();
+  // A BOP dataset: models/, camera.json and the targets at its root, the scene in test/000000.
+  const std::string scene = bop_scene_dir(dir);
   std::error_code ec;
-  fs::create_directories(dir, ec);
+  fs::create_directories(scene, ec);
   if (ec) throw IoError(dir, "cannot create output folder: " + ec.message());
   const int n = static_cast<int>(scene_.objects.size());
   write_bop_models(dir + "/models", scene_.types, params_.model_points,
                    static_cast<std::uint64_t>(params_.seed));
+  const int nd = static_cast<int>(scene_.distractors.size());
+  if (nd > 0)
+    write_bop_models(dir + "/models_distractors", scene_.distractor_types, params_.model_points,
+                     static_cast<std::uint64_t>(params_.seed));
 
   std::vector<BopFrameRecord> records(num_frames());
   std::vector<double> visib_sum(num_frames(), 0.0), valid_frac(num_frames(), 0.0);
@@ -378,22 +513,26 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
     try {
       const SynthFrame f = render_frame(i, 1);
       const std::string name = bop_image_name(i);
-      write_color_png(dir + "/rgb/" + name + ".png", f.rgb);
-      write_depth_png(dir + "/depth/" + name + ".png", f.depth, kDepthUnitsPerM);
-      write_label_png(dir + "/instance/" + name + ".png", f.instances, n < 255);
+      write_color_png(scene + "/rgb/" + name + ".png", f.rgb);
+      write_depth_png(scene + "/depth/" + name + ".png", f.depth, kDepthUnitsPerM);
+      write_label_png(scene + "/instance/" + name + ".png", f.instances, n < 255);
+      if (nd > 0)
+        write_label_png(scene + "/distractor/" + name + ".png", f.distractor_labels, nd < 255);
       if (params_.write_masks)
         for (int k = 0; k < n; ++k) {
-          write_mask_png(dir + "/mask/" + bop_mask_name(i, k) + ".png", f.masks[k]);
-          write_mask_png(dir + "/mask_visib/" + bop_mask_name(i, k) + ".png", f.masks_visib[k]);
+          write_mask_png(scene + "/mask/" + bop_mask_name(i, k) + ".png", f.masks[k]);
+          write_mask_png(scene + "/mask_visib/" + bop_mask_name(i, k) + ".png", f.masks_visib[k]);
         }
       if (params_.preview_stride > 0 && i % params_.preview_stride == 0)
-        write_color_png(dir + "/preview/" + name + ".png", make_preview(f, max_preview_depth));
+        write_color_png(scene + "/preview/" + name + ".png", make_preview(f, max_preview_depth));
       BopFrameRecord& r = records[i];
       r.timestamp_s = f.timestamp_s;
       r.T_world_cam = f.T_world_cam;
       r.T_cam_obj = f.T_cam_obj;
       for (const auto& o : scene_.objects) r.obj_ids.push_back(o.type + 1);
       r.info = f.info;
+      r.T_cam_distractor = f.T_cam_distractor;
+      r.distractor_info = f.distractor_info;
       size_t valid = 0;
       for (float z : f.depth) valid += z > 0;
       valid_frac[i] = static_cast<double>(valid) / f.depth.size();
@@ -408,10 +547,12 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
       }
     }
   }
-  if (failed) throw IoError(dir, "writing the synthetic sequence failed: " + first_error);
+  if (failed) throw IoError(scene, "writing the synthetic sequence failed: " + first_error);
 
-  write_bop_scene_json(dir, K_, kDepthScaleMm, records);
-  write_tum_trajectory(dir + "/groundtruth.txt", records);
+  write_bop_scene_json(scene, K_, kDepthScaleMm, records);
+  if (nd > 0) write_distractor_json(scene, records);
+  write_tum_trajectory(scene + "/groundtruth.txt", records);
+  write_bop_targets(dir + "/test_targets_bop19.json", kBopSceneId, records, kBopTargetMinVisib);
   // BOP's dataset-level camera file, and what this scene is made of.
   nlohmann::ordered_json cam = {{"cx", K_.cx},      {"cy", K_.cy}, {"depth_scale", kDepthScaleMm},
                                 {"fx", K_.fx},      {"fy", K_.fy}, {"height", K_.height},
@@ -421,16 +562,15 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   info["generator"] = "orpe synth";
   info["params"] = params_to_json(params_);
   info["params"].erase("threads");  // an execution setting: the output does not depend on it
+  // Absent = 0: scenes without distractors stay byte-identical to those made before the option.
+  if (params_.distractors == 0) info["params"].erase("distractors");
   info["scene"] = scene_.kind;
   info["depth_scale"] = kDepthScaleMm;
   info["depth_units_per_m"] = kDepthUnitsPerM;
   info["objects"] = nlohmann::ordered_json::array();
   for (int k = 0; k < n; ++k) {
     const auto& o = scene_.objects[k];
-    const Mat4 M = o.T_world_obj.matrix();
-    std::vector<double> rm;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) rm.push_back(M(r, c));
+    const std::vector<double> rm = row_major_4x4(o.T_world_obj);
     info["objects"].push_back({{"gt_index", k},
                                {"instance_label", k + 1},
                                {"obj_id", o.type + 1},
@@ -438,15 +578,18 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
                                {"source", scene_.types[o.type].source},
                                {"T_world_obj_m", rm}});
   }
+  if (nd > 0) info["distractors"] = distractors_json(scene_);
   info["warnings"] = scene_.warnings;
   write_file_atomic(dir + "/synth_info.json",
                     [&](std::ostream& os) { os << info.dump(1) << "\n"; });
 
   SynthReport rep;
   rep.out_dir = dir;
+  rep.scene_dir = scene;
   rep.frames = num_frames();
   rep.objects = n;
   rep.types = static_cast<int>(scene_.types.size());
+  rep.distractors = nd;
   rep.scene = scene_.kind;
   rep.trajectory_extent_m = trajectory_extent_m(T_world_cam_);
   double lo = 0, hi = 0, acc = 0;
@@ -523,6 +666,15 @@ ColorImage make_preview(const SynthFrame& f, double max_depth_m) {
     std::vector<std::vector<cv::Point>> contours;
     cv::findContours(m.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
     cv::drawContours(overlay, contours, -1, cv::Scalar(255, 255, 255), 1);
+  }
+  // Distractors (not targets): outlined in red, not tinted.
+  if (!f.distractor_labels.empty()) {
+    cv::Mat m(H, W, CV_8UC1);
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u) m.at<uchar>(v, u) = f.distractor_labels.at(u, v) > 0 ? 255 : 0;
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(m, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+    cv::drawContours(overlay, contours, -1, cv::Scalar(255, 40, 40), 1);
   }
   cv::Mat all;
   cv::hconcat(std::vector<cv::Mat>{rgb, depth_col, overlay}, all);

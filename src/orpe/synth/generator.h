@@ -44,13 +44,20 @@ struct SynthFrame {
   std::vector<MaskImage> masks_visib;  ///< per instance: visible part (0/1)
   std::vector<SE3> T_cam_obj;          ///< per instance
   std::vector<ObjectFrameInfo> info;   ///< per instance
+  // Distractors (objects outside the model set): rendered into rgb/depth/normals like the objects,
+  // but 0 (background) in `instances`, and no masks.
+  LabelImage distractor_labels;       ///< j + 1 where distractor j is the visible surface, else 0
+  std::vector<SE3> T_cam_distractor;  ///< per distractor
+  std::vector<ObjectFrameInfo> distractor_info;  ///< per distractor
 };
 
 struct SynthReport {
-  std::string out_dir;
+  std::string out_dir;    ///< the BOP dataset root
+  std::string scene_dir;  ///< its scene folder (bop_scene_dir(out_dir))
   int frames = 0;
   int objects = 0;
   int types = 0;
+  int distractors = 0;  ///< placed
   std::string scene;
   double trajectory_extent_m = 0;  ///< largest distance between two camera centres
   double arc_deg = 0;              ///< azimuth swept around the scene centre
@@ -82,10 +89,14 @@ class SyntheticSceneGenerator {
   /// OpenMP threads of the rasteriser (0 = default; 1 when frames are rendered in parallel).
   SynthFrame render_frame(int i, int render_threads = 0) const;
 
-  /// Writes the whole sequence in BOP layout into `dir` (created; existing files are overwritten).
+  /// Writes the whole sequence as a BOP dataset into `dir` (created; existing files are
+  /// overwritten): models/, camera.json, test_targets_bop19.json and synth_info.json at its root,
+  /// the scene's images and ground truth in bop_scene_dir(dir) = dir/test/000000.
   SynthReport write_bop(const std::string& dir) const;
 
  private:
+  void add_distractors(const SceneLayoutParams& layout);
+
   SynthParams params_;
   PinholeIntrinsics K_;
   DepthSensorParams sensor_;

@@ -1,5 +1,7 @@
 #include "orpe/synth/objects.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -275,6 +277,76 @@ ObjectModel make_builtin_object(const std::string& name, int variant) {
   if (spec->kind == 2)  // a can's lid is a flat top only when upright or upside down
     for (auto& r : m.resting_poses)
       r.flat_top = std::abs((r.R_support_obj * Vec3::UnitZ()).z()) > 0.99;
+  m.mesh = mesh;
+  return m;
+}
+
+namespace {
+
+/// Sorted bounding-box sizes of a mesh (m).
+Eigen::Vector3d sorted_sizes(const TriangleMesh& mesh) {
+  const auto b = mesh.bounds();
+  Eigen::Vector3d d = (b.max() - b.min()).cast<double>();
+  std::sort(d.data(), d.data() + 3);
+  return d;
+}
+
+Rgb8 hsv_to_rgb(double h_deg, double s, double v) {
+  const double c = v * s, h = std::fmod(h_deg, 360.0) / 60.0;
+  const double x = c * (1 - std::abs(std::fmod(h, 2.0) - 1)), m = v - c;
+  const double rgb[6][3] = {{c, x, 0}, {x, c, 0}, {0, c, x}, {0, x, c}, {x, 0, c}, {c, 0, x}};
+  const auto& t = rgb[std::min(5, static_cast<int>(h))];
+  auto q = [&](double u) { return static_cast<std::uint8_t>(std::lround(255 * (u + m))); };
+  return {q(t[0]), q(t[1]), q(t[2])};
+}
+
+}  // namespace
+
+bool similar_size(const TriangleMesh& a, const TriangleMesh& b, double ratio) {
+  const Eigen::Vector3d da = sorted_sizes(a), db = sorted_sizes(b);
+  for (int k = 0; k < 3; ++k)
+    if (std::max(da[k], db[k]) > ratio * std::min(da[k], db[k])) return false;
+  return true;
+}
+
+ObjectModel make_distractor_object(const std::vector<ObjectModel>& targets, int index,
+                                   std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> U(0, 1);
+  const bool is_box = U(rng) < 0.5;
+  std::shared_ptr<TriangleMesh> mesh;
+  Eigen::Vector3f size;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    if (is_box) {
+      size = Eigen::Vector3f(0.05 + 0.27 * U(rng), 0.05 + 0.27 * U(rng), 0.05 + 0.27 * U(rng));
+      mesh = std::make_shared<TriangleMesh>(make_box(size, 0.02f));
+    } else {
+      const float r = static_cast<float>(0.025 + 0.065 * U(rng));
+      size = Eigen::Vector3f(r, r, static_cast<float>(0.05 + 0.25 * U(rng)));
+      mesh = std::make_shared<TriangleMesh>(make_cylinder(r, size.z(), 40, 0.02f));
+    }
+    const bool like_a_target = std::any_of(targets.begin(), targets.end(), [&](const auto& t) {
+      return similar_size(*mesh, *t.mesh, kDistractorSizeRatio);
+    });
+    if (!like_a_target) break;
+  }
+  // Flat paint, saturated: unlike the targets' printed textures.
+  mesh->uvs.clear();
+  mesh->texture.reset();
+  mesh->base_color = hsv_to_rgb(360 * U(rng), 0.55 + 0.4 * U(rng), 0.45 + 0.45 * U(rng));
+  ObjectModel m;
+  m.name = fmt::format("distractor_{}_{:02d}", is_box ? "box" : "cylinder", index + 1);
+  m.source = "distractor";
+  mesh->name = m.name;
+  if (is_box) {
+    m.symmetries = box_symmetries(size);
+  } else {
+    m.symmetries.continuous.push_back({Vec3::UnitZ(), Vec3::Zero()});
+    m.symmetries.discrete.emplace_back(rot(Vec3::UnitX(), M_PI), Vec3::Zero());
+  }
+  const std::array<double, 6> up_w =
+      is_box ? std::array<double, 6>{1, 1, 1, 1, 3, 1} : std::array<double, 6>{0, 0, 0, 0, 1, 1};
+  m.resting_poses = compute_resting_poses(*mesh, Mat3::Identity(), up_w);
+  for (auto& r : m.resting_poses) r.flat_top = true;
   m.mesh = mesh;
   return m;
 }

@@ -57,9 +57,24 @@ const std::vector<std::string>& builtin_class_names();
 /// Throws std::invalid_argument for an unknown name.
 ObjectModel make_builtin_object(const std::string& name, int variant = 0);
 
-/// Loads a user mesh (OBJ/PLY) as an object type. `metres_per_unit` 0 guesses: millimetres when the
-/// model's bounding box is larger than 5 units, else metres. Resting poses from the faces of its
-/// principal-axes bounding box, checked for static stability. Throws IoError for bad files.
+/// Distractor sizes stay farther than this ratio from every target's (in at least one of the sorted
+/// bounding-box sizes).
+constexpr double kDistractorSizeRatio = 1.25;
+
+/// True when the sorted bounding-box sizes of a and b are all within `ratio` of each other.
+bool similar_size(const TriangleMesh& a, const TriangleMesh& b, double ratio);
+
+/// A distractor (an object outside the model set): a box (sides 5-32 cm) or an upright cylinder
+/// (radius 2.5-9 cm, height 5-30 cm) in one flat saturated colour, its size redrawn (up to 100
+/// times) until it is not similar_size to any of `targets`. Named distractor_box_NN /
+/// distractor_cylinder_NN (NN = index + 1). Its draws come from `rng` only.
+ObjectModel make_distractor_object(const std::vector<ObjectModel>& targets, int index,
+                                   std::mt19937_64& rng);
+
+/// Loads a user mesh/// Loads a user mesh (OBJ/PLY) as an object type. `metres_per_unit` 0 guesses:
+/// millimetres when the model's bounding box is larger than 5 units, else metres. Resting poses
+/// from the faces of its principal-axes bounding box, checked for static stability. Throws IoError
+/// for bad files.
 ObjectModel load_object_model(const std::string& path, double metres_per_unit = 0);
 
 /// Resting poses of a mesh for the 6 orientations putting +-axes[k] up (axes: columns,

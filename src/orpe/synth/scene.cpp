@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 
 #include "orpe/render/primitives.h"
@@ -135,6 +136,96 @@ size_t pick_weighted(const std::vector<T>& weights, std::mt19937_64& rng) {
   return weights.size() - 1;
 }
 
+/// The placement's random draws. One normal distribution for the whole scene: it caches every
+/// second value, so sharing it keeps the sequence of draws (and the scenes) what they were.
+struct PlacementSampler {
+  std::mt19937_64& rng;
+  std::uniform_real_distribution<double> U;
+  std::normal_distribution<double> N;
+};
+
+/// A support for `model`: sometimes another object's top (not for pallets), else an environment
+/// surface (by area).
+size_t pick_support(const SynthScene& s, const ObjectModel& model, size_t env_supports,
+                    const SceneLayoutParams& p, PlacementSampler& rs) {
+  std::vector<double> w_env, w_top;
+  std::vector<size_t> env_idx, top_idx;
+  for (size_t k = 0; k < s.supports.size(); ++k) {
+    const double a = polygon_area(s.supports[k].polygon);
+    if (k < env_supports)
+      env_idx.push_back(k), w_env.push_back(a);
+    else if (!model.is_pallet)
+      top_idx.push_back(k), w_top.push_back(a);
+  }
+  if (!top_idx.empty() && rs.U(rs.rng) < p.stack_probability)
+    return top_idx[pick_weighted(w_top, rs.rng)];
+  return env_idx[pick_weighted(w_env, rs.rng)];
+}
+
+/// Up to p.max_attempts random placements of `model` (a resting pose, a yaw, a spot on a support);
+/// the first that stays inside its support, fits under the next level and keeps its prism clear
+/// of every obstacle's prism. `owners`: the instances that supports with owner >= 0 refer to.
+std::optional<ObjectInstance> find_place(const SynthScene& s, const ObjectModel& model, int type,
+                                         size_t env_supports,
+                                         const std::vector<const ObjectInstance*>& obstacles,
+                                         const std::vector<ObjectInstance>& owners,
+                                         const SceneLayoutParams& p, PlacementSampler& rs) {
+  auto& U = rs.U;
+  auto& rng = rs.rng;
+  for (int attempt = 0; attempt < p.max_attempts; ++attempt) {
+    const size_t sup = pick_support(s, model, env_supports, p, rs);
+    const SupportSurface& support = s.supports[sup];
+    std::vector<double> w_pose;
+    for (const auto& r : model.resting_poses) w_pose.push_back(r.weight);
+    const size_t pose_i = pick_weighted(w_pose, rng);
+    const RestingPose& rp = model.resting_poses[pose_i];
+    const double yaw =
+        U(rng) < 0.5 ? std::floor(U(rng) * 4) * M_PI / 2 + 0.08 * rs.N(rng) : 2 * M_PI * U(rng);
+    const Eigen::Matrix2d R2 = Eigen::Rotation2Dd(yaw).toRotationMatrix();
+    Poly fp;
+    for (const auto& q : rp.footprint) fp.push_back(R2 * q);
+    if (support.owner >= 0) {
+      // On another object: smaller than its top; on a pallet deck wide enough to span the board
+      // gaps.
+      if (polygon_area(fp) > 0.7 * polygon_area(support.polygon)) continue;
+      if (s.types[owners[support.owner].type].is_pallet) {
+        Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+        for (const auto& q : rp.footprint) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+        if ((hi - lo).minCoeff() < 0.15) continue;
+      }
+    }
+    if (rp.height_m > support.clearance_m - 0.01) continue;
+    Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+    for (const auto& q : support.polygon) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
+    const Eigen::Vector2d xy(lo.x() + U(rng) * (hi.x() - lo.x()),
+                             lo.y() + U(rng) * (hi.y() - lo.y()));
+    Poly fpw;
+    bool inside = true;
+    for (const auto& q : fp) {
+      fpw.push_back(q + xy);
+      inside &= inside_margin(support.polygon, fpw.back()) >= p.edge_margin_m;
+    }
+    if (!inside) continue;
+    const double bottom = support.height_m, top = bottom + rp.height_m;
+    const bool collide = std::any_of(obstacles.begin(), obstacles.end(), [&](const auto* o) {
+      return bottom < o->top_m - 1e-9 && o->bottom_m < top - 1e-9 &&
+             polygons_overlap(fpw, o->footprint_world, p.min_gap_m);
+    });
+    if (collide) continue;
+    ObjectInstance inst;
+    inst.type = type;
+    inst.resting_pose = static_cast<int>(pose_i);
+    inst.support = static_cast<int>(sup);
+    inst.footprint_world = fpw;
+    inst.bottom_m = bottom;
+    inst.top_m = top;
+    inst.T_world_obj =
+        SE3(rot_z(yaw) * rp.R_support_obj, Vec3(xy.x(), xy.y(), bottom + rp.z_offset_m));
+    return inst;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 bool polygons_overlap(const Poly& a, const Poly& b, double gap) {
@@ -194,11 +285,10 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
     return max_footprint_area(ta) > max_footprint_area(tb) + 1e-9;
   });
 
-  std::uniform_real_distribution<double> U(0, 1);
-  std::normal_distribution<double> N(0, 1);
+  PlacementSampler rs{rng, {}, {}};
   std::vector<ObjectInstance> placed_by_slot(instance_types.size());
   std::vector<bool> placed(instance_types.size(), false);
-  std::vector<int> slot_of_placed;  // placement order -> slot
+  std::vector<const ObjectInstance*> obstacles;  // in placement order
   for (size_t slot : order) {
     const int type = instance_types[slot];
     const ObjectModel& model = s.types[type];
@@ -206,90 +296,24 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       s.warnings.push_back(model.name + ": pallets are placed on the floor scene only; dropped");
       continue;
     }
-    bool ok = false;
-    for (int attempt = 0; attempt < p.max_attempts && !ok; ++attempt) {
-      // Support: sometimes another object's top, else an environment surface (by area).
-      std::vector<double> w_env, w_top;
-      std::vector<size_t> env_idx, top_idx;
-      for (size_t k = 0; k < s.supports.size(); ++k) {
-        const double a = polygon_area(s.supports[k].polygon);
-        if (k < env_supports)
-          env_idx.push_back(k), w_env.push_back(a);
-        else if (!model.is_pallet)
-          top_idx.push_back(k), w_top.push_back(a);
-      }
-      size_t sup;
-      if (!top_idx.empty() && U(rng) < p.stack_probability)
-        sup = top_idx[pick_weighted(w_top, rng)];
-      else
-        sup = env_idx[pick_weighted(w_env, rng)];
-      const SupportSurface support = s.supports[sup];  // a copy: supports grows below
-      std::vector<double> w_pose;
-      for (const auto& r : model.resting_poses) w_pose.push_back(r.weight);
-      const size_t pose_i = pick_weighted(w_pose, rng);
-      const RestingPose& rp = model.resting_poses[pose_i];
-      const double yaw =
-          U(rng) < 0.5 ? std::floor(U(rng) * 4) * M_PI / 2 + 0.08 * N(rng) : 2 * M_PI * U(rng);
-      const Eigen::Matrix2d R2 = Eigen::Rotation2Dd(yaw).toRotationMatrix();
-      Poly fp;
-      for (const auto& q : rp.footprint) fp.push_back(R2 * q);
-      if (support.owner >= 0) {
-        // On another object: smaller than its top; on a pallet deck wide enough to span the board
-        // gaps.
-        if (polygon_area(fp) > 0.7 * polygon_area(support.polygon)) continue;
-        const auto& below = s.types[placed_by_slot[support.owner].type];
-        if (below.is_pallet) {
-          Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
-          for (const auto& q : rp.footprint) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
-          if ((hi - lo).minCoeff() < 0.15) continue;
-        }
-      }
-      if (rp.height_m > support.clearance_m - 0.01) continue;
-      Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
-      for (const auto& q : support.polygon) lo = lo.cwiseMin(q), hi = hi.cwiseMax(q);
-      const Eigen::Vector2d xy(lo.x() + U(rng) * (hi.x() - lo.x()),
-                               lo.y() + U(rng) * (hi.y() - lo.y()));
-      Poly fpw;
-      bool inside = true;
-      for (const auto& q : fp) {
-        fpw.push_back(q + xy);
-        inside &= inside_margin(support.polygon, fpw.back()) >= p.edge_margin_m;
-      }
-      if (!inside) continue;
-      const double bottom = support.height_m, top = bottom + rp.height_m;
-      bool collide = false;
-      for (int other_slot : slot_of_placed) {
-        const ObjectInstance& o = placed_by_slot[other_slot];
-        if (bottom < o.top_m - 1e-9 && o.bottom_m < top - 1e-9 &&
-            polygons_overlap(fpw, o.footprint_world, p.min_gap_m)) {
-          collide = true;
-          break;
-        }
-      }
-      if (collide) continue;
-      ObjectInstance inst;
-      inst.type = type;
-      inst.resting_pose = static_cast<int>(pose_i);
-      inst.support = static_cast<int>(sup);
-      inst.footprint_world = fpw;
-      inst.bottom_m = bottom;
-      inst.top_m = top;
-      inst.T_world_obj =
-          SE3(rot_z(yaw) * rp.R_support_obj, Vec3(xy.x(), xy.y(), bottom + rp.z_offset_m));
-      placed_by_slot[slot] = inst;
-      placed[slot] = true;
-      slot_of_placed.push_back(static_cast<int>(slot));
-      ok = true;
-      // Its top becomes a support for smaller objects.
-      if (rp.flat_top && polygon_area(fpw) > 0.02 && support.clearance_m - rp.height_m > 0.08) {
-        Poly top_poly = convex_hull_2d(fpw);
-        s.supports.push_back(
-            {top_poly, top, support.clearance_m - rp.height_m, static_cast<int>(slot)});
-      }
-    }
-    if (!ok)
+    const auto inst = find_place(s, model, type, env_supports, obstacles, placed_by_slot, p, rs);
+    if (!inst) {
       s.warnings.push_back(model.name + ": no free place found after " +
                            std::to_string(p.max_attempts) + " attempts; dropped");
+      continue;
+    }
+    placed_by_slot[slot] = *inst;
+    placed[slot] = true;
+    obstacles.push_back(&placed_by_slot[slot]);
+    // Its top becomes a support for smaller objects.
+    const RestingPose& rp = model.resting_poses[inst->resting_pose];
+    const SupportSurface support = s.supports[inst->support];
+    if (rp.flat_top && polygon_area(inst->footprint_world) > 0.02 &&
+        support.clearance_m - rp.height_m > 0.08) {
+      Poly top_poly = convex_hull_2d(inst->footprint_world);
+      s.supports.push_back(
+          {top_poly, inst->top_m, support.clearance_m - rp.height_m, static_cast<int>(slot)});
+    }
   }
   // Instances in the caller's order (skipping dropped ones); support owners refer to slots, remap.
   std::vector<int> slot_to_instance(instance_types.size(), -1);
@@ -317,6 +341,37 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
         s.radius_m = std::max(s.radius_m, (Vec3(q.x(), q.y(), z) - s.centre_world).norm());
   s.radius_m = std::max(s.radius_m, 0.15);
   return s;
+}
+
+void place_distractors(SynthScene& s, std::vector<ObjectModel> types, const SceneLayoutParams& p,
+                       std::mt19937_64& rng) {
+  s.distractor_types = std::move(types);
+  s.distractors.clear();
+  s.distractors.reserve(s.distractor_types.size());  // obstacles point into it
+  size_t env_supports = 0;
+  while (env_supports < s.supports.size() && s.supports[env_supports].owner < 0) ++env_supports;
+  std::vector<const ObjectInstance*> obstacles;
+  for (const auto& o : s.objects) obstacles.push_back(&o);
+  PlacementSampler rs{rng, {}, {}};
+  for (size_t d = 0; d < s.distractor_types.size(); ++d) {
+    const ObjectModel& model = s.distractor_types[d];
+    const auto inst =
+        find_place(s, model, static_cast<int>(d), env_supports, obstacles, s.objects, p, rs);
+    if (!inst) {
+      s.warnings.push_back(model.name + ": no free place found after " +
+                           std::to_string(p.max_attempts) + " attempts; dropped");
+      continue;
+    }
+    s.distractors.push_back(*inst);
+    obstacles.push_back(&s.distractors.back());
+  }
+  // Keep the types of the placed ones only (distractor_id = type + 1 stays contiguous).
+  std::vector<ObjectModel> used;
+  for (auto& d : s.distractors) {
+    used.push_back(s.distractor_types[d.type]);
+    d.type = static_cast<int>(used.size()) - 1;
+  }
+  s.distractor_types = std::move(used);
 }
 
 }  // namespace orpe::synth

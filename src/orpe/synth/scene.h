@@ -61,12 +61,23 @@ struct SynthScene {
   double view_azimuth_rad = 0;       ///< preferred camera azimuth (shelf: in front)
   double default_elevation_deg = 35;
   std::vector<std::string> warnings;  ///< e.g. objects that could not be placed
+  /// Distractors: objects outside the model set (not targets). distractors[j].type indexes
+  /// distractor_types; they do not move the camera's look-at point (centre_world, radius_m).
+  std::vector<ObjectModel> distractor_types;
+  std::vector<ObjectInstance> distractors;
 };
 
 /// Builds the environment of `kind` and places one instance per entry of `instance_types` (indices
 /// into `types`). Pallets first, then by decreasing footprint. Objects that cannot be placed are
 /// dropped (with a warning in the scene). Deterministic for a given generator state.
 SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& instance_types,
+                       const SceneLayoutParams& params, std::mt19937_64& rng);
+
+/// Places one instance of each of `types` (distractors, in that order) into a built scene, with the
+/// objects' rules (resting poses, supports, including the objects' tops) and clear of the objects
+/// and of each other; nothing is stacked on a distractor. The objects do not move. Distractors that
+/// find no place are dropped with a warning. Sets s.distractor_types and s.distractors.
+void place_distractors(SynthScene& s, std::vector<ObjectModel> types,
                        const SceneLayoutParams& params, std::mt19937_64& rng);
 
 /// True when two convex polygons are closer than `gap` (separating-axis test).

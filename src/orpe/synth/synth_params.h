@@ -13,6 +13,7 @@ struct SynthParams {
   std::string models;  // comma-separated OBJ/PLY files or folders; empty = built-in warehouse set
   double model_unit_m = 0;  // metres per model-file unit; 0 = guess
   bool repeat_types = false;
+  int distractors = 0;  // boxes and cylinders outside the model set (not targets)
   int width = 640;
   int height = 480;
   double fx = 0, fy = 0, cx = 0, cy = 0;
@@ -50,6 +51,10 @@ struct SynthParams {
     v("repeat_types", repeat_types,
       "Allow several instances of one object type (same obj_id); default: each instance its own "
       "type");
+    v("distractors", distractors,
+      "Distractors: plain-coloured boxes and cylinders of sizes unlike the objects', placed "
+      "among them but not targets (not in scene_gt.json, models/, masks; see "
+      "scene_gt_distractors.json); 0 = none, the scene is then the same as without the option");
     v("width", width, "Image width (pixels)");
     v("height", height, "Image height (pixels)");
     v("fx", fx, "Focal length x (pixels); 0 = 580 * width / 640 (Xtion-like)");

@@ -34,7 +34,8 @@ void min_filter(std::vector<float>& img, int w, int h, int r) {
 }  // namespace
 
 int drop_pixels_behind_mask_edges(const DepthImage& depth, LabelImage* labels,
-                                  ProbabilityImage* probability, int band_px, double tolerance_m) {
+                                  ProbabilityImage* probability, int band_px, double tolerance_m,
+                                  double focal_px, double slope) {
   const int W = labels->width(), H = labels->height();
   std::map<std::int32_t, Box> boxes;
   for (int v = 0; v < H; ++v)
@@ -47,6 +48,7 @@ int drop_pixels_behind_mask_edges(const DepthImage& depth, LabelImage* labels,
     }
   const float inf = std::numeric_limits<float>::infinity();
   const auto tol = static_cast<float>(tolerance_m);
+  const auto recede = static_cast<float>(slope * band_px / focal_px);  // x z_near
   int dropped = 0;
   for (const auto& [label, box] : boxes) {
     const int u0 = std::max(0, box.u0 - band_px), v0 = std::max(0, box.v0 - band_px);
@@ -68,7 +70,9 @@ int drop_pixels_behind_mask_edges(const DepthImage& depth, LabelImage* labels,
       for (int x = 0; x < w; ++x) {
         std::int32_t& l = labels->at(u0 + x, v0 + y);
         const float z = depth.at(u0 + x, v0 + y);
-        if (l != label || z <= 0 || other[y * w + x] == 0.0f || !(z > near[y * w + x] + tol))
+        const float z_near = near[y * w + x];
+        if (l != label || z <= 0 || other[y * w + x] == 0.0f ||
+            !(z > z_near + std::max(tol, recede * z_near)))
           continue;
         l = 0;
         probability->at(u0 + x, v0 + y) = 0.0f;
@@ -140,7 +144,14 @@ int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_frac
     std::vector<Eigen::Vector3f> pts;
     pts.reserve(idx.size());
     for (const auto i : idx) pts.push_back(map.position_world[i]);
-    const std::vector<int> comp = segment_components(pts, link_m);
+    // Surfels touch when closer than the sum of their radii: on a coarse map (low resolution, far
+    // surfaces) the link grows to twice the segment's median radius.
+    std::vector<float> radius;
+    radius.reserve(idx.size());
+    for (const auto i : idx) radius.push_back(map.radius_m[i]);
+    std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
+    const float link = std::max(link_m, 2.0f * radius[radius.size() / 2]);
+    const std::vector<int> comp = segment_components(pts, link);
     const int n_comp = comp.empty() ? 0 : *std::max_element(comp.begin(), comp.end()) + 1;
     if (n_comp <= 1) continue;
     std::vector<int> size(n_comp, 0);
@@ -154,8 +165,12 @@ int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_frac
     }
     const double keep = min_fraction * static_cast<double>(idx.size());
     std::vector<char> drop(n_comp, 0);
-    for (int c = 1; c < n_comp; ++c)
-      drop[c] = size[c] < keep || (T_cam_world && z_min[c] > z_max[0] + link_m);
+    // Behind: entirely farther than a kept component (the largest or one >= min_fraction), so a
+    // wall ring larger than a small object in front of it still goes, and the object stays.
+    for (int c = 1; c < n_comp; ++c) drop[c] = size[c] < keep;
+    for (int c = 0; c < n_comp && T_cam_world; ++c)
+      for (int o = 0; o < n_comp && !drop[c]; ++o)
+        if (o != c && !drop[o] && size[o] >= keep && z_min[c] > z_max[o] + link) drop[c] = 1;
     for (size_t k = 0; k < idx.size(); ++k) {
       if (!drop[comp[k]]) continue;
       map.instance_id[idx[k]] = 0;

@@ -431,7 +431,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   if (params_.edge_depth_guard)
     rep.pixels_behind_edges =
         drop_pixels_behind_mask_edges(frame.depth, &detection_labels_, &pixel_probability_,
-                                      params_.edge_band_px, params_.edge_depth_tolerance_m);
+                                      params_.edge_band_px, params_.edge_depth_tolerance_m, K.fx);
   rep.associate_ms = ms_since(t0);
 
   // 3. Surfel updates: the surfels this frame observed, each once.

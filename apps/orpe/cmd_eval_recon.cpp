@@ -44,7 +44,7 @@ void run_recon(const ReconCommand& c) {
   const auto trajectory = read_tum_trajectory(traj_path);
   const auto reader = open_dataset(c.dataset, config.dataset);
   const DatasetInfo& info = reader->info();
-  const auto objects = ground_truth_objects_in_map(*reader, trajectory);
+  auto objects = ground_truth_objects_in_map(*reader, trajectory);
   if (objects.empty())
     throw IoError(c.dataset, "no object ground truth in a frame of the trajectory " + traj_path);
   std::map<int, ModelSurface> surfaces;
@@ -58,6 +58,7 @@ void run_recon(const ReconCommand& c) {
       spdlog::warn("class {}: no model surface, skipped: {}", o.class_id, e.what());
     }
   }
+  mark_seen_surface(*reader, trajectory, surface_ptrs, &objects);
   ReconstructionErrorParams params;
   params.register_model = c.register_model;
   params.min_confidence = static_cast<float>(c.min_confidence);
@@ -73,12 +74,16 @@ CommandRegistrar reg(71, [](CLI::App& root) {
   CLI::App* r = eval->add_subcommand(
       "recon",
       "Reconstruction error (mm) of the semantic map's objects: mean distance of each object's "
-      "surfels to its model surface at the ground-truth pose");
+      "surfels to its model surface at the ground-truth pose, shares of surfels beyond 1 / 2 cm, "
+      "and "
+      "completeness (share of the model surface the camera saw within 1 cm of a surfel)");
   r->add_option("--dataset", c->dataset, "Dataset folder with object ground truth and models")
       ->required();
-  r->add_option("--run", c->run_dir, "Output folder of `orpe run` (semantic_map.ply, trajectory.txt)");
+  r->add_option("--run", c->run_dir,
+                "Output folder of `orpe run` (semantic_map.ply, trajectory.txt)");
   r->add_option("--map", c->map_path, "Semantic map PLY (default RUN/semantic_map.ply)");
-  r->add_option("--trajectory", c->trajectory_path, "TUM trajectory of the run (default RUN/trajectory.txt)");
+  r->add_option("--trajectory", c->trajectory_path,
+                "TUM trajectory of the run (default RUN/trajectory.txt)");
   r->add_flag("--register", c->register_model,
               "Also report the error after ICP registration of the model to the surfels");
   r->add_option("--min-confidence", c->min_confidence, "Ignore surfels below this confidence");

@@ -1,5 +1,6 @@
-// Reconstruction error: closest points on triangles and model surfaces, surfel-to-model distances at
-// the ground-truth pose, instance-to-object assignment, ICP registration, the semantic map reader.
+// Reconstruction error: closest points on triangles and model surfaces, surfel-to-model distances
+// at the ground-truth pose, instance-to-object assignment, ICP registration, the semantic map
+// reader.
 #include <gtest/gtest.h>
 
 #include <random>
@@ -41,8 +42,8 @@ TEST(ReconstructionError, BoxSurfaceDistancesAreExact) {
   const TriangleMesh box = make_box(V3(0.2f, 0.1f, 0.3f), 0.05f);
   const ModelSurface s = ModelSurface::from_mesh(box);
   EXPECT_TRUE(s.has_triangles());
-  EXPECT_NEAR(s.distance_m(V3(0.1f + 0.004f, 0.0f, 0.0f)), 0.004, 1e-6);   // outside a face
-  EXPECT_NEAR(s.distance_m(V3(0.0f, 0.0f, 0.15f - 0.01f)), 0.01, 1e-6);    // inside, near the top
+  EXPECT_NEAR(s.distance_m(V3(0.1f + 0.004f, 0.0f, 0.0f)), 0.004, 1e-6);  // outside a face
+  EXPECT_NEAR(s.distance_m(V3(0.0f, 0.0f, 0.15f - 0.01f)), 0.01, 1e-6);   // inside, near the top
   EXPECT_NEAR(s.distance_m(V3(0.13f, 0.09f, 0.0f)), std::hypot(0.03, 0.04), 1e-6);  // off an edge
   EXPECT_NEAR(s.distance_m(V3(0.0f, 0.0f, 0.0f)), 0.05, 1e-6);  // centre: nearest face is y = 0.05
   V3 closest;
@@ -56,8 +57,8 @@ TEST(ReconstructionError, BoxSurfaceDistancesAreExact) {
 }
 
 /// Surfels sampled on a box at `T_world_obj`, pushed `offset` along the face normal.
-void add_box_surfels(PointCloudData& map, const TriangleMesh& box, const SE3& T_world_obj, float offset,
-                     int instance, int cls, int n, unsigned seed) {
+void add_box_surfels(PointCloudData& map, const TriangleMesh& box, const SE3& T_world_obj,
+                     float offset, int instance, int cls, int n, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_int_distribution<size_t> pick(0, box.triangles.size() - 1);
   std::uniform_real_distribution<float> u(0, 1);
@@ -89,7 +90,7 @@ TEST(ReconstructionError, MeanDistanceAtTheGroundTruthPoseAndAssignment) {
   map.instance_ids.push_back(0);
   map.class_ids.push_back(0);
   map.confidences.push_back(20);
-  const std::vector<GroundTruthObjectPose> objects = {{101, 2, A}, {102, 2, B}};
+  const std::vector<GroundTruthObjectPose> objects = {{101, 2, A, {}}, {102, 2, B, {}}};
   const ReconstructionEvaluation ev =
       evaluate_reconstruction(map, objects, {{2, &surface}}, {{2, "box"}});
   ASSERT_EQ(ev.objects.size(), 2u);
@@ -112,6 +113,50 @@ TEST(ReconstructionError, MeanDistanceAtTheGroundTruthPoseAndAssignment) {
   EXPECT_THROW(evaluate_reconstruction(bare, objects, {{2, &surface}}, {}), std::invalid_argument);
 }
 
+TEST(ReconstructionError, FarFractionsAndCompletenessOverTheSeenSurface) {
+  const TriangleMesh box = make_box(V3(0.2f, 0.1f, 0.3f), 0.05f);
+  const ModelSurface surface = ModelSurface::from_mesh(box);
+  ASSERT_GE(surface.samples().size(), 2000u);
+  const SE3 A(so3_exp(Vec3(0.1, 0.2, 0.3)), Vec3(0.5, 0, 1));
+  // A dense segment of the half x > 0 of the box, plus 100 surfels 3 cm and 100 surfels 1.5 cm out.
+  PointCloudData all, map;
+  add_box_surfels(all, box, A, 0.0f, 7, 2, 40000, 1);
+  for (size_t i = 0; i < all.size(); ++i)
+    if ((A.inverse() * all.positions_m[i].cast<double>()).x() > 0) {
+      map.positions_m.push_back(all.positions_m[i]);
+      map.instance_ids.push_back(7);
+      map.class_ids.push_back(2);
+      map.confidences.push_back(20);
+    }
+  const double on_surface = static_cast<double>(map.size());
+  add_box_surfels(map, box, A, 0.03f, 7, 2, 100, 2);
+  add_box_surfels(map, box, A, 0.015f, 7, 2, 100, 3);
+  const double n = static_cast<double>(map.size());
+  GroundTruthObjectPose o{101, 2, A, {}};
+  for (const auto& p : surface.samples()) o.seen_surface_obj.push_back(p);
+  ReconstructionEvaluation ev = evaluate_reconstruction(map, {o}, {{2, &surface}}, {{2, "box"}});
+  ASSERT_EQ(ev.objects.size(), 1u);
+  EXPECT_NEAR(ev.objects[0].far_fraction, 100 / n, 1e-9);
+  EXPECT_NEAR(ev.objects[0].far_near_fraction, 200 / n, 1e-9);
+  EXPECT_NEAR(ev.max_far_fraction, 100 / n, 1e-9);
+  // Half the surface plus a 1 cm strip past x = 0 (0.008 of 0.22 m^2) is covered.
+  EXPECT_NEAR(ev.objects[0].completeness, 0.5 + 0.008 / 0.22, 0.02);
+  EXPECT_NEAR(ev.mean_completeness, ev.objects[0].completeness, 1e-12);
+  EXPECT_NE(ev.to_json().find("\"far_2cm_fraction\""), std::string::npos);
+  // Seen only where the segment is: complete.
+  o.seen_surface_obj.clear();
+  for (const auto& p : surface.samples())
+    if (p.x() > 0.01f) o.seen_surface_obj.push_back(p);
+  ev = evaluate_reconstruction(map, {o}, {{2, &surface}}, {});
+  EXPECT_GT(ev.objects[0].completeness, 0.999);
+  EXPECT_EQ(ev.objects[0].surfels, static_cast<int>(on_surface) + 200);
+  // Nothing seen: not computed.
+  o.seen_surface_obj.clear();
+  ev = evaluate_reconstruction(map, {o}, {{2, &surface}}, {});
+  EXPECT_LT(ev.objects[0].completeness, 0);
+  EXPECT_LT(ev.mean_completeness, 0);
+}
+
 TEST(ReconstructionError, RegistrationRemovesARigidOffset) {
   const TriangleMesh box = make_box(V3(0.2f, 0.1f, 0.3f), 0.05f);
   const ModelSurface surface = ModelSurface::from_mesh(box);
@@ -123,7 +168,7 @@ TEST(ReconstructionError, RegistrationRemovesARigidOffset) {
   ReconstructionErrorParams params;
   params.register_model = true;
   const ReconstructionEvaluation ev =
-      evaluate_reconstruction(map, {{1, 3, truth}}, {{3, &surface}}, {}, params);
+      evaluate_reconstruction(map, {{1, 3, truth, {}}}, {{3, &surface}}, {}, params);
   ASSERT_EQ(ev.objects.size(), 1u);
   EXPECT_GT(ev.objects[0].mean_m, 0.0015);
   EXPECT_LT(ev.objects[0].mean_registered_m, 0.0003);

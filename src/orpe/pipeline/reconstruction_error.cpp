@@ -15,8 +15,8 @@
 #include "orpe/io/model_io.h"
 #include "orpe/io/ply_format.h"
 #include "orpe/pose/model_search.h"
-#include "orpe/render/mesh_io.h"
 #include "orpe/render/mesh.h"
+#include "orpe/render/mesh_io.h"
 
 namespace orpe {
 
@@ -58,6 +58,7 @@ struct ModelSurface::Impl {
   std::vector<Node> nodes;
   std::unique_ptr<ModelSearchIndex> points;  // point mode
   Eigen::AlignedBox3f bounds;
+  std::vector<Eigen::Vector3f> samples;
 
   int build(std::vector<Eigen::Vector3f>& centroids, int first, int count) {
     Node node;
@@ -156,6 +157,11 @@ ModelSurface ModelSurface::from_mesh(const TriangleMesh& mesh) {
   std::iota(m.order.begin(), m.order.end(), 0);
   m.nodes.reserve(2 * m.triangles.size() / 2 + 8);
   m.build(centroids, 0, static_cast<int>(m.triangles.size()));
+  constexpr double kSampleSpacingM = 0.002;
+  const double count = mesh.surface_area() / (kSampleSpacingM * kSampleSpacingM);
+  for (const auto& p : sample_surface_points(
+           mesh, static_cast<size_t>(std::clamp(count, 2000.0, 100000.0)), /*seed=*/1))
+    m.samples.push_back(p.cast<float>());
   return s;
 }
 
@@ -163,6 +169,7 @@ ModelSurface ModelSurface::from_points(const std::vector<Eigen::Vector3f>& point
   if (points.empty()) throw std::invalid_argument("model surface: no points");
   ModelSurface s;
   for (const auto& p : points) s.impl_->bounds.extend(p);
+  s.impl_->samples = points;
   s.impl_->points = std::make_unique<ModelSearchIndex>(points);
   return s;
 }
@@ -170,8 +177,15 @@ ModelSurface ModelSurface::from_points(const std::vector<Eigen::Vector3f>& point
 double ModelSurface::distance_m(const Eigen::Vector3f& p, Eigen::Vector3f* closest) const {
   return impl_->query(p, closest);
 }
-bool ModelSurface::has_triangles() const { return !impl_->triangles.empty(); }
-Eigen::Vector3f ModelSurface::centre() const { return impl_->bounds.center(); }
+bool ModelSurface::has_triangles() const {
+  return !impl_->triangles.empty();
+}
+Eigen::Vector3f ModelSurface::centre() const {
+  return impl_->bounds.center();
+}
+const std::vector<Eigen::Vector3f>& ModelSurface::samples() const {
+  return impl_->samples;
+}
 
 // ---------------------------------------------------------------------------------------------------
 // Evaluation
@@ -252,6 +266,30 @@ SE3 register_model(const std::vector<Eigen::Vector3f>& points_world, SE3 T_world
   return T_world_obj;
 }
 
+/// Share of `seen_obj` (object frame) within `limit` of a point of `points_world`.
+double covered_share(const std::vector<Eigen::Vector3f>& points_world, const SE3& T_world_obj,
+                     const std::vector<Eigen::Vector3f>& seen_obj, double limit) {
+  const ModelSearchIndex index(points_world);
+  const Eigen::Matrix3f R = T_world_obj.rotation().cast<float>();
+  const Eigen::Vector3f t = T_world_obj.translation().cast<float>();
+  const float limit_sq = static_cast<float>(limit * limit);
+  long covered = 0;
+#pragma omp parallel for schedule(static) reduction(+ : covered)
+  for (long i = 0; i < static_cast<long>(seen_obj.size()); ++i) {
+    float d2 = 0;
+    index.nearest(R * seen_obj[i] + t, &d2);
+    if (d2 <= limit_sq) ++covered;
+  }
+  return static_cast<double>(covered) / static_cast<double>(seen_obj.size());
+}
+
+/// The trajectory pose at `timestamp_s` (within 1 ms), or null.
+const StampedPose* pose_at(const std::vector<StampedPose>& trajectory, double timestamp_s) {
+  for (const auto& p : trajectory)
+    if (std::abs(p.timestamp_s - timestamp_s) < 1e-3) return &p;
+  return nullptr;
+}
+
 }  // namespace
 
 ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
@@ -278,10 +316,9 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
   ReconstructionEvaluation ev;
   for (const auto& [id, pts] : instance_points) {
     const auto& votes = instance_class_votes[id];
-    const int cls =
-        std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
-          return a.second < b.second;
-        })->first;
+    const int cls = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+                      return a.second < b.second;
+                    })->first;
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
     for (const auto& p : pts) centroid += p.cast<double>();
     centroid /= static_cast<double>(pts.size());
@@ -305,8 +342,8 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
     else
       assigned[static_cast<size_t>(best_object)].push_back(id);
   }
-  double sum = 0, sum_registered = 0;
-  int n = 0, n_registered = 0;
+  double sum = 0, sum_registered = 0, sum_completeness = 0;
+  int n = 0, n_registered = 0, n_completeness = 0;
   for (size_t k = 0; k < objects.size(); ++k) {
     const GroundTruthObjectPose& o = objects[k];
     ObjectReconstructionError e;
@@ -322,11 +359,32 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
     const auto s = surfaces.find(o.class_id);
     if (pts.empty() || s == surfaces.end() || !s->second) {
       e.surfels = 0;
+      if (!o.seen_surface_obj.empty()) {  // seen but not reconstructed: nothing is covered
+        e.completeness = 0;
+        e.seen_surface_samples = static_cast<int>(o.seen_surface_obj.size());
+        ++n_completeness;
+      }
       ++ev.objects_without_surfels;
       ev.objects.push_back(e);
       continue;
     }
-    const Stats st = distance_stats(surface_distances(pts, o.T_world_obj, *s->second));
+    const std::vector<double> d = surface_distances(pts, o.T_world_obj, *s->second);
+    const auto share = [&](double limit) {
+      return static_cast<double>(
+                 std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) /
+             static_cast<double>(d.size());
+    };
+    e.far_near_fraction = share(params.far_near_m);
+    e.far_fraction = share(params.far_m);
+    ev.max_far_fraction = std::max(ev.max_far_fraction, e.far_fraction);
+    if (!o.seen_surface_obj.empty()) {
+      e.completeness =
+          covered_share(pts, o.T_world_obj, o.seen_surface_obj, params.completeness_distance_m);
+      e.seen_surface_samples = static_cast<int>(o.seen_surface_obj.size());
+      sum_completeness += e.completeness;
+      ++n_completeness;
+    }
+    const Stats st = distance_stats(d);
     e.mean_m = st.mean;
     e.median_m = st.median;
     e.rms_m = st.rms;
@@ -348,26 +406,37 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
   });
   ev.mean_m = n ? sum / n : 0;
   ev.mean_registered_m = n_registered ? sum_registered / n_registered : -1;
+  ev.mean_completeness = n_completeness ? sum_completeness / n_completeness : -1;
   return ev;
 }
 
+namespace {
+std::string percent(double share) {
+  return share >= 0 ? fmt::format("{:.1f}", share * 100) : std::string("-");
+}
+}  // namespace
+
 std::string ReconstructionEvaluation::report() const {
-  std::string s = fmt::format("{:<24} {:>6} {:>9} {:>10} {:>10} {:>12}\n", "object", "class",
-                              "surfels", "mean (mm)", "median", "registered");
+  std::string s =
+      fmt::format("{:<24} {:>6} {:>9} {:>10} {:>8} {:>7} {:>7} {:>9} {:>11}\n", "object", "class",
+                  "surfels", "mean (mm)", "median", ">1cm %", ">2cm %", "complete %", "registered");
   for (const auto& o : objects) {
     if (o.surfels == 0) {
-      s += fmt::format("{:<24} {:>6} {:>9} {:>10}\n", o.name, o.class_id, 0, "-");
+      s += fmt::format("{:<24} {:>6} {:>9} {:>10} {:>8} {:>7} {:>7} {:>9}\n", o.name, o.class_id, 0,
+                       "-", "-", "-", "-", percent(o.completeness));
       continue;
     }
-    s += fmt::format("{:<24} {:>6} {:>9} {:>10.2f} {:>10.2f} {:>12}\n", o.name, o.class_id,
-                     o.surfels, o.mean_m * 1000, o.median_m * 1000,
+    s += fmt::format("{:<24} {:>6} {:>9} {:>10.2f} {:>8.2f} {:>7.2f} {:>7.2f} {:>9} {:>11}\n",
+                     o.name, o.class_id, o.surfels, o.mean_m * 1000, o.median_m * 1000,
+                     o.far_near_fraction * 100, o.far_fraction * 100, percent(o.completeness),
                      o.mean_registered_m >= 0 ? fmt::format("{:.2f}", o.mean_registered_m * 1000)
                                               : std::string("-"));
   }
-  s += fmt::format("{:<24} {:>6} {:>9} {:>10.2f} {:>10} {:>12}\n", "MEAN (objects)", "", "",
-                   mean_m * 1000, "",
-                   mean_registered_m >= 0 ? fmt::format("{:.2f}", mean_registered_m * 1000)
-                                          : std::string("-"));
+  s += fmt::format(
+      "{:<24} {:>6} {:>9} {:>10.2f} {:>8} {:>7} {:>7.2f} {:>9} {:>11}\n", "MEAN (objects)", "", "",
+      mean_m * 1000, "", "", max_far_fraction * 100, percent(mean_completeness),
+      mean_registered_m >= 0 ? fmt::format("{:.2f}", mean_registered_m * 1000) : std::string("-"));
+  s += "(>2cm column of the MEAN row: the largest share of an object)\n";
   if (objects_without_surfels)
     s += fmt::format("{} object(s) without reconstructed surfels\n", objects_without_surfels);
   if (!unmatched_instances.empty())
@@ -377,27 +446,35 @@ std::string ReconstructionEvaluation::report() const {
 }
 
 std::string ReconstructionEvaluation::markdown() const {
-  std::string s = "| object | class | surfels | error (mm) | median (mm) | registered (mm) |\n"
-                  "| --- | ---: | ---: | ---: | ---: | ---: |\n";
+  std::string s =
+      "| object | class | surfels | error (mm) | median (mm) | > 1 cm (%) | > 2 cm (%) | "
+      "completeness (%) | registered (mm) |\n"
+      "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
   for (const auto& o : objects)
     s += o.surfels == 0
-             ? fmt::format("| {} | {} | 0 | - | - | - |\n", o.name, o.class_id)
-             : fmt::format("| {} | {} | {} | {:.1f} | {:.1f} | {} |\n", o.name, o.class_id, o.surfels,
-                           o.mean_m * 1000, o.median_m * 1000,
+             ? fmt::format("| {} | {} | 0 | - | - | - | - | {} | - |\n", o.name, o.class_id,
+                           percent(o.completeness))
+             : fmt::format("| {} | {} | {} | {:.1f} | {:.1f} | {:.2f} | {:.2f} | {} | {} |\n",
+                           o.name, o.class_id, o.surfels, o.mean_m * 1000, o.median_m * 1000,
+                           o.far_near_fraction * 100, o.far_fraction * 100, percent(o.completeness),
                            o.mean_registered_m >= 0
                                ? fmt::format("{:.1f}", o.mean_registered_m * 1000)
                                : std::string("-"));
-  s += fmt::format("| **mean** | | | {:.1f} | | {} |\n", mean_m * 1000,
-                   mean_registered_m >= 0 ? fmt::format("{:.1f}", mean_registered_m * 1000)
-                                          : std::string("-"));
+  s += fmt::format(
+      "| **mean** | | | {:.1f} | | | max {:.2f} | {} | {} |\n", mean_m * 1000,
+      max_far_fraction * 100, percent(mean_completeness),
+      mean_registered_m >= 0 ? fmt::format("{:.1f}", mean_registered_m * 1000) : std::string("-"));
   return s;
 }
 
 std::string ReconstructionEvaluation::to_json() const {
   nlohmann::json j;
   j["mean_mm"] = mean_m * 1000;
-  j["mean_registered_mm"] = mean_registered_m >= 0 ? nlohmann::json(mean_registered_m * 1000)
-                                                   : nlohmann::json(nullptr);
+  j["mean_registered_mm"] =
+      mean_registered_m >= 0 ? nlohmann::json(mean_registered_m * 1000) : nlohmann::json(nullptr);
+  j["mean_completeness"] =
+      mean_completeness >= 0 ? nlohmann::json(mean_completeness) : nlohmann::json(nullptr);
+  j["max_far_2cm_fraction"] = max_far_fraction;
   j["objects_without_surfels"] = objects_without_surfels;
   j["unmatched_instances"] = unmatched_instances;
   j["objects"] = nlohmann::json::array();
@@ -408,11 +485,18 @@ std::string ReconstructionEvaluation::to_json() const {
     r["name"] = o.name;
     r["instances"] = o.instances;
     r["surfels"] = o.surfels;
-    auto mm = [&](double v, bool ok) { return ok ? nlohmann::json(v * 1000) : nlohmann::json(nullptr); };
+    auto mm = [&](double v, bool ok) {
+      return ok ? nlohmann::json(v * 1000) : nlohmann::json(nullptr);
+    };
     r["mean_mm"] = mm(o.mean_m, o.surfels > 0);
     r["median_mm"] = mm(o.median_m, o.surfels > 0);
     r["rms_mm"] = mm(o.rms_m, o.surfels > 0);
     r["mean_registered_mm"] = mm(o.mean_registered_m, o.mean_registered_m >= 0);
+    r["far_1cm_fraction"] = o.far_near_fraction;
+    r["far_2cm_fraction"] = o.far_fraction;
+    r["completeness"] =
+        o.completeness >= 0 ? nlohmann::json(o.completeness) : nlohmann::json(nullptr);
+    r["seen_surface_samples"] = o.seen_surface_samples;
     r["registration_shift_mm"] = mm(o.registration_shift_m, o.registration_shift_m >= 0);
     r["registration_angle_deg"] = o.registration_angle_deg >= 0
                                       ? nlohmann::json(o.registration_angle_deg)
@@ -429,20 +513,61 @@ std::vector<GroundTruthObjectPose> ground_truth_objects_in_map(
   for (size_t i = 0; i < reader.size(); ++i) {
     const RgbdFrame frame = reader.read(i);
     if (frame.objects_gt.empty()) continue;
-    const StampedPose* pose = nullptr;
-    for (const auto& p : trajectory)
-      if (std::abs(p.timestamp_s - frame.timestamp_s) < 1e-3) {
-        pose = &p;
-        break;
-      }
+    const StampedPose* pose = pose_at(trajectory, frame.timestamp_s);
     if (!pose) continue;
     for (const auto& g : frame.objects_gt) {
       if (seen.count(g.instance_id)) continue;
       seen[g.instance_id] = out.size();
-      out.push_back({g.instance_id, g.class_id, pose->T_world_cam * g.T_cam_obj});
+      out.push_back({g.instance_id, g.class_id, pose->T_world_cam * g.T_cam_obj, {}});
     }
   }
   return out;
+}
+
+void mark_seen_surface(const DatasetReader& reader, const std::vector<StampedPose>& trajectory,
+                       const std::map<int, const ModelSurface*>& surfaces,
+                       std::vector<GroundTruthObjectPose>* objects,
+                       const SeenSurfaceParams& params) {
+  std::map<int, std::vector<char>> seen;  // object index -> per sample
+  for (size_t i = 0; i < reader.size(); ++i) {
+    const RgbdFrame frame = reader.read(i);
+    if (frame.objects_gt.empty() || frame.labels_gt.empty() || frame.depth.empty() ||
+        !pose_at(trajectory, frame.timestamp_s))
+      continue;
+    const PinholeIntrinsics& K = frame.intrinsics;
+    const int W = frame.depth.width(), H = frame.depth.height();
+    for (size_t g = 0; g < frame.objects_gt.size(); ++g) {
+      const ObjectGroundTruth& gt = frame.objects_gt[g];
+      const auto s = surfaces.find(gt.class_id);
+      const auto o = std::find_if(objects->begin(), objects->end(),
+                                  [&](const auto& x) { return x.object_id == gt.instance_id; });
+      if (s == surfaces.end() || !s->second || o == objects->end()) continue;
+      const auto& samples = s->second->samples();
+      auto& flags = seen[static_cast<size_t>(o - objects->begin())];
+      flags.resize(samples.size(), 0);
+      const Eigen::Matrix3f R = gt.T_cam_obj.rotation().cast<float>();
+      const Eigen::Vector3f t = gt.T_cam_obj.translation().cast<float>();
+      const auto label = static_cast<std::int32_t>(g + 1);
+      for (size_t k = 0; k < samples.size(); ++k) {
+        const Eigen::Vector3f p = R * samples[k] + t;
+        if (p.z() <= 0) continue;
+        const long u = std::lround(K.fx * p.x() / p.z() + K.cx);
+        const long v = std::lround(K.fy * p.y() / p.z() + K.cy);
+        if (u < 0 || v < 0 || u >= W || v >= H) continue;
+        const float z = frame.depth.at(static_cast<int>(u), static_cast<int>(v));
+        if (frame.labels_gt.at(static_cast<int>(u), static_cast<int>(v)) == label && z > 0 &&
+            std::abs(z - p.z()) <= params.depth_tolerance_m)
+          flags[k] = 1;
+      }
+    }
+  }
+  for (const auto& [index, flags] : seen) {
+    GroundTruthObjectPose& o = (*objects)[index];
+    const auto& samples = surfaces.at(o.class_id)->samples();
+    o.seen_surface_obj.clear();
+    for (size_t k = 0; k < flags.size(); ++k)
+      if (flags[k]) o.seen_surface_obj.push_back(samples[k]);
+  }
 }
 
 ModelSurface load_model_surface(const DatasetInfo& info, int class_id) {
@@ -473,7 +598,8 @@ PointCloudData read_semantic_map_ply(const std::string& path) {
     if (!v.has(name) || v.count != cloud.size()) return;
     out.resize(cloud.size());
     const auto& col = v.columns.at(name);
-    for (size_t i = 0; i < cloud.size(); ++i) out[i] = static_cast<std::int32_t>(std::lround(col[i]));
+    for (size_t i = 0; i < cloud.size(); ++i)
+      out[i] = static_cast<std::int32_t>(std::lround(col[i]));
   };
   if (cloud.instance_ids.size() != cloud.size()) ints("instance", cloud.instance_ids);
   if (cloud.class_ids.size() != cloud.size()) ints("class", cloud.class_ids);

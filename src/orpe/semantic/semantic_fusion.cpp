@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "orpe/core/error.h"
+#include "orpe/semantic/segment_guard.h"
 
 namespace orpe {
 namespace {
@@ -59,6 +60,11 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (min_confirmed_detections < 1) return fail("min_confirmed_detections must be >= 1");
   if (prune_missed_keyframes < 1) return fail("prune_missed_keyframes must be >= 1");
   if (min_instance_surfels < 0) return fail("min_instance_surfels must be >= 0");
+  if (edge_band_px < 1 || edge_band_px > 50) return fail("edge_band_px must be in [1, 50]");
+  if (!(edge_depth_tolerance_m > 0)) return fail("edge_depth_tolerance_m must be > 0");
+  if (!(segment_link_m > 0 && segment_link_m <= 1)) return fail("segment_link_m must be in (0, 1]");
+  if (!(segment_min_component_fraction >= 0 && segment_min_component_fraction <= 1))
+    return fail("segment_min_component_fraction must be in [0, 1]");
   return true;
 }
 
@@ -99,10 +105,12 @@ std::string SemanticFrameReport::report() const {
       "semantic frame {}: {} detections ({} associated, {} new, {} merged, {} pruned, {} missed "
       "instances); surfels: {} observed, {} skipped, {} labelled, {} released, {} boundary "
       "candidates, "
-      "{} joined; {:.1f} ms (render {:.1f}, associate {:.1f}, update {:.1f})",
+      "{} joined, {} detached; {} mask pixels behind edges; {:.1f} ms (render {:.1f}, associate "
+      "{:.1f}, update {:.1f})",
       frame_index, detections, associated, new_instances, merged_instances, pruned_instances,
       missed_instances, surfels_observed, surfels_skipped, surfels_labelled, surfels_released,
-      boundary_candidates, boundary_joined, total_ms, render_ms, associate_ms, update_ms);
+      boundary_candidates, boundary_joined, surfels_detached, pixels_behind_edges, total_ms,
+      render_ms, associate_ms, update_ms);
 }
 
 std::vector<Association> associate_detections(const std::vector<MaskImage>& masks,
@@ -420,6 +428,10 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
       }
     }
   }
+  if (params_.edge_depth_guard)
+    rep.pixels_behind_edges =
+        drop_pixels_behind_mask_edges(frame.depth, &detection_labels_, &pixel_probability_,
+                                      params_.edge_band_px, params_.edge_depth_tolerance_m, K.fx);
   rep.associate_ms = ms_since(t0);
 
   // 3. Surfel updates: the surfels this frame observed, each once.
@@ -493,6 +505,12 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   rep.surfels_released = counts.released;
   rep.boundary_candidates = counts.candidates;
   rep.boundary_joined = counts.joined;
+  if (params_.segment_connectivity_guard) {
+    const SE3 T_cam_world = T_world_cam.inverse();
+    rep.surfels_detached = release_detached_surfels(map, static_cast<float>(params_.segment_link_m),
+                                                    params_.segment_min_component_fraction,
+                                                    &T_cam_world, params_.always_active_objects);
+  }
   rep.update_ms = ms_since(t0);
 
   // 4. Spurious instances: detected rarely and now repeatedly visible without a detection; and
@@ -513,6 +531,10 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
 }
 
 int SemanticFusion::finalize(slam::SurfelMap& map) {
+  if (params_.segment_connectivity_guard)
+    release_detached_surfels(map, static_cast<float>(params_.segment_link_m),
+                             params_.segment_min_component_fraction, nullptr,
+                             params_.always_active_objects);
   const auto geometry = instance_geometry(map);
   std::vector<int> doomed;
   for (const auto& [id, info] : instances_) {

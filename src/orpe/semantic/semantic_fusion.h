@@ -95,6 +95,18 @@ struct SemanticParams {
   /// around (boundary_neighbourhood_px) its projection: a detector miss is not evidence of
   /// background.
   bool skip_missed_instances = true;
+  /// Depth-edge guard (segment_guard.h): a mask pixel within edge_band_px of the mask's outline
+  /// whose depth lies more than edge_depth_tolerance_m behind the mask's nearer pixels within the
+  /// band sees the background past the silhouette: it is not an object pixel (probability 0).
+  bool edge_depth_guard = true;
+  int edge_band_px = 6;
+  double edge_depth_tolerance_m = 0.02;
+  /// Connectivity guard (segment_guard.h): after each keyframe and at finalize(), the surfels of an
+  /// instance outside its largest 3D component (voxels of segment_link_m, 26-connected) lose the
+  /// instance when their component holds < segment_min_component_fraction of its surfels.
+  bool segment_connectivity_guard = true;
+  double segment_link_m = 0.01;
+  double segment_min_component_fraction = 0.1;
 
   template <class V>
   void visit(V&& v) {
@@ -157,6 +169,22 @@ struct SemanticParams {
       "Flag object surfels always active (never leave the active window; paper)");
     v("skip_missed_instances", skip_missed_instances,
       "Do not update surfels in/around a visible instance that this keyframe failed to detect");
+    v("edge_depth_guard", edge_depth_guard,
+      "Depth-edge guard: mask pixels near the outline whose depth lies behind the mask's nearer "
+      "pixels there are background (depth bleeding past the silhouette)");
+    v("edge_band_px", edge_band_px,
+      "Depth-edge guard: band (px, Chebyshev) along the mask outline and search radius of the "
+      "nearer pixels");
+    v("edge_depth_tolerance_m", edge_depth_tolerance_m,
+      "Depth-edge guard: a band pixel this much (m) behind the mask's nearest pixel around it is "
+      "background");
+    v("segment_connectivity_guard", segment_connectivity_guard,
+      "Connectivity guard: release surfels of an instance detached from its largest 3D component");
+    v("segment_link_m", segment_link_m,
+      "Connectivity guard: voxel size (m) of the 26-connected components of a segment");
+    v("segment_min_component_fraction", segment_min_component_fraction,
+      "Connectivity guard: a detached component with at least this share of the instance's surfels "
+      "is kept (an object split by an occluder)");
   }
   bool IsValid(std::string* why) const;
 };
@@ -199,7 +227,9 @@ struct SemanticFrameReport {
   int surfels_labelled = 0;  ///< surfels that got an instance from a detection
   int surfels_released = 0;  ///< surfels that became background
   int boundary_candidates = 0;
-  int boundary_joined = 0;  ///< surfels that joined an instance by boundary refinement
+  int boundary_joined = 0;      ///< surfels that joined an instance by boundary refinement
+  int pixels_behind_edges = 0;  ///< mask pixels dropped by the depth-edge guard
+  int surfels_detached = 0;     ///< surfels released by the connectivity guard
   double render_ms = 0, associate_ms = 0, update_ms = 0, total_ms = 0;
   std::string report() const;
 };

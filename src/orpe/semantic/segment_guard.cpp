@@ -1,0 +1,185 @@
+#include "orpe/semantic/segment_guard.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <unordered_map>
+
+namespace orpe {
+namespace {
+
+struct Box {
+  int u0 = std::numeric_limits<int>::max(), v0 = std::numeric_limits<int>::max(), u1 = -1, v1 = -1;
+};
+
+/// Sliding minimum over [i - r, i + r] of `in` (n values, stride `step`), into `out`.
+void sliding_min(const float* in, float* out, int n, int step, int r) {
+  for (int i = 0; i < n; ++i) {
+    float m = std::numeric_limits<float>::infinity();
+    for (int k = std::max(0, i - r); k <= std::min(n - 1, i + r); ++k)
+      m = std::min(m, in[k * step]);
+    out[i * step] = m;
+  }
+}
+
+/// Separable (2r+1) x (2r+1) minimum filter of a w x h row-major image, in place.
+void min_filter(std::vector<float>& img, int w, int h, int r) {
+  std::vector<float> tmp(img.size());
+  for (int y = 0; y < h; ++y) sliding_min(&img[y * w], &tmp[y * w], w, 1, r);
+  for (int x = 0; x < w; ++x) sliding_min(&tmp[x], &img[x], h, w, r);
+}
+
+}  // namespace
+
+int drop_pixels_behind_mask_edges(const DepthImage& depth, LabelImage* labels,
+                                  ProbabilityImage* probability, int band_px, double tolerance_m,
+                                  double focal_px, double slope) {
+  const int W = labels->width(), H = labels->height();
+  std::map<std::int32_t, Box> boxes;
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const std::int32_t l = labels->at(u, v);
+      if (l <= 0) continue;
+      Box& b = boxes[l];
+      b.u0 = std::min(b.u0, u), b.v0 = std::min(b.v0, v);
+      b.u1 = std::max(b.u1, u), b.v1 = std::max(b.v1, v);
+    }
+  const float inf = std::numeric_limits<float>::infinity();
+  const auto tol = static_cast<float>(tolerance_m);
+  const auto recede = static_cast<float>(slope * band_px / focal_px);  // x z_near
+  int dropped = 0;
+  for (const auto& [label, box] : boxes) {
+    const int u0 = std::max(0, box.u0 - band_px), v0 = std::max(0, box.v0 - band_px);
+    const int u1 = std::min(W - 1, box.u1 + band_px), v1 = std::min(H - 1, box.v1 + band_px);
+    const int w = u1 - u0 + 1, h = v1 - v0 + 1;
+    // near: the nearest depth of the label's pixels around; other: -(is another label or none),
+    // min-filtered so that -1 marks pixels with a non-label pixel within the band.
+    std::vector<float> near(static_cast<size_t>(w) * h), other(near.size());
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const bool mine = labels->at(u0 + x, v0 + y) == label;
+        const float z = depth.at(u0 + x, v0 + y);
+        near[y * w + x] = mine && z > 0 ? z : inf;
+        other[y * w + x] = mine ? 0.0f : -1.0f;
+      }
+    min_filter(near, w, h, band_px);
+    min_filter(other, w, h, band_px);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        std::int32_t& l = labels->at(u0 + x, v0 + y);
+        const float z = depth.at(u0 + x, v0 + y);
+        const float z_near = near[y * w + x];
+        if (l != label || z <= 0 || other[y * w + x] == 0.0f ||
+            !(z > z_near + std::max(tol, recede * z_near)))
+          continue;
+        l = 0;
+        probability->at(u0 + x, v0 + y) = 0.0f;
+        ++dropped;
+      }
+  }
+  return dropped;
+}
+
+std::vector<int> segment_components(const std::vector<Eigen::Vector3f>& points, float link_m) {
+  // Occupied cells of size link_m, 26-connected (union-find over cells).
+  auto key = [&](const Eigen::Vector3f& p) {
+    const auto c = (p / link_m).array().floor().cast<std::int64_t>();
+    return ((c.x() & 0x1fffff) << 42) | ((c.y() & 0x1fffff) << 21) | (c.z() & 0x1fffff);
+  };
+  std::unordered_map<std::int64_t, int> cell_of;
+  std::vector<int> point_cell(points.size());
+  std::vector<Eigen::Vector3i> cells;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const std::int64_t k = key(points[i]);
+    auto [it, added] = cell_of.emplace(k, static_cast<int>(cells.size()));
+    if (added) cells.push_back((points[i] / link_m).array().floor().cast<int>());
+    point_cell[i] = it->second;
+  }
+  std::vector<int> parent(cells.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (size_t c = 0; c < cells.size(); ++c)
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const Eigen::Vector3i n = cells[c] + Eigen::Vector3i(dx, dy, dz);
+          const std::int64_t k = ((static_cast<std::int64_t>(n.x()) & 0x1fffff) << 42) |
+                                 ((static_cast<std::int64_t>(n.y()) & 0x1fffff) << 21) |
+                                 (static_cast<std::int64_t>(n.z()) & 0x1fffff);
+          const auto it = cell_of.find(k);
+          if (it != cell_of.end()) parent[find(static_cast<int>(c))] = find(it->second);
+        }
+  // Number the components by decreasing point count (ties: lower root first).
+  std::unordered_map<int, int> size_of_root;
+  for (int c : point_cell) ++size_of_root[find(c)];
+  std::vector<std::pair<int, int>> by_size(size_of_root.begin(), size_of_root.end());
+  std::sort(by_size.begin(), by_size.end(), [](const auto& a, const auto& b) {
+    return a.second != b.second ? a.second > b.second : a.first < b.first;
+  });
+  std::unordered_map<int, int> rank;
+  for (size_t r = 0; r < by_size.size(); ++r) rank[by_size[r].first] = static_cast<int>(r);
+  std::vector<int> out(points.size());
+  for (size_t i = 0; i < points.size(); ++i) out[i] = rank[find(point_cell[i])];
+  return out;
+}
+
+int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_fraction,
+                             const SE3* T_cam_world, bool clear_always_active) {
+  std::map<std::int32_t, std::vector<std::int32_t>> members;
+  for (size_t i = 0; i < map.size(); ++i)
+    if (map.instance_id[i] > 0) members[map.instance_id[i]].push_back(static_cast<std::int32_t>(i));
+  Eigen::Vector3f view_z = Eigen::Vector3f::Zero();  // camera z of a world point: view_z . p + z0
+  float z0 = 0;
+  if (T_cam_world) {
+    view_z = T_cam_world->rotation().row(2).transpose().cast<float>();
+    z0 = static_cast<float>(T_cam_world->translation().z());
+  }
+  int released = 0;
+  for (const auto& [id, idx] : members) {
+    std::vector<Eigen::Vector3f> pts;
+    pts.reserve(idx.size());
+    for (const auto i : idx) pts.push_back(map.position_world[i]);
+    // Surfels touch when closer than the sum of their radii: on a coarse map (low resolution, far
+    // surfaces) the link grows to twice the segment's median radius.
+    std::vector<float> radius;
+    radius.reserve(idx.size());
+    for (const auto i : idx) radius.push_back(map.radius_m[i]);
+    std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
+    const float link = std::max(link_m, 2.0f * radius[radius.size() / 2]);
+    const std::vector<int> comp = segment_components(pts, link);
+    const int n_comp = comp.empty() ? 0 : *std::max_element(comp.begin(), comp.end()) + 1;
+    if (n_comp <= 1) continue;
+    std::vector<int> size(n_comp, 0);
+    std::vector<float> z_min(n_comp, std::numeric_limits<float>::infinity()),
+        z_max(n_comp, -std::numeric_limits<float>::infinity());
+    for (size_t k = 0; k < idx.size(); ++k) {
+      ++size[comp[k]];
+      const float z = view_z.dot(pts[k]) + z0;
+      z_min[comp[k]] = std::min(z_min[comp[k]], z);
+      z_max[comp[k]] = std::max(z_max[comp[k]], z);
+    }
+    const double keep = min_fraction * static_cast<double>(idx.size());
+    std::vector<char> drop(n_comp, 0);
+    // Behind: entirely farther than a kept component (the largest or one >= min_fraction), so a
+    // wall ring larger than a small object in front of it still goes, and the object stays.
+    for (int c = 1; c < n_comp; ++c) drop[c] = size[c] < keep;
+    for (int c = 0; c < n_comp && T_cam_world; ++c)
+      for (int o = 0; o < n_comp && !drop[c]; ++o)
+        if (o != c && !drop[o] && size[o] >= keep && z_min[c] > z_max[o] + link) drop[c] = 1;
+    for (size_t k = 0; k < idx.size(); ++k) {
+      if (!drop[comp[k]]) continue;
+      map.instance_id[idx[k]] = 0;
+      map.boundary_counter[idx[k]] = 0;
+      if (clear_always_active) map.always_active[idx[k]] = 0;
+      ++released;
+    }
+  }
+  return released;
+}
+
+}  // namespace orpe

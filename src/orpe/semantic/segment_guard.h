@@ -1,0 +1,49 @@
+// Guards that keep an object instance's segment to the object (issue #14; docs/SEMANTIC.md,
+// "Stray surfels"):
+//  - drop_pixels_behind_mask_edges: a detection mask pixel near the mask's outline whose measured
+//    depth lies well behind the mask's own nearer pixels around it sees the background past the
+//    object's silhouette (depth bleeding: the mask and the depth edges of a real sensor do not line
+//    up, and degraded masks are dilated). Such a pixel is background, not an object pixel.
+//  - segment_components / release_detached_surfels: an instance's surfels form one object,
+//  connected
+//    in 3D; pieces detached from the instance's main body by more than the link distance (surfels
+//    that carry its label behind or beside it) are released to the background.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "orpe/core/image.h"
+#include "orpe/core/se3.h"
+#include "orpe/slam/surfel_map.h"
+
+namespace orpe {
+
+/// For every label L > 0 of `labels`: a pixel of L within `band_px` (Chebyshev) of a pixel that is
+/// not L, with valid depth z, is dropped (label 0, probability 0) when some pixel of L within
+/// `band_px` has valid depth z_near < z - tolerance, tolerance = max(tolerance_m, slope x band_px x
+/// z_near / focal_px): a surface may recede by `slope` times its lateral extent within the band (3:
+/// up to ~72 degrees to the view ray) before a depth step counts as an edge, so the curved
+/// silhouettes of a coarse image keep their pixels. Returns the number of pixels dropped.
+int drop_pixels_behind_mask_edges(const DepthImage& depth, LabelImage* labels,
+                                  ProbabilityImage* probability, int band_px, double tolerance_m,
+                                  double focal_px, double slope = 3.0);
+
+/// Connected components of the points: occupied cells of a voxel grid of size `link_m`,
+/// 26-connected (points closer than link_m always link, points more than 2 sqrt(3) link_m apart
+/// never). Returns a component index per point; components are numbered by decreasing size (0 =
+/// largest).
+std::vector<int> segment_components(const std::vector<Eigen::Vector3f>& points, float link_m);
+
+/// Per instance of `map`, over its 3D components (segment_components with link = max(link_m, twice
+/// the instance's median surfel radius: surfels touch when closer than their radii)): a component
+/// other than the largest loses the instance when it holds fewer than `min_fraction` of the
+/// instance's surfels; and, seen from the camera (`T_cam_world`, if given), any component that lies
+/// entirely more than the link behind another kept component holding >= min_fraction (background
+/// seen past the silhouette; the pieces of an object split by an occluder overlap in depth).
+/// Returns the number of surfels released; `always_active` is cleared for them when
+/// `clear_always_active`.
+int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_fraction,
+                             const SE3* T_cam_world, bool clear_always_active);
+
+}  // namespace orpe

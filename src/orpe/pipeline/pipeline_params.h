@@ -1,5 +1,6 @@
-// Switches of the Object-RPE pipeline (config section "pipeline"): which inputs the single-view pose
-// estimator gets, whether the per-object EKF runs, on which frames poses are estimated, and run options.
+// Switches of the Object-RPE pipeline (config section "pipeline"): which inputs the single-view
+// pose estimator gets, whether the per-object EKF runs, on which frames poses are estimated, and
+// run options.
 //
 // The ablation of the paper (Table II) as named configurations of the four input switches:
 //
@@ -10,10 +11,10 @@
 //   DF-PM-PD-PC   | projected | projected | projected | off
 //   Object-RPE    | projected | projected | projected | on
 //
-// "DF" is the single-view estimator in use (the paper's DenseFusion). Until a learned back-end exists it
-// is the model-based registration of the pose stage (pose/model_registration.h), which uses geometry
-// only: DF-PM-PD and DF-PM-PD-PC then give identical single-view poses.
-// "Projected" inputs are rendered from the semantic surfel map at the tracked camera pose
+// "DF" is the single-view estimator in use (the paper's DenseFusion). Until a learned back-end
+// exists it is the model-based registration of the pose stage (pose/model_registration.h), which
+// uses geometry only: DF-PM-PD and DF-PM-PD-PC then give identical single-view poses. "Projected"
+// inputs are rendered from the semantic surfel map at the tracked camera pose
 // (SemanticMapper::render_instance_views).
 #pragma once
 
@@ -38,7 +39,8 @@ struct PipelineParams {
   int ekf_report_min_mask_px = 50;
   /// Projected-mask modes: only instances detected in at least this many keyframes get a pose.
   int min_instance_detections = 1;
-  /// Only instances (projected modes) or detections (raw masks) whose class probability reaches this.
+  /// Only instances (projected modes) or detections (raw masks) whose class probability reaches
+  /// this.
   double min_class_probability = 0.0;
   /// Symmetry group each object's EKF uses to compare a measurement with its state:
   /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = only for the
@@ -50,9 +52,25 @@ struct PipelineParams {
   int ekf_init_views = 5;
   /// Give the single-view estimator the EKF's current pose (moved into the camera) as one more
   /// hypothesis. Off by default: the paper's measurements are independent single-view estimates.
-  bool ekf_prior_hypothesis = false;
+  /// On by default (a deviation, docs/PIPELINE.md): with pose_registration.prior_refinement the
+  /// estimator then refines the prior locally and runs the global search only when it does not fit.
+  bool ekf_prior_hypothesis = true;
+  /// Skip rule (EKF variants; a deviation, docs/PIPELINE.md): an object is not re-estimated on an
+  /// evaluated frame when its filter has fused at least skip_min_fused_views views, its last
+  /// single-view estimate passed the gate, the camera moved less than skip_max_translation_m and
+  /// skip_max_rotation_deg since that estimate, and fewer than skip_max_consecutive frames in a row
+  /// were skipped; its fused pose is reported. skip_min_fused_views = 0 turns the rule off.
+  int skip_min_fused_views = 5;
+  double skip_max_translation_m = 0.03;
+  double skip_max_rotation_deg = 3.0;
+  int skip_max_consecutive = 3;
+  /// Projected depth / colour: the map is rendered only in the window of the instances' splats
+  /// grown by this many pixels (the registration's free-space and support tests look around the
+  /// mask); pixels outside it are empty.
+  int render_margin_px = 40;
   /// Start the SLAM at the first frame's ground-truth camera pose when the dataset has one, so that
-  /// the trajectory and world poses are in the dataset's world frame; else the first camera is the world.
+  /// the trajectory and world poses are in the dataset's world frame; else the first camera is the
+  /// world.
   bool init_from_ground_truth = true;
   /// map.ply / semantic_map.ply: write surfels with at least this confidence (0 = all).
   double output_min_confidence = 0.0;
@@ -62,7 +80,8 @@ struct PipelineParams {
   template <class V>
   void visit(V&& v) {
     v("use_projected_mask", use_projected_mask,
-      "PM: single-view pose on the instance mask rendered from the map (else the detection's mask)");
+      "PM: single-view pose on the instance mask rendered from the map (else the detection's "
+      "mask)");
     v("use_projected_depth", use_projected_depth,
       "PD: single-view pose on the depth rendered from the map (else the camera's depth)");
     v("use_projected_color", use_projected_color,
@@ -79,17 +98,31 @@ struct PipelineParams {
     v("min_class_probability", min_class_probability,
       "Only instances / detections whose class probability reaches this get a pose, in [0, 1]");
     v("ekf_symmetry", ekf_symmetry,
-      "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the dataset's "
+      "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the "
+      "dataset's "
       "symmetric classes; their annotated group when the dataset has one) | none");
     v("ekf_init_views", ekf_init_views,
       "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,
-      "Give the single-view estimator the EKF pose as an extra hypothesis (paper: off)");
+      "Give the single-view estimator the EKF pose as a prior: refined locally, the global "
+      "search only when it does not fit (pose_registration.prior_*; paper: off)");
+    v("skip_min_fused_views", skip_min_fused_views,
+      "EKF: skip the single-view estimate of an object whose filter fused at least this many "
+      "views, whose last estimate passed the gate and whose view barely changed (0 = never skip)");
+    v("skip_max_translation_m", skip_max_translation_m,
+      "Skip rule: the camera moved less than this (m) since the object's last estimate");
+    v("skip_max_rotation_deg", skip_max_rotation_deg,
+      "Skip rule: the camera turned less than this (degrees) since the object's last estimate");
+    v("skip_max_consecutive", skip_max_consecutive,
+      "Skip rule: at most this many evaluated frames in a row are skipped per object");
+    v("render_margin_px", render_margin_px,
+      "Projected depth / colour rendered only within this many pixels of the instances' splats");
     v("init_from_ground_truth", init_from_ground_truth,
       "Start the SLAM at the first frame's ground-truth camera pose when there is one");
     v("output_min_confidence", output_min_confidence,
       "map.ply / semantic_map.ply keep surfels with at least this confidence (0 = all)");
-    v("progress_every_n_frames", progress_every_n_frames, "Progress line every n frames (0 = none)");
+    v("progress_every_n_frames", progress_every_n_frames,
+      "Progress line every n frames (0 = none)");
   }
   bool IsValid(std::string* why) const;
 

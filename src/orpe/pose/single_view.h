@@ -48,6 +48,8 @@ struct SingleViewPose {
   double free_space_violation =
       0;  ///< fraction of model points seen in front of the observed depth
   double time_ms = 0;
+  /// The estimate is a local refinement of SingleViewInput::T_cam_obj_prior (no global search).
+  bool from_prior = false;
   std::string report() const;
 };
 

@@ -3,6 +3,8 @@
 // recording estimator double (pipeline_test_util.h) on a small synthetic scene.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
 #include "orpe/semantic/detection.h"
@@ -336,6 +338,51 @@ TEST(AblationWiring, EkfFusesNoisyMeasurementsAndReportsTheStateAfterEachUpdate)
   }
   const auto single_objects = pipeline.object_poses(1);
   for (const auto& o : single_objects) EXPECT_EQ(o.source, "best_single_view");
+}
+
+TEST(AblationWiring, SkipRuleSkipsConfidentUnchangedObjectsAndStillReportsThem) {
+  // Object-RPE with exact answers: once an object's filter has fused skip_min_fused_views views and
+  // the camera barely moves, the estimator is not called for it (at most skip_max_consecutive
+  // frames in a row); every frame still reports the object. Switched off, every frame estimates.
+  const std::string dir = test::synthetic_scene("ekf", test::small_scene_params(160, 120, 16, 3, 5));
+  const auto reader = open_dataset(dir, DatasetParams{});
+  struct Run {
+    int calls = 0, skipped = 0;
+    std::set<std::pair<int, int>> rows;  // (frame, class)
+  };
+  auto run = [&](int min_fused_views, double max_rotation_deg) {
+    ObjectRpeParams params = wiring_params({"Object-RPE"});
+    params.pipeline.ekf_init_views = 1;
+    params.pipeline.skip_min_fused_views = min_fused_views;
+    params.pipeline.skip_max_rotation_deg = max_rotation_deg;
+    params.pipeline.skip_max_translation_m = 1.0;
+    params.pipeline.skip_max_consecutive = 2;
+    ObjectRpePipeline pipeline(params, reader->info());
+    auto shared = std::make_shared<test::RecordingEstimator::Shared>();
+    shared->record_images = false;
+    shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
+    pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
+    for (size_t i = 0; i < reader->size(); ++i) {
+      const RgbdFrame f = reader->read(i);
+      if (i == 0)
+        for (const auto& g : f.objects_gt)
+          shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
+      pipeline.process(f);
+    }
+    Run r;
+    r.calls = static_cast<int>(shared->calls.size());
+    r.skipped = pipeline.stats().single_view_skipped;
+    for (const auto& row : pipeline.pose_rows(0)) r.rows.insert({row.im_id, row.obj_id});
+    return r;
+  };
+  const Run skip = run(3, 30.0), off = run(0, 30.0), moving = run(3, 0.0);
+  EXPECT_EQ(off.skipped, 0);
+  EXPECT_EQ(moving.skipped, 0);  // the camera turns ~2 deg per frame: no view is "unchanged"
+  EXPECT_GT(skip.skipped, 5);
+  EXPECT_EQ(skip.calls + skip.skipped, off.calls);
+  EXPECT_EQ(skip.rows, off.rows);  // skipped objects are reported (their fused pose)
+  // At most 2 skips in a row: at least a third of the estimates after the first 3 views remain.
+  EXPECT_LE(skip.skipped, 2 * (off.calls - skip.skipped) + 2);
 }
 
 TEST(AblationWiring, ProjectedMasksRecoverObjectsTheDetectorMissed) {

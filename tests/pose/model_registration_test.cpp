@@ -236,8 +236,9 @@ TEST(ModelRegistration, PriorFastPathGivesTheGlobalPoseMuchFaster) {
 }
 
 TEST(ModelRegistration, PriorThatNoLongerFitsFallsBackToTheGlobalSearch) {
-  // The object was moved: the prior is 12 cm away and turned. The local refinement cannot explain
-  // the points, so the global search runs and finds the object.
+  // The object was moved: the prior is 12 cm farther from the camera and turned (hidden behind the
+  // observed surface, nothing pulls it forward). The local refinement cannot explain the points, so
+  // the global search runs and finds the object.
   const SurfaceSamples dense = test::sample_l_shape(0.0008f);
   const ObjectModel model = test::make_model(test::sample_l_shape(0.004f));
   std::mt19937 rng(22);
@@ -252,7 +253,7 @@ TEST(ModelRegistration, PriorThatNoLongerFitsFallsBackToTheGlobalSearch) {
   in.intrinsics = view.K;
   in.model = &model;
   in.T_cam_obj_prior = SE3(so3_exp(Vec3(1.2, 0.4, -0.3)) * T_gt.rotation(),
-                           T_gt.translation() + Vec3(0.12, 0.0, 0.0));
+                           T_gt.translation() + Vec3(0.0, 0.0, 0.12));
   const SingleViewPose est = ModelRegistrationEstimator().estimate(in);
   ASSERT_TRUE(est.valid) << est.reason;
   EXPECT_FALSE(est.from_prior) << est.report();

@@ -1,7 +1,9 @@
-// The ablation switches reach the single-view estimator: DF gets the detection's mask and the camera's
-// depth / colour; PM the instance mask rendered from the map; PD / PC the map's depth / colour. With a
-// recording estimator double (pipeline_test_util.h) on a small synthetic scene.
+// The ablation switches reach the single-view estimator: DF gets the detection's mask and the
+// camera's depth / colour; PM the instance mask rendered from the map; PD / PC the map's depth /
+// colour. With a recording estimator double (pipeline_test_util.h) on a small synthetic scene.
 #include <gtest/gtest.h>
+
+#include <set>
 
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
@@ -19,7 +21,8 @@ struct Scene {
 };
 
 Scene small_scene() {
-  const std::string dir = test::synthetic_scene("wiring", test::small_scene_params(160, 120, 5, 4, 2));
+  const std::string dir =
+      test::synthetic_scene("wiring", test::small_scene_params(160, 120, 5, 4, 2));
   Scene s;
   s.reader = open_dataset(dir, DatasetParams{});
   for (size_t i = 0; i < s.reader->size(); ++i) s.frames.push_back(s.reader->read(i));
@@ -70,8 +73,8 @@ double color_agreement(const MaskImage& mask, const ColorImage& a, const ColorIm
   return n ? static_cast<double>(same) / n : 0.0;
 }
 
-/// The map as the pipeline renders it for one frame, with independent renderers: the semantic
-/// stage's label-aware instance images, and a plain render of every surfel around them.
+/// The map as the pipeline renders it for one frame, with an independent renderer: the semantic
+/// stage's label-aware instance images, and the render of every surfel around them.
 struct MapView {
   LabelImage instance_id;
   DepthImage depth;
@@ -84,18 +87,16 @@ MapView render_map(const ObjectRpePipeline& pipeline, const RgbdFrame& frame) {
   const SemanticParams& sp = pipeline.params().semantic;
   InstanceRenderer instance_renderer;
   InstanceImages images;
-  instance_renderer.render(pipeline.slam().map(), pipeline.slam().T_world_cam(), K,
-                           static_cast<float>(sp.mask_splat_radius_px),
-                           static_cast<float>(sp.mask_splat_radius_scale), sp.mask_depth_tolerance_m,
-                           true, &images);
-  slam::RenderOptions o;
-  o.max_splat_radius_px = static_cast<float>(sp.mask_splat_radius_px);
-  o.want_vertex = o.want_normal = false;
-  o.want_color = true;
-  slam::MapRenderer renderer;
-  slam::RenderedView view;
-  renderer.render(pipeline.slam().map(), pipeline.slam().T_world_cam(), K, o, &view);
-  MapView out{images.instance_id, view.depth, view.color};
+  // The pipeline's windowed render (the window's crop shifts the principal point, which changes
+  // float rounding at ~0.02 % of the pixels against a full-image render).
+  InstanceRenderOptions ro;
+  ro.max_splat_radius_px = static_cast<float>(sp.mask_splat_radius_px);
+  ro.splat_radius_scale = static_cast<float>(sp.mask_splat_radius_scale);
+  ro.depth_tolerance_m = sp.mask_depth_tolerance_m;
+  ro.want_color = true;
+  ro.scene_margin_px = pipeline.params().pipeline.render_margin_px;
+  instance_renderer.render(pipeline.slam().map(), pipeline.slam().T_world_cam(), K, ro, &images);
+  MapView out{images.instance_id, images.scene_depth, images.scene_color};
   for (size_t k = 0; k < out.instance_id.size(); ++k)
     if (out.instance_id[k] > 0) {
       out.depth[k] = images.depth[k];
@@ -185,7 +186,8 @@ TEST(AblationWiring, PcUsesTheMapsColour) {
   EXPECT_EQ(c.mask_is_projected, c.calls);
   EXPECT_DOUBLE_EQ(c.depth_is_map, 1.0);
   EXPECT_DOUBLE_EQ(c.color_is_map, 1.0);
-  EXPECT_LT(c.color_is_camera, 0.5) << "colour noise makes the camera's colour differ from the map's";
+  EXPECT_LT(c.color_is_camera, 0.5)
+      << "colour noise makes the camera's colour differ from the map's";
 }
 
 TEST(AblationWiring, NamedConfigurationsSetTheSwitches) {
@@ -263,9 +265,10 @@ TEST(AblationWiring, CombinedPassEqualsSeparateRuns) {
 }
 
 TEST(AblationWiring, EkfFusesNoisyMeasurementsAndReportsTheStateAfterEachUpdate) {
-  // Single-view answers = truth + 1.5 cm / 3 deg noise, truth taken relative to the tracked camera so
-  // that tracking drift does not enter (this tests the fusion, not the SLAM).
-  const std::string dir = test::synthetic_scene("ekf", test::small_scene_params(160, 120, 16, 3, 5));
+  // Single-view answers = truth + 1.5 cm / 3 deg noise, truth taken relative to the tracked camera
+  // so that tracking drift does not enter (this tests the fusion, not the SLAM).
+  const std::string dir =
+      test::synthetic_scene("ekf", test::small_scene_params(160, 120, 16, 3, 5));
   const auto reader = open_dataset(dir, DatasetParams{});
   ObjectRpePipeline pipeline(wiring_params({"Object-RPE", "DF-PM-PD-PC"}), reader->info());
   auto shared = std::make_shared<test::RecordingEstimator::Shared>();
@@ -300,11 +303,13 @@ TEST(AblationWiring, EkfFusesNoisyMeasurementsAndReportsTheStateAfterEachUpdate)
   if (std::getenv("ORPE_DEBUG_EKF")) {
     for (size_t v = 0; v < 2; ++v)
       for (const auto& r : (v == 0 ? pipeline.final_pose_rows(0) : pipeline.pose_rows(v)))
-        std::printf("v%zu frame %d class %d err %.4f\n", v, r.im_id, r.obj_id,
-                    (r.T_cam_obj.translation() - truth.at({r.im_id, r.obj_id}).translation()).norm());
+        std::printf(
+            "v%zu frame %d class %d err %.4f\n", v, r.im_id, r.obj_id,
+            (r.T_cam_obj.translation() - truth.at({r.im_id, r.obj_id}).translation()).norm());
     for (const auto& o : pipeline.object_poses(0))
-      std::printf("inst %d class %d views %d rejected %d reinit %d sym %s\n", o.instance_id, o.class_id,
-                  o.num_views, o.num_rejected, o.num_reinitialisations, o.model_symmetry.c_str());
+      std::printf("inst %d class %d views %d rejected %d reinit %d sym %s\n", o.instance_id,
+                  o.class_id, o.num_views, o.num_rejected, o.num_reinitialisations,
+                  o.model_symmetry.c_str());
   }
   const double fused = mean_error(pipeline.pose_rows(0), 8);
   const double single = mean_error(pipeline.pose_rows(1), 8);
@@ -336,6 +341,52 @@ TEST(AblationWiring, EkfFusesNoisyMeasurementsAndReportsTheStateAfterEachUpdate)
   }
   const auto single_objects = pipeline.object_poses(1);
   for (const auto& o : single_objects) EXPECT_EQ(o.source, "best_single_view");
+}
+
+TEST(AblationWiring, SkipRuleSkipsConfidentUnchangedObjectsAndStillReportsThem) {
+  // Object-RPE with exact answers: once an object's filter has fused skip_min_fused_views views and
+  // the camera barely moves, the estimator is not called for it (at most skip_max_consecutive
+  // frames in a row); every frame still reports the object. Switched off, every frame estimates.
+  const std::string dir =
+      test::synthetic_scene("ekf", test::small_scene_params(160, 120, 16, 3, 5));
+  const auto reader = open_dataset(dir, DatasetParams{});
+  struct Run {
+    int calls = 0, skipped = 0;
+    std::set<std::pair<int, int>> rows;  // (frame, class)
+  };
+  auto run = [&](int min_fused_views, double max_rotation_deg) {
+    ObjectRpeParams params = wiring_params({"Object-RPE"});
+    params.pipeline.ekf_init_views = 1;
+    params.pipeline.skip_min_fused_views = min_fused_views;
+    params.pipeline.skip_max_rotation_deg = max_rotation_deg;
+    params.pipeline.skip_max_translation_m = 1.0;
+    params.pipeline.skip_max_consecutive = 2;
+    ObjectRpePipeline pipeline(params, reader->info());
+    auto shared = std::make_shared<test::RecordingEstimator::Shared>();
+    shared->record_images = false;
+    shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
+    pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
+    for (size_t i = 0; i < reader->size(); ++i) {
+      const RgbdFrame f = reader->read(i);
+      if (i == 0)
+        for (const auto& g : f.objects_gt)
+          shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
+      pipeline.process(f);
+    }
+    Run r;
+    r.calls = static_cast<int>(shared->calls.size());
+    r.skipped = pipeline.stats().single_view_skipped;
+    for (const auto& row : pipeline.pose_rows(0)) r.rows.insert({row.im_id, row.obj_id});
+    return r;
+  };
+  const Run skip = run(3, 30.0), off = run(0, 30.0), moving = run(3, 0.0);
+  EXPECT_EQ(off.skipped, 0);
+  EXPECT_EQ(moving.skipped, 0);  // the camera turns ~2 deg per frame: no view is "unchanged"
+  EXPECT_GT(skip.skipped, 5);
+  EXPECT_EQ(skip.calls + skip.skipped, off.calls);
+  EXPECT_EQ(skip.rows, off.rows);  // skipped objects are reported (their fused pose)
+  // At most 2 skips in a row: at least a third of the estimates after the first 3 views remain.
+  EXPECT_LE(skip.skipped, 2 * (off.calls - skip.skipped) + 2);
 }
 
 TEST(AblationWiring, ProjectedMasksRecoverObjectsTheDetectorMissed) {

@@ -22,6 +22,25 @@ double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
+/// Per object, what the skip rule needs of its last single-view estimate.
+struct SkipState {
+  bool last_accepted = false;  ///< the last estimate was valid and passed the EKF's gate
+  SE3 T_world_cam;             ///< camera of the last estimate
+  int skipped_in_a_row = 0;
+};
+
+/// PipelineParams::skip_*: the fused pose is confident (enough fused views, the last estimate
+/// agreed with it) and the view unchanged (the camera barely moved since that estimate).
+bool skip_estimate(const SkipState& s, int fused_views, const SE3& T_world_cam,
+                   const PipelineParams& pp) {
+  if (pp.skip_min_fused_views <= 0 || fused_views < pp.skip_min_fused_views || !s.last_accepted ||
+      s.skipped_in_a_row >= pp.skip_max_consecutive)
+    return false;
+  const SE3 motion = s.T_world_cam.inverse() * T_world_cam;
+  return motion.translation().norm() < pp.skip_max_translation_m &&
+         motion.rotation_angle_deg() < pp.skip_max_rotation_deg;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------
@@ -112,6 +131,7 @@ struct ObjectRpePipeline::Track {
   double best_score = -1e9;
   SE3 best_T_world_obj;
   int valid_views = 0;
+  SkipState skip;  // EKF variants
 };
 
 struct ObjectRpePipeline::VariantState {
@@ -296,21 +316,21 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   slam::RenderedView view;
   if (need_projected) {
     InstanceImages images;
-    instance_renderer_.render(slam_->map(), T_world_cam, K,
-                              static_cast<float>(params_.semantic.mask_splat_radius_px),
-                              static_cast<float>(params_.semantic.mask_splat_radius_scale),
-                              params_.semantic.mask_depth_tolerance_m, true, &images);
+    InstanceRenderOptions ro;
+    ro.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
+    ro.splat_radius_scale = static_cast<float>(params_.semantic.mask_splat_radius_scale);
+    ro.depth_tolerance_m = params_.semantic.mask_depth_tolerance_m;
+    ro.want_color = true;
+    ro.scene_margin_px = pp.render_margin_px;  // the scene around the instances (windowed)
+    instance_renderer_.render(slam_->map(), T_world_cam, K, ro, &images);
     bool any_ekf = false;
     for (const auto& v : variants_) any_ekf |= v.config.ekf && v.config.projected_mask;
     const int min_view_px = any_ekf && pp.ekf_report_min_mask_px > 0
                                 ? std::min(pp.min_pose_mask_px, pp.ekf_report_min_mask_px)
                                 : pp.min_pose_mask_px;
     views = split_instance_views(images, instances, min_view_px);
-    slam::RenderOptions options;
-    options.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
-    options.want_vertex = options.want_normal = false;
-    options.want_color = true;
-    slam_->renderer().render(slam_->map(), T_world_cam, K, options, &view);
+    view.depth = std::move(images.scene_depth);
+    view.color = std::move(images.scene_color);
     for (const InstanceView& iv : views)
       for (size_t k = 0; k < iv.projected_mask.size(); ++k)
         if (iv.projected_mask[k]) {
@@ -444,9 +464,16 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
                           estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
                           use_prior || learned ? static_cast<int>(vi) : -1);
       auto cached = cache.find(key);
+      const bool skip = use_prior && !c.report_only &&
+                        skip_estimate(track->skip, track->ekf->accepted(), T_world_cam, pp);
       if (c.report_only) {
         est.single_view = SingleViewPose{};
         est.single_view.reason = "mask too small for a single-view estimate";
+      } else if (skip) {
+        est.single_view = SingleViewPose{};
+        est.single_view.reason = "skipped: fused pose confident and view unchanged (pipeline.skip_*)";
+        ++track->skip.skipped_in_a_row;
+        ++stats_.single_view_skipped;
       } else if (cached != cache.end()) {
         est.single_view = cached->second;
         ++stats_.single_view_cache_hits;
@@ -464,6 +491,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         result.single_view_ms += ms_since(t0);
         ++stats_.single_view_estimates;
         stats_.single_view_valid += est.single_view.valid;
+        stats_.single_view_from_prior += est.single_view.from_prior;
         cache.emplace(key, est.single_view);
       }
       const SingleViewPose& sv = est.single_view;
@@ -490,6 +518,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
                          cfg.projected_color ? projected_color : frame.color,
                          cfg.projected_depth ? projected_depth : frame.depth, *c.mask, K);
           }
+          if (!skip && !c.report_only) track->skip = {est.ekf_accepted, T_world_cam, 0};
           if (fusion.has_estimate()) {
             est.reported = true;
             est.T_cam_obj = fusion.T_cam_obj(T_world_cam);

@@ -139,6 +139,8 @@ struct PipelineStats {
   int frames = 0, keyframes = 0, evaluated_frames = 0, lost_frames = 0, degraded_frames = 0;
   int detections = 0;
   int single_view_estimates = 0, single_view_valid = 0, single_view_cache_hits = 0;
+  int single_view_from_prior = 0;  ///< estimates that were a local refinement of the EKF's prior
+  int single_view_skipped = 0;     ///< objects not re-estimated (PipelineParams::skip_*)
   int ekf_accepted = 0, ekf_rejected = 0;
   int colour_views_learned = 0;  ///< views that taught an object its colour (learned from the map)
   double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;

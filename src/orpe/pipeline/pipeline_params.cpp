@@ -36,6 +36,12 @@ bool PipelineParams::IsValid(std::string* why) const {
   if (ekf_symmetry != "geometric" && ekf_symmetry != "dataset" && ekf_symmetry != "none")
     return fail("ekf_symmetry must be geometric, dataset or none");
   if (ekf_init_views < 1) return fail("ekf_init_views must be >= 1");
+  if (skip_min_fused_views < 0) return fail("skip_min_fused_views must be >= 0");
+  if (!(skip_max_translation_m >= 0) || !(skip_max_rotation_deg >= 0))
+    return fail("skip_max_translation_m and skip_max_rotation_deg must be >= 0");
+  if (skip_max_consecutive < 0) return fail("skip_max_consecutive must be >= 0");
+  if (render_margin_px < 0 || render_margin_px > 10000)
+    return fail("render_margin_px must be in [0, 10000]");
   if (progress_every_n_frames < 0) return fail("progress_every_n_frames must be >= 0");
   return true;
 }

@@ -50,7 +50,22 @@ struct PipelineParams {
   int ekf_init_views = 5;
   /// Give the single-view estimator the EKF's current pose (moved into the camera) as one more
   /// hypothesis. Off by default: the paper's measurements are independent single-view estimates.
-  bool ekf_prior_hypothesis = false;
+  /// On by default (a deviation, docs/PIPELINE.md): with pose_registration.prior_refinement the
+  /// estimator then refines the prior locally and runs the global search only when it does not fit.
+  bool ekf_prior_hypothesis = true;
+  /// Skip rule (EKF variants; a deviation, docs/PIPELINE.md): an object is not re-estimated on an
+  /// evaluated frame when its filter has fused at least skip_min_fused_views views, its last
+  /// single-view estimate passed the gate, the camera moved less than skip_max_translation_m and
+  /// skip_max_rotation_deg since that estimate, and fewer than skip_max_consecutive frames in a row
+  /// were skipped; its fused pose is reported. skip_min_fused_views = 0 turns the rule off.
+  int skip_min_fused_views = 5;
+  double skip_max_translation_m = 0.03;
+  double skip_max_rotation_deg = 3.0;
+  int skip_max_consecutive = 3;
+  /// Projected depth / colour: the map is rendered only in the window of the instances' splats
+  /// grown by this many pixels (the registration's free-space and support tests look around the
+  /// mask); pixels outside it are empty.
+  int render_margin_px = 40;
   /// Start the SLAM at the first frame's ground-truth camera pose when the dataset has one, so that
   /// the trajectory and world poses are in the dataset's world frame; else the first camera is the world.
   bool init_from_ground_truth = true;
@@ -84,7 +99,19 @@ struct PipelineParams {
     v("ekf_init_views", ekf_init_views,
       "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,
-      "Give the single-view estimator the EKF pose as an extra hypothesis (paper: off)");
+      "Give the single-view estimator the EKF pose as a prior: refined locally, the global "
+      "search only when it does not fit (pose_registration.prior_*; paper: off)");
+    v("skip_min_fused_views", skip_min_fused_views,
+      "EKF: skip the single-view estimate of an object whose filter fused at least this many "
+      "views, whose last estimate passed the gate and whose view barely changed (0 = never skip)");
+    v("skip_max_translation_m", skip_max_translation_m,
+      "Skip rule: the camera moved less than this (m) since the object's last estimate");
+    v("skip_max_rotation_deg", skip_max_rotation_deg,
+      "Skip rule: the camera turned less than this (degrees) since the object's last estimate");
+    v("skip_max_consecutive", skip_max_consecutive,
+      "Skip rule: at most this many evaluated frames in a row are skipped per object");
+    v("render_margin_px", render_margin_px,
+      "Projected depth / colour rendered only within this many pixels of the instances' splats");
     v("init_from_ground_truth", init_from_ground_truth,
       "Start the SLAM at the first frame's ground-truth camera pose when there is one");
     v("output_min_confidence", output_min_confidence,

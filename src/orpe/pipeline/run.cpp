@@ -123,10 +123,12 @@ std::string RunSummary::report() const {
   for (size_t v = 0; v < variants.size(); ++v)
     s += fmt::format("poses [{}]: {} rows\n", variants[v], pose_rows[v]);
   if (stats.single_view_estimates)
-    s +=
-        fmt::format("single-view: {} estimates ({} valid, {} reused); EKF: {} accepted, {} gated\n",
-                    stats.single_view_estimates, stats.single_view_valid,
-                    stats.single_view_cache_hits, stats.ekf_accepted, stats.ekf_rejected);
+    s += fmt::format(
+        "single-view: {} estimates ({} valid, {} reused, {} from the prior, {} skipped); EKF: {} "
+        "accepted, {} gated\n",
+        stats.single_view_estimates, stats.single_view_valid, stats.single_view_cache_hits,
+        stats.single_view_from_prior, stats.single_view_skipped, stats.ekf_accepted,
+        stats.ekf_rejected);
   const double n = std::max(frames, 1);
   s += fmt::format(
       "time per frame: read {:.0f} ms, slam {:.0f} ms, semantic {:.0f} ms, render {:.0f} ms, "
@@ -354,6 +356,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("counts.single_view_estimates", st.single_view_estimates);
   js.set("counts.single_view_valid", st.single_view_valid);
   js.set("counts.single_view_reused", st.single_view_cache_hits);
+  js.set("counts.single_view_from_prior", st.single_view_from_prior);
+  js.set("counts.single_view_skipped", st.single_view_skipped);
   js.set("counts.ekf_accepted", st.ekf_accepted);
   js.set("counts.ekf_rejected", st.ekf_rejected);
   js.set("counts.colour_views_learned", st.colour_views_learned);

@@ -46,6 +46,11 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
     return fail(cwhy);
   if (min_inlier_fraction < 0 || min_inlier_fraction > 1)
     return fail("min_inlier_fraction must be in [0, 1]");
+  if (prior_iterations < 1) return fail("prior_iterations must be >= 1");
+  if (prior_points < min_points) return fail("prior_points must be >= min_points");
+  if (prior_min_inlier_fraction < 0 || prior_min_inlier_fraction > 1 ||
+      prior_max_free_space_violation < 0 || prior_max_free_space_violation > 1)
+    return fail("prior_min_inlier_fraction and prior_max_free_space_violation must be in [0, 1]");
   return true;
 }
 
@@ -97,7 +102,10 @@ struct Hypothesis {
 /// violation only if it is in front of every observed depth around its pixel: robust to mixed
 /// pixels and the sensor's depth bleeding at object edges) and subsets of the model points.
 struct ScoringContext {
-  DepthImage depth_min;
+  DepthImage
+      depth_min;  ///< window minimum over [roi_u0, ..] x [roi_v0, ..] (a window of the image)
+  int roi_u0 = 0, roi_v0 = 0;
+  int window_px = 0;
   PinholeIntrinsics K;
   std::vector<Vec3f> model_subset;
   std::vector<Vec3f> normal_subset;
@@ -107,30 +115,49 @@ struct ScoringContext {
   std::unique_ptr<ModelSearchIndex> observed_index;  ///< over the segmented points (camera frame)
 };
 
-/// Minimum of the valid (non-zero) depths over a (2r+1)^2 window; separable (rows, then columns).
-DepthImage min_filter(const DepthImage& depth, int r) {
-  if (r <= 0) return depth;
+/// Minimum of the valid (non-zero) depths over the (2r+1)^2 window around each pixel of the region
+/// [u0, u1] x [v0, v1] of `depth` (windows clipped to the image); separable (rows, then columns).
+/// Returns the region's image; 0 where the window has no valid depth.
+DepthImage min_filter(const DepthImage& depth, int r, int u0, int v0, int u1, int v1) {
   const int w = depth.width(), h = depth.height();
+  const int rw = u1 - u0 + 1, rh = v1 - v0 + 1;
+  const int ra = std::max(0, v0 - r), rb = std::min(h - 1, v1 + r);  // rows the columns read
   const float inf = std::numeric_limits<float>::infinity();
-  Image<float> rows(w, h, inf);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
+  Image<float> rows(rw, rb - ra + 1, inf);
+  for (int v = ra; v <= rb; ++v)
+    for (int u = u0; u <= u1; ++u) {
       float m = inf;
       for (int k = std::max(0, u - r); k <= std::min(w - 1, u + r); ++k) {
         const float z = depth.at(k, v);
         if (z > 0 && z < m) m = z;
       }
-      rows.at(u, v) = m;
+      rows.at(u - u0, v - ra) = m;
     }
-  DepthImage out(w, h, 0.0f);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
+  DepthImage out(rw, rh, 0.0f);
+  for (int v = v0; v <= v1; ++v)
+    for (int u = u0; u <= u1; ++u) {
       float m = inf;
       for (int k = std::max(0, v - r); k <= std::min(h - 1, v + r); ++k)
-        m = std::min(m, rows.at(u, k));
-      out.at(u, v) = std::isfinite(m) ? m : 0.0f;
+        m = std::min(m, rows.at(u - u0, k - ra));
+      out.at(u - u0, v - v0) = std::isfinite(m) ? m : 0.0f;
     }
   return out;
+}
+
+/// Window minimum of the valid depths at pixel (u, v) (in the image): from the precomputed region,
+/// else computed on the spot (same value).
+float min_depth_at(const ScoringContext& ctx, int u, int v) {
+  const int x = u - ctx.roi_u0, y = v - ctx.roi_v0;
+  if (ctx.depth_min.in_bounds(x, y)) return ctx.depth_min.at(x, y);
+  const DepthImage& d = *ctx.depth;
+  const int r = ctx.window_px;
+  float m = std::numeric_limits<float>::infinity();
+  for (int b = std::max(0, v - r); b <= std::min(d.height() - 1, v + r); ++b)
+    for (int a = std::max(0, u - r); a <= std::min(d.width() - 1, u + r); ++a) {
+      const float z = d.at(a, b);
+      if (z > 0 && z < m) m = z;
+    }
+  return std::isfinite(m) ? m : 0.0f;
 }
 
 class Registration {
@@ -288,8 +315,8 @@ class Registration {
     if (pc.z() <= 0.01f) return true;
     const int u = static_cast<int>(std::lround(ctx_.K.fx * pc.x() / pc.z() + ctx_.K.cx));
     const int v = static_cast<int>(std::lround(ctx_.K.fy * pc.y() / pc.z() + ctx_.K.cy));
-    if (!ctx_.depth_min.in_bounds(u, v)) return false;
-    const float z = ctx_.depth_min.at(u, v);
+    if (!ctx_.depth->in_bounds(u, v)) return false;
+    const float z = min_depth_at(ctx_, u, v);
     return z > 0 && pc.z() < z - static_cast<float>(p_.free_space_margin_m);
   }
 
@@ -495,6 +522,25 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
   return chosen;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Prior fast path (ModelRegistrationParams::prior_*): an object the caller already knows (its
+// fused pose moved into this camera) needs a local refinement, not the global rotation search.
+
+/// ICP from the prior on a strided subset of the points, scored on that subset. Returns whether
+/// the refined prior fits (inliers, free space and score thresholds); `out` gets it either way.
+bool refine_from_prior(const ModelRegistrationParams& p, const Registration& reg,
+                       const SegmentedCloud& cloud, double diameter, const SE3& T_cam_obj_prior,
+                       Hypothesis* out) {
+  const std::vector<Vec3f> pts = strided_subset(cloud.points, p.prior_points);
+  const double start = std::max(p.refine_max_corr_factor * diameter, p.final_max_corr_m);
+  Hypothesis h;
+  h.T_cam_obj = reg.icp(pts, T_cam_obj_prior, p.prior_iterations, start, p.final_max_corr_m, false);
+  reg.score(pts, h, false);
+  *out = h;
+  return h.inliers >= p.prior_min_inlier_fraction &&
+         h.violation <= p.prior_max_free_space_violation && h.score >= p.prior_min_score;
+}
+
 }  // namespace
 
 ModelRegistrationEstimator::ModelRegistrationEstimator(const ModelRegistrationParams& params)
@@ -553,7 +599,23 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
   }
 
   ScoringContext ctx;
-  ctx.depth_min = min_filter(*input.depth, params.free_space_window_px);
+  {
+    // The free-space test's window minimum, precomputed around the mask (the segmented points'
+    // box grown by half its size: where model points of plausible hypotheses project).
+    int u0 = input.depth->width(), v0 = input.depth->height(), u1 = -1, v1 = -1;
+    for (const auto& p : cloud.points) {
+      const Eigen::Vector2d uv = input.intrinsics.project(p.cast<double>());
+      u0 = std::min(u0, static_cast<int>(uv.x())), u1 = std::max(u1, static_cast<int>(uv.x()));
+      v0 = std::min(v0, static_cast<int>(uv.y())), v1 = std::max(v1, static_cast<int>(uv.y()));
+    }
+    const int grow = std::max(u1 - u0, v1 - v0) / 2 + 2;
+    u0 = std::max(0, u0 - grow), v0 = std::max(0, v0 - grow);
+    u1 = std::min(input.depth->width() - 1, u1 + grow);
+    v1 = std::min(input.depth->height() - 1, v1 + grow);
+    ctx.window_px = params.free_space_window_px;
+    ctx.roi_u0 = u0, ctx.roi_v0 = v0;
+    ctx.depth_min = min_filter(*input.depth, ctx.window_px, u0, v0, u1, v1);
+  }
   ctx.K = input.intrinsics;
   {
     const size_t n = model->points.size();
@@ -576,6 +638,11 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
     h.T_cam_obj = *fixed_pose;
     reg.score(cloud.points, h, false);
     refine.push_back(h);
+  } else if (Hypothesis h;
+             input.T_cam_obj_prior && params.prior_refinement &&
+             refine_from_prior(params, reg, cloud, diameter, *input.T_cam_obj_prior, &h)) {
+    refine.push_back(h);
+    out.from_prior = true;
   } else {
     const double occluded = occluded_boundary_fraction(*input.mask, *input.depth);
     const bool translation_search =

@@ -65,6 +65,14 @@ struct ModelRegistrationParams {
   ColourScoreParams colour;
   /// Colour learned from the map for models without their own (the pipeline; colour_score.h).
   ColourLearningParams colour_learning;
+  // Prior fast path (model_registration.cpp, refine_from_prior): with a prior, a local refinement
+  // first; the global search only when the refined prior does not fit.
+  bool prior_refinement = true;
+  int prior_iterations = 12;
+  int prior_points = 500;
+  double prior_min_inlier_fraction = 0.7;
+  double prior_max_free_space_violation = 0.15;
+  double prior_min_score = 0.8;
 
   template <class V>
   void visit(V&& v) {
@@ -121,6 +129,19 @@ struct ModelRegistrationParams {
     v("seed", seed, "Seed of the deterministic point subsampling");
     colour.visit(v);
     colour_learning.visit(v);
+    v("prior_refinement", prior_refinement,
+      "With a prior (T_cam_obj_prior, e.g. the fused pose moved into this camera): refine it "
+      "locally and skip the global rotation search when the result fits (prior_min_*); "
+      "false = the prior is one more hypothesis of the global search");
+    v("prior_iterations", prior_iterations, "ICP iterations of the prior's local refinement");
+    v("prior_points", prior_points,
+      "Segmented points used by the prior's local refinement and its score (strided subset)");
+    v("prior_min_inlier_fraction", prior_min_inlier_fraction,
+      "The refined prior fits when at least this fraction of the points are inliers, ...");
+    v("prior_max_free_space_violation", prior_max_free_space_violation,
+      "... at most this fraction of the model points violate free space, ...");
+    v("prior_min_score", prior_min_score,
+      "... and its score reaches this; else the global search runs (prior as one hypothesis)");
   }
   bool IsValid(std::string* why) const;
   SegmentedCloudParams segmented_cloud() const;

@@ -73,16 +73,32 @@ MaskImage erode_mask(const MaskImage& mask, int r) {
   return out;
 }
 
-void collect(const MaskImage& mask, const DepthImage& depth, const PinholeIntrinsics& K,
-             std::vector<Eigen::Vector3f>& out) {
+/// `mask` is the window of the full image at (u0, v0).
+void collect(const MaskImage& mask, int u0, int v0, const DepthImage& depth,
+             const PinholeIntrinsics& K, std::vector<Eigen::Vector3f>& out) {
   out.clear();
   for (int v = 0; v < mask.height(); ++v)
     for (int u = 0; u < mask.width(); ++u) {
       if (!mask.at(u, v)) continue;
-      const float z = depth.at(u, v);
+      const float z = depth.at(u0 + u, v0 + v);
       if (!(z > 0.0f) || !std::isfinite(z)) continue;
-      out.push_back(K.backproject(u, v, z).cast<float>());
+      out.push_back(K.backproject(u0 + u, v0 + v, z).cast<float>());
     }
+}
+
+/// The mask cropped to its bounding box (empty when the mask is); its corner in (u0, v0). Erosion
+/// and collection on the crop equal those on the full image (outside the box the mask is 0).
+MaskImage crop_to_box(const MaskImage& mask, int* u0, int* v0) {
+  int a = mask.width(), b = mask.height(), c = -1, d = -1;
+  for (int v = 0; v < mask.height(); ++v)
+    for (int u = 0; u < mask.width(); ++u)
+      if (mask.at(u, v)) a = std::min(a, u), b = std::min(b, v), c = std::max(c, u), d = v;
+  *u0 = std::max(a, 0), *v0 = std::max(b, 0);
+  if (c < a) return MaskImage();
+  MaskImage out(c - a + 1, d - b + 1, 0);
+  for (int v = b; v <= d; ++v)
+    for (int u = a; u <= c; ++u) out.at(u - a, v - b) = mask.at(u, v);
+  return out;
 }
 
 }  // namespace
@@ -93,11 +109,14 @@ SegmentedCloud extract_segmented_cloud(const MaskImage& mask, const DepthImage& 
   SegmentedCloud cloud;
   if (mask.empty() || mask.width() != depth.width() || mask.height() != depth.height())
     return cloud;
-  for (const auto m : mask) cloud.mask_pixels += m != 0;
+  int u0 = 0, v0 = 0;
+  const MaskImage box = crop_to_box(mask, &u0, &v0);
+  for (const auto m : box) cloud.mask_pixels += m != 0;
   std::vector<Eigen::Vector3f> pts;
-  if (params.erode_px > 0) collect(erode_mask(mask, params.erode_px), depth, intrinsics, pts);
-  if (static_cast<int>(pts.size()) < std::max(params.min_points, 1))
-    collect(mask, depth, intrinsics, pts);  // small or thin instance: keep the boundary
+  if (params.erode_px > 0 && !box.empty())
+    collect(erode_mask(box, params.erode_px), u0, v0, depth, intrinsics, pts);
+  if (static_cast<int>(pts.size()) < std::max(params.min_points, 1) && !box.empty())
+    collect(box, u0, v0, depth, intrinsics, pts);  // small or thin instance: keep the boundary
   cloud.valid_depth_pixels = static_cast<int>(pts.size());
   if (pts.empty()) return cloud;
 

@@ -57,6 +57,8 @@ struct SingleViewPose {
   bool colour_used = false;
   double colour_ncc = 0;
   double colour_margin = 0;
+  /// The estimate is a local refinement of SingleViewInput::T_cam_obj_prior (no global search).
+  bool from_prior = false;
   std::string report() const;
 };
 

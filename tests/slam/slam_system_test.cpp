@@ -2,7 +2,9 @@
 // and re-acquisition.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <functional>
+#include <set>
 
 #include "orpe/core/error.h"
 #include "orpe/slam/slam_system.h"
@@ -86,6 +88,81 @@ TEST(SlamSystem, ReportsLossHoldsThePoseAndReacquires) {
   EXPECT_EQ(s.results[29].status, TrackingStatus::kOk);
   EXPECT_LT(s.max_translation_error_m, 0.01);
   EXPECT_LT(s.max_rotation_error_deg, 0.5);
+}
+
+/// The frame with depth only on the room's far wall (world z = 3): one plane, so the ICP normal
+/// matrix is degenerate (translation along the wall unconstrained by depth) while the frame still
+/// aligns with the map -- a DEGRADED frame.
+RgbdFrame far_wall_only(const RgbdFrame& full, const SE3& T_world_cam) {
+  RgbdFrame f = full;
+  const PinholeIntrinsics& K = f.intrinsics;
+  for (int v = 0; v < K.height; ++v)
+    for (int u = 0; u < K.width; ++u) {
+      const float z = f.depth.at(u, v);
+      if (z <= 0) continue;
+      const Vec3 p = T_world_cam * Vec3((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z);
+      if (std::fabs(p.z() - 3.0) > 1e-3) f.depth.at(u, v) = 0.0f;
+    }
+  return f;
+}
+
+/// 30 frames of the room; frames in `degenerate` see only the far wall.
+RunStats run_with_degenerate_frames(SlamSystem& slam, const std::set<int>& degenerate) {
+  const SyntheticScene scene = SyntheticScene::room();
+  const PinholeIntrinsics K = test::small_intrinsics();
+  return run(slam, scene, 30, [&](int i) {
+    const SE3 pose = test::trajectory_pose(i);
+    const RgbdFrame f = scene.render(pose, K, i);
+    return degenerate.count(i) ? far_wall_only(f, pose) : f;
+  });
+}
+
+TEST(SlamSystem, WeakFramesAreDegradedFusedAndCountedTowardsLoss) {
+  // Frames 10-11 and 20-22 see one plane: DEGRADED, pose updated, fused (fuse_degraded); the counter
+  // restarts on the good frames between, so three in a row (20-22) are still within max_bad_frames.
+  SlamParams p = small_params();
+  p.tracker.max_bad_frames = 3;
+  SlamSystem slam(p);
+  const RunStats s = run_with_degenerate_frames(slam, {10, 11, 20, 21, 22});
+  for (int i : {10, 11, 20, 21, 22}) {
+    EXPECT_EQ(s.results[i].status, TrackingStatus::kDegraded) << "frame " << i << ": " << s.results[i].report();
+    EXPECT_TRUE(s.results[i].fused) << "frame " << i;
+    EXPECT_NE(s.results[i].reason.find("degenerate"), std::string::npos) << s.results[i].reason;
+  }
+  for (int i : {9, 12, 19, 23, 29}) EXPECT_EQ(s.results[i].status, TrackingStatus::kOk) << "frame " << i;
+  EXPECT_LT(s.max_translation_error_m, 0.01);
+  EXPECT_LT(s.max_rotation_error_deg, 0.5);
+}
+
+TEST(SlamSystem, MoreThanMaxBadFramesInARowIsLost) {
+  SlamParams p = small_params();
+  p.tracker.max_bad_frames = 2;
+  SlamSystem slam(p);
+  const RunStats s = run_with_degenerate_frames(slam, {10, 11, 12, 13});
+  EXPECT_EQ(s.results[10].status, TrackingStatus::kDegraded) << s.results[10].report();
+  EXPECT_EQ(s.results[11].status, TrackingStatus::kDegraded) << s.results[11].report();
+  const SE3 held = s.results[11].T_world_cam;
+  for (int i : {12, 13}) {  // the third weak frame in a row is LOST; a weak frame does not re-acquire
+    EXPECT_EQ(s.results[i].status, TrackingStatus::kLost) << "frame " << i << ": " << s.results[i].report();
+    EXPECT_FALSE(s.results[i].fused) << "frame " << i;
+    EXPECT_LT((s.results[i].T_world_cam.translation() - held.translation()).norm(), 1e-12);
+  }
+  EXPECT_EQ(s.results[14].status, TrackingStatus::kOk) << "a good frame re-acquires: " << s.results[14].report();
+  EXPECT_LT(s.max_translation_error_m, 0.01);
+}
+
+TEST(SlamSystem, DegradedFramesAreNotFusedWhenFuseDegradedIsOff) {
+  SlamParams p = small_params();
+  p.options.fuse_degraded = false;
+  SlamSystem slam(p);
+  const RunStats s = run_with_degenerate_frames(slam, {10, 11});
+  for (int i : {10, 11}) {
+    EXPECT_EQ(s.results[i].status, TrackingStatus::kDegraded) << s.results[i].report();
+    EXPECT_FALSE(s.results[i].fused) << "frame " << i;
+    EXPECT_EQ(s.results[i].fusion.surfels, s.results[9].fusion.surfels) << "the map is unchanged";
+  }
+  EXPECT_TRUE(s.results[12].fused);
+  EXPECT_LT(s.max_translation_error_m, 0.01);
 }
 
 TEST(SlamSystem, RejectsFramesOfADifferentSize) {

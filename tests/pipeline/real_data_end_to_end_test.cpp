@@ -59,13 +59,13 @@ TEST(RealDataEndToEnd, SlamTracksTheFirst150SevenScenesFrames) {
   print_figure("rpe_rotation_rmse_deg", rpe_rot);
   print_figure("lost", lost);
   print_figure("degraded", degraded);
-  // Measured on main: ATE RMSE 0.0125 m (150 frames); bound 1.5x.
-  EXPECT_LT(ate, 0.019) << "ATE RMSE over the first 150 frames";
-  // Measured: 0 frames lost, 0 degraded.
+  // Measured on main (8c81327): ATE RMSE 0.0169 m over the 150 frames; bound 1.5x.
+  EXPECT_LT(ate, 0.025) << "ATE RMSE over the first 150 frames";
+  // Measured: 0 frames lost, 0 degraded (all 500 frames: 1 degraded, docs/BENCHMARKS.md).
   EXPECT_EQ(lost, 0);
-  EXPECT_LE(degraded, 2);
-  // Measured: RPE rotation RMSE 0.17 deg per frame; bound 1.5x.
-  EXPECT_LT(rpe_rot, 0.26);
+  EXPECT_LE(degraded, 1);
+  // Measured: RPE (1 frame) rotation RMSE 0.206 deg; bound 1.5x.
+  EXPECT_LT(rpe_rot, 0.31);
 }
 
 struct YcbvRun {
@@ -105,31 +105,37 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   EXPECT_EQ(r.summary["counts"]["tracking_lost"].get<int>(), 0);
   EXPECT_EQ(r.summary["single_view_estimator"].get<std::string>(), "model_registration");
 
-  // Camera: measured ATE RMSE 0.0009 m against meta.mat's poses; bound 2x + 1 mm.
+  // Camera: measured ATE RMSE 0.0011 m against meta.mat's poses; bound 2x + 0.3 mm.
   const double ate = r.summary["trajectory_eval"]["ate"]["translation_m"]["rmse"].get<double>();
   print_figure("ycbv0000_ate_rmse_m", ate);
-  EXPECT_LT(ate, 0.003);
+  EXPECT_LT(ate, 0.0025);
 
   // Instances: the clip shows gelatin_box (9), mug (14), foam_brick (21); measured: exactly these
   // three, one object each (the degraded detector's spurious blobs and wrong classes do not survive
   // as confirmed objects).
   std::multiset<std::string> classes;
-  int valid = 0;
-  double rejected = 0;
+  int valid = 0, rejected = 0, rejected_symmetric = 0;
   for (const auto& o : r.objects["objects"]) {
     classes.insert(o["class_name"].get<std::string>());
     valid += o["valid"].get<bool>();
     rejected += o["num_rejected"].get<int>();
+    if (o["class_name"].get<std::string>() == "061_foam_brick") rejected_symmetric += o["num_rejected"].get<int>();
   }
+  EXPECT_EQ(r.summary["counts"]["instances"].get<int>(), 3);
   const std::multiset<std::string> expected = {"009_gelatin_box", "025_mug", "061_foam_brick"};
   EXPECT_EQ(classes, expected);
   EXPECT_EQ(valid, 3);
   print_figure("ycbv0000_rejected_views", rejected);
-  // Gated measurements summed over the objects: measured 0 (foam brick's symmetric flips are the
-  // same pose under its symmetry group). Bound: 2.
-  EXPECT_LE(rejected, 2);
+  print_figure("ycbv0000_rejected_views_foam_brick", rejected_symmetric);
+  // Gated measurements (objects.json num_rejected): measured 14 in all (mug 11: its handle hidden,
+  // it flips; foam brick 3; gelatin box 0); bound +4. The foam brick is the clip's symmetric class
+  // (the EKF fuses its flips as one pose): measured 3, bound +2.
+  EXPECT_LE(rejected, 18);
+  EXPECT_LE(rejected_symmetric, 5);
 
-  // Poses: measured ADD-S AUC 97.0, ADD(-S) AUC 80.6 over the 60 instances; bound -3 points.
+  // Poses (per-frame EKF rows, poses.csv): measured ADD-S AUC 96.26 and ADD(-S) AUC 72.58 over the
+  // 60 instances, 59 estimated; bounds -2.75 points (ADD-S) and -7.5 points (ADD(-S), which moves
+  // with every flip of the near-symmetric mug between its two modes).
   const auto& all = r.eval["all"];
   const double adds = all["adds_auc"].get<double>();
   const double add_s = all["add_s_auc"].get<double>();
@@ -137,14 +143,15 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   print_figure("ycbv0000_add_s_auc", add_s);
   EXPECT_EQ(all["instances"].get<int>(), 60);
   EXPECT_GE(all["estimated"].get<int>(), 59);
-  EXPECT_GT(adds, 94.0);
-  EXPECT_GT(add_s, 70.0);
+  EXPECT_GT(adds, 93.5);
+  EXPECT_GT(add_s, 65.0);
 
-  // Map: measured reconstruction error 1.5 mm (mean over objects of the per-object mean surfel
-  // distance to the model at the ground-truth pose); bound 1.5x.
+  // Map: measured reconstruction error 1.42 mm (mean over the 3 objects of the per-object mean surfel
+  // distance to the model at the ground-truth pose: 2.27 / 1.00 / 0.99 mm); bound 1.5x.
   const double recon_mm = r.recon["mean_mm"].get<double>();
   print_figure("ycbv0000_recon_mm", recon_mm);
-  EXPECT_LT(recon_mm, 2.3);
+  EXPECT_LT(recon_mm, 2.15);
+  EXPECT_EQ(r.recon["objects"].size(), 3u);
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // seen from one side, with depth noise, a support plane and partial occlusion.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <random>
 
 #include "orpe/core/error.h"
@@ -116,6 +117,7 @@ TEST(ModelRegistration, AsymmetricShapeRecoversFullRotationUnderOcclusion) {
         rotation_distance_rad(c.estimate.T_cam_obj.rotation(), T_gt.rotation()) * 180.0 / M_PI;
     const double trans_err = (c.estimate.T_cam_obj.translation() - T_gt.translation()).norm();
     good += c.add_s_m < 0.006;
+    std::printf("MEASURE asym case %d adds %.5f\n", k, c.add_s_m);
     if (c.add_s_m < 0.006) {
       EXPECT_LT(rot_err_deg, 5.0) << "case " << k << ": " << c.estimate.report();
       EXPECT_LT(trans_err, 0.006) << "case " << k;
@@ -142,6 +144,7 @@ TEST(ModelRegistration, HalfOccludedBox) {
     const Case c = run_case(dense, model, T_gt, opt);
     ASSERT_TRUE(c.estimate.valid) << c.estimate.reason;
     good += c.add_s_m < 0.008;
+    std::printf("MEASURE halfocc case %d adds %.5f\n", k, c.add_s_m);
   }
   EXPECT_GE(good, n - 1);
 }

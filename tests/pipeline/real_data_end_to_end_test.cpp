@@ -34,16 +34,11 @@ int run_cli(const std::string& args) {
   return std::system(cmd.c_str());
 }
 
-void print_figure(const std::string& name, double value) {
-  if (std::getenv("ORPE_PRINT_FIGURES")) std::printf("FIGURE %s = %.4f\n", name.c_str(), value);
-  ::testing::Test::RecordProperty(name, std::to_string(value));
-}
-
 TEST(RealDataEndToEnd, SlamTracksTheFirst150SevenScenesFrames) {
   ORPE_REQUIRE_DATA(data, "7scenes-seq/rgb.txt");
   const std::string out = test::scratch_dir("slam") + "/run";
   ASSERT_EQ(run_cli("run --mode slam --dataset " + data + "/7scenes-seq --out " + out +
-                    " --set dataset.last_frame=149 2> " + out + ".log"),
+                    " --set dataset.last_frame=149 > " + out + ".log 2>&1"),
             0)
       << "see " << out << ".log";
   const auto summary = read_json(out + "/summary.json");
@@ -55,10 +50,10 @@ TEST(RealDataEndToEnd, SlamTracksTheFirst150SevenScenesFrames) {
   EXPECT_EQ(ev["pairs"].get<int>(), 150);
   const double ate = ev["ate"]["translation_m"]["rmse"].get<double>();
   const double rpe_rot = ev["rpe"]["rotation_deg"]["rmse"].get<double>();
-  print_figure("ate_rmse_m", ate);
-  print_figure("rpe_rotation_rmse_deg", rpe_rot);
-  print_figure("lost", lost);
-  print_figure("degraded", degraded);
+  test::print_figure("ate_rmse_m", ate);
+  test::print_figure("rpe_rotation_rmse_deg", rpe_rot);
+  test::print_figure("lost", lost);
+  test::print_figure("degraded", degraded);
   // Measured on main (8c81327): ATE RMSE 0.0169 m over the 150 frames; bound 1.5x.
   EXPECT_LT(ate, 0.025) << "ATE RMSE over the first 150 frames";
   // Measured: 0 frames lost, 0 degraded (all 500 frames: 1 degraded, docs/BENCHMARKS.md).
@@ -80,14 +75,14 @@ YcbvRun run_ycbv(const std::string& data, const std::string& clip, const std::st
   const std::string dataset = data + "/ycbv/data/" + clip;
   r.dir = test::scratch_dir("ycbv" + clip) + "/run";
   const std::string log = r.dir + ".log";
-  EXPECT_EQ(run_cli("run --mode full --dataset " + dataset + " --out " + r.dir + " " + extra + " 2> " + log),
+  EXPECT_EQ(run_cli("run --mode full --dataset " + dataset + " --out " + r.dir + " " + extra + " > " + log + " 2>&1"),
             0)
       << "see " << log;
   EXPECT_EQ(run_cli("eval poses --dataset " + dataset + " --result " + r.dir + "/poses.csv --keyframes " +
-                    r.dir + "/evaluated_frames.txt --json " + r.dir + "/eval.json > /dev/null 2>> " + log),
+                    r.dir + "/evaluated_frames.txt --json " + r.dir + "/eval.json >> " + log + " 2>&1"),
             0);
   EXPECT_EQ(run_cli("eval recon --dataset " + dataset + " --run " + r.dir + " --json " + r.dir +
-                    "/recon.json > /dev/null 2>> " + log),
+                    "/recon.json >> " + log + " 2>&1"),
             0);
   r.summary = read_json(r.dir + "/summary.json");
   r.eval = read_json(r.dir + "/eval.json");
@@ -107,7 +102,7 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
 
   // Camera: measured ATE RMSE 0.0011 m against meta.mat's poses; bound 2x + 0.3 mm.
   const double ate = r.summary["trajectory_eval"]["ate"]["translation_m"]["rmse"].get<double>();
-  print_figure("ycbv0000_ate_rmse_m", ate);
+  test::print_figure("ycbv0000_ate_rmse_m", ate);
   EXPECT_LT(ate, 0.0025);
 
   // Instances: the clip shows gelatin_box (9), mug (14), foam_brick (21); measured: exactly these
@@ -125,8 +120,8 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   const std::multiset<std::string> expected = {"009_gelatin_box", "025_mug", "061_foam_brick"};
   EXPECT_EQ(classes, expected);
   EXPECT_EQ(valid, 3);
-  print_figure("ycbv0000_rejected_views", rejected);
-  print_figure("ycbv0000_rejected_views_foam_brick", rejected_symmetric);
+  test::print_figure("ycbv0000_rejected_views", rejected);
+  test::print_figure("ycbv0000_rejected_views_foam_brick", rejected_symmetric);
   // Gated measurements (objects.json num_rejected): measured 14 in all (mug 11: its handle hidden,
   // it flips; foam brick 3; gelatin box 0); bound +4. The foam brick is the clip's symmetric class
   // (the EKF fuses its flips as one pose): measured 3, bound +2.
@@ -139,8 +134,8 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   const auto& all = r.eval["all"];
   const double adds = all["adds_auc"].get<double>();
   const double add_s = all["add_s_auc"].get<double>();
-  print_figure("ycbv0000_adds_auc", adds);
-  print_figure("ycbv0000_add_s_auc", add_s);
+  test::print_figure("ycbv0000_adds_auc", adds);
+  test::print_figure("ycbv0000_add_s_auc", add_s);
   EXPECT_EQ(all["instances"].get<int>(), 60);
   EXPECT_GE(all["estimated"].get<int>(), 59);
   EXPECT_GT(adds, 93.5);
@@ -149,7 +144,7 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   // Map: measured reconstruction error 1.42 mm (mean over the 3 objects of the per-object mean surfel
   // distance to the model at the ground-truth pose: 2.27 / 1.00 / 0.99 mm); bound 1.5x.
   const double recon_mm = r.recon["mean_mm"].get<double>();
-  print_figure("ycbv0000_recon_mm", recon_mm);
+  test::print_figure("ycbv0000_recon_mm", recon_mm);
   EXPECT_LT(recon_mm, 2.15);
   EXPECT_EQ(r.recon["objects"].size(), 3u);
 }

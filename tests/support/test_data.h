@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <mutex>
@@ -83,6 +84,14 @@ inline std::string process_scratch_dir(const std::string& name) {
   std::lock_guard<std::mutex> lock(reg.mutex);
   reg.process_dirs.push_back(p);
   return p.string();
+}
+
+/// A measured figure that a test bounds: printed as "FIGURE name = value" when $ORPE_PRINT_FIGURES is
+/// set (to re-measure the bounds after a change that moves them on purpose), and recorded as a test
+/// property (ctest --output-junit / gtest --gtest_output=xml).
+inline void print_figure(const std::string& name, double value) {
+  if (std::getenv("ORPE_PRINT_FIGURES")) std::printf("FIGURE %s = %.4f\n", name.c_str(), value);
+  ::testing::Test::RecordProperty(name, std::to_string(value));
 }
 
 /// gtest listener: removes the scratch folders of each passing test, names those of a failing one,

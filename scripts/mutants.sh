@@ -50,7 +50,7 @@ for b in blocks:
     missing = [k for k in ("file", "old", "new", "targets", "tests", "why") if k not in b]
     if missing:
         sys.exit(f"mutants.list: breakage '{b['name']}' lacks {missing}")
-    print("\t".join([b["name"], b["file"], b["old"], b["new"], b["targets"], b["tests"], b["why"]]))
+    print("\x1f".join([b["name"], b["file"], b["old"], b["new"], b["targets"], b["tests"], b["why"]]))
 PY
 
 apply() {  # file old new: exact replacement of a single occurrence (\n = newline)
@@ -67,13 +67,13 @@ PY
 
 # A warm build of the unmodified tree first (so a breakage's build is incremental).
 echo "building the unmodified tree in $build ..."
-all_targets=$(cut -f5 "$scratch/.mutants.tsv" | tr ' ' '\n' | sort -u | tr '\n' ' ')
+all_targets=$(cut -d $'\x1f' -f5 "$scratch/.mutants.tsv" | tr ' ' '\n' | sort -u | tr '\n' ' ')
 cmake --build "$build" -j "$jobs" --target $all_targets > "$scratch/.build.log" 2>&1 ||
   { echo "the unmodified tree does not build: $scratch/.build.log"; exit 1; }
 
 survived=0 killed=0 broken=0 total=0
 results=()
-while IFS=$'\t' read -r name file old new targets tests why; do
+while IFS=$'\x1f' read -r name file old new targets tests why; do
   [ -n "$filter" ] && [[ "$name" != *"$filter"* ]] && continue
   total=$((total + 1))
   git -C "$scratch" checkout -q -- .

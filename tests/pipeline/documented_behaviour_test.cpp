@@ -1,8 +1,8 @@
 // Pipeline behaviours that docs/PIPELINE.md promises, each tested so that switching it off fails
 // (scripts/mutants.sh applies such breakages): the per-object EKF uses the dataset's symmetry group
-// (a symmetric object's flipped single-view answers are the same pose), and an instance merge of the
-// semantic map hands the absorbed instance's pose track over to the survivor. With the recording
-// estimator double (pipeline_test_util.h) on small synthetic scenes.
+// (a symmetric object's flipped single-view answers are the same pose), and an instance merge of
+// the semantic map hands the absorbed instance's pose track over to the survivor. With the
+// recording estimator double (pipeline_test_util.h) on small synthetic scenes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -50,7 +50,8 @@ struct SymmetryRun {
 };
 
 SymmetryRun run_flipping(const std::string& ekf_symmetry) {
-  const std::string dir = test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
+  const std::string dir =
+      test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
   const auto reader = open_dataset(dir, DatasetParams{});
   ObjectRpeParams params = exact_mask_params();
   params.pipeline.ekf_symmetry = ekf_symmetry;
@@ -64,7 +65,8 @@ SymmetryRun run_flipping(const std::string& ekf_symmetry) {
   for (size_t i = 0; i < reader->size(); ++i) {
     const RgbdFrame f = reader->read(i);
     if (i == 0)
-      for (const auto& g : f.objects_gt) shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
+      for (const auto& g : f.objects_gt)
+        shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
     pipeline.process(f);
   }
   pipeline.finalize();
@@ -91,8 +93,9 @@ TEST(DocumentedBehaviour, EkfTreatsSymmetricFlipsAsTheSamePose) {
 }
 
 /// Frames of a scene where one object's labels are cut: frames < `b_frame` show only its left part
-/// (A), frame `b_frame` only the rest (B, a second instance), later frames all of it but A's leftmost
-/// third, so that one detection overlaps both instances and B (fully covered) is the survivor.
+/// (A), frame `b_frame` only the rest (B, a second instance), later frames all of it but A's
+/// leftmost third, so that one detection overlaps both instances and B (fully covered) is the
+/// survivor.
 struct MergeScene {
   std::vector<RgbdFrame> frames;
   int label = 0;  ///< the object's label in labels_gt (objects_gt[label - 1])
@@ -100,7 +103,8 @@ struct MergeScene {
 };
 
 MergeScene merge_scene(int frames, int b_frame) {
-  const std::string dir = test::synthetic_scene("merge", test::small_scene_params(160, 120, frames, 3, 5));
+  const std::string dir =
+      test::synthetic_scene("merge", test::small_scene_params(160, 120, frames, 3, 5));
   const auto reader = open_dataset(dir, DatasetParams{});
   MergeScene s;
   for (size_t i = 0; i < reader->size(); ++i) s.frames.push_back(reader->read(i));
@@ -108,7 +112,9 @@ MergeScene merge_scene(int frames, int b_frame) {
   std::map<int, int> area;
   for (const auto l : s.frames[0].labels_gt)
     if (l > 0) ++area[l];
-  s.label = std::max_element(area.begin(), area.end(), [](auto& a, auto& b) { return a.second < b.second; })->first;
+  s.label = std::max_element(area.begin(), area.end(), [](auto& a, auto& b) {
+              return a.second < b.second;
+            })->first;
   s.class_id = s.frames[0].objects_gt[s.label - 1].class_id;
   for (int i = 0; i < static_cast<int>(s.frames.size()); ++i) {
     RgbdFrame& f = s.frames[i];
@@ -117,25 +123,29 @@ MergeScene merge_scene(int frames, int b_frame) {
       for (int u = 0; u < f.labels_gt.width(); ++u)
         if (f.labels_gt.at(u, v) == s.label) u_min = std::min(u_min, u), u_max = std::max(u_max, u);
     const int split = u_min + (u_max - u_min) * 4 / 10;  // A = the left 40 %
-    const int cut = u_min + (u_max - u_min) * 15 / 100;  // later frames hide A's left 15 % of the box
+    const int cut =
+        u_min + (u_max - u_min) * 15 / 100;  // later frames hide A's left 15 % of the box
     for (int v = 0; v < f.labels_gt.height(); ++v)
       for (int u = 0; u < f.labels_gt.width(); ++u) {
         auto& l = f.labels_gt.at(u, v);
         if (l != s.label) continue;
-        if ((i < b_frame && u >= split) || (i == b_frame && u < split) || (i > b_frame && u < cut)) l = 0;
+        if ((i < b_frame && u >= split) || (i == b_frame && u < split) || (i > b_frame && u < cut))
+          l = 0;
       }
   }
   return s;
 }
 
 TEST(DocumentedBehaviour, AMergedInstancesPoseTrackMovesToTheSurvivor) {
-  // docs/PIPELINE.md: when the semantic map merges two instances, the per-instance EKF of the absorbed
-  // one moves onto the survivor (the one with more views wins). Here the absorbed instance A has 6
-  // views, the survivor B one: the merged object must keep A's track (its views), not restart.
+  // docs/PIPELINE.md: when the semantic map merges two instances, the per-instance EKF of the
+  // absorbed one moves onto the survivor (the one with more views wins). Here the absorbed instance
+  // A has 6 views, the survivor B one: the merged object must keep A's track (its views), not
+  // restart.
   const int frames = 12, b_frame = 6;
   MergeScene scene = merge_scene(frames, b_frame);
-  const auto reader = open_dataset(test::synthetic_scene("merge", test::small_scene_params(160, 120, frames, 3, 5)),
-                                   DatasetParams{});
+  const auto reader =
+      open_dataset(test::synthetic_scene("merge", test::small_scene_params(160, 120, frames, 3, 5)),
+                   DatasetParams{});
   ObjectRpePipeline pipeline(exact_mask_params(), reader->info());
   auto shared = std::make_shared<test::RecordingEstimator::Shared>();
   shared->record_images = false;
@@ -177,8 +187,8 @@ TEST(DocumentedBehaviour, AMergedInstancesPoseTrackMovesToTheSurvivor) {
     // lighter track).
     const int after = views[b] - 1;
     EXPECT_GE(o.num_views, views[a] + after - 1)
-        << "the merged object kept " << o.num_views << " views; A had " << views[a] << ", B after the merge "
-        << after;
+        << "the merged object kept " << o.num_views << " views; A had " << views[a]
+        << ", B after the merge " << after;
     EXPECT_TRUE(o.valid);
   }
   EXPECT_EQ(found, 1);
@@ -187,7 +197,8 @@ TEST(DocumentedBehaviour, AMergedInstancesPoseTrackMovesToTheSurvivor) {
 TEST(DocumentedBehaviour, OnlyKeyframesAreSegmentedAndEveryNthKeyframeEvaluated) {
   // docs/SEMANTIC.md / PIPELINE.md: segmentation.keyframe_every_n_frames picks the frames that are
   // segmented and fused; pipeline.pose_every_n_keyframes the keyframes whose objects get poses.
-  const std::string dir = test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
+  const std::string dir =
+      test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
   const auto reader = open_dataset(dir, DatasetParams{});
   ObjectRpeParams params = exact_mask_params();
   params.segmentation.keyframe_every_n_frames = 3;

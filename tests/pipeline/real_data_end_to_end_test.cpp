@@ -3,10 +3,10 @@
 //  - `orpe run --mode full` on a YCB-Video clip with tracked cameras (started at the first frame's
 //    ground-truth pose) and degraded gt detections (the default), scored with `orpe eval poses` and
 //    `orpe eval recon`.
-// Bounds sit near the figures measured on main (written beside each bound with the margin), so that a
-// regression of the pipeline on real data fails the suite. Re-measure after a change that moves them
-// on purpose: the test prints every figure it checks (ORPE_PRINT_FIGURES=1 prints them also when it
-// passes). Without the data the tests skip; with ORPE_REQUIRE_DATA=1 (CI) they fail.
+// Bounds sit near the figures measured on main (written beside each bound with the margin), so that
+// a regression of the pipeline on real data fails the suite. Re-measure after a change that moves
+// them on purpose: the test prints every figure it checks (ORPE_PRINT_FIGURES=1 prints them also
+// when it passes). Without the data the tests skip; with ORPE_REQUIRE_DATA=1 (CI) they fail.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -75,12 +75,14 @@ YcbvRun run_ycbv(const std::string& data, const std::string& clip, const std::st
   const std::string dataset = data + "/ycbv/data/" + clip;
   r.dir = test::scratch_dir("ycbv" + clip) + "/run";
   const std::string log = r.dir + ".log";
-  EXPECT_EQ(run_cli("run --mode full --dataset " + dataset + " --out " + r.dir + " " + extra + " > " + log + " 2>&1"),
+  EXPECT_EQ(run_cli("run --mode full --dataset " + dataset + " --out " + r.dir + " " + extra +
+                    " > " + log + " 2>&1"),
             0)
       << "see " << log;
-  EXPECT_EQ(run_cli("eval poses --dataset " + dataset + " --result " + r.dir + "/poses.csv --keyframes " +
-                    r.dir + "/evaluated_frames.txt --json " + r.dir + "/eval.json >> " + log + " 2>&1"),
-            0);
+  EXPECT_EQ(
+      run_cli("eval poses --dataset " + dataset + " --result " + r.dir + "/poses.csv --keyframes " +
+              r.dir + "/evaluated_frames.txt --json " + r.dir + "/eval.json >> " + log + " 2>&1"),
+      0);
   EXPECT_EQ(run_cli("eval recon --dataset " + dataset + " --run " + r.dir + " --json " + r.dir +
                     "/recon.json >> " + log + " 2>&1"),
             0);
@@ -114,7 +116,8 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
     classes.insert(o["class_name"].get<std::string>());
     valid += o["valid"].get<bool>();
     rejected += o["num_rejected"].get<int>();
-    if (o["class_name"].get<std::string>() == "061_foam_brick") rejected_symmetric += o["num_rejected"].get<int>();
+    if (o["class_name"].get<std::string>() == "061_foam_brick")
+      rejected_symmetric += o["num_rejected"].get<int>();
   }
   EXPECT_EQ(r.summary["counts"]["instances"].get<int>(), 3);
   const std::multiset<std::string> expected = {"009_gelatin_box", "025_mug", "061_foam_brick"};
@@ -141,8 +144,8 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   EXPECT_GT(adds, 93.5);
   EXPECT_GT(add_s, 65.0);
 
-  // Map: measured reconstruction error 1.42 mm (mean over the 3 objects of the per-object mean surfel
-  // distance to the model at the ground-truth pose: 2.27 / 1.00 / 0.99 mm); bound 1.5x.
+  // Map: measured reconstruction error 1.42 mm (mean over the 3 objects of the per-object mean
+  // surfel distance to the model at the ground-truth pose: 2.27 / 1.00 / 0.99 mm); bound 1.5x.
   const double recon_mm = r.recon["mean_mm"].get<double>();
   test::print_figure("ycbv0000_recon_mm", recon_mm);
   EXPECT_LT(recon_mm, 2.15);

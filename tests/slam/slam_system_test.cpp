@@ -1,5 +1,5 @@
-// End-to-end SLAM on a small synthetic sequence (analytic room rendered at known poses), tracking loss
-// and re-acquisition.
+// End-to-end SLAM on a small synthetic sequence (analytic room rendered at known poses), tracking
+// loss and re-acquisition.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -131,19 +131,22 @@ void expect_tracked(const RunStats& s, const std::set<int>& degenerate) {
 }
 
 TEST(SlamSystem, WeakFramesAreDegradedFusedAndCountedTowardsLoss) {
-  // Frames 10-11 and 20-22 see one plane: DEGRADED, pose updated, fused (fuse_degraded); the counter
-  // restarts on the good frames between, so three in a row (20-22) are still within max_bad_frames.
+  // Frames 10-11 and 20-22 see one plane: DEGRADED, pose updated, fused (fuse_degraded); the
+  // counter restarts on the good frames between, so three in a row (20-22) are still within
+  // max_bad_frames.
   SlamParams p = small_params();
   p.tracker.max_bad_frames = 3;
   SlamSystem slam(p);
   const std::set<int> degenerate = {10, 11, 20, 21, 22};
   const RunStats s = run_with_degenerate_frames(slam, degenerate);
   for (int i : {10, 11, 20, 21, 22}) {
-    EXPECT_EQ(s.results[i].status, TrackingStatus::kDegraded) << "frame " << i << ": " << s.results[i].report();
+    EXPECT_EQ(s.results[i].status, TrackingStatus::kDegraded)
+        << "frame " << i << ": " << s.results[i].report();
     EXPECT_TRUE(s.results[i].fused) << "frame " << i;
     EXPECT_NE(s.results[i].reason.find("degenerate"), std::string::npos) << s.results[i].reason;
   }
-  for (int i : {9, 12, 19, 23, 29}) EXPECT_EQ(s.results[i].status, TrackingStatus::kOk) << "frame " << i;
+  for (int i : {9, 12, 19, 23, 29})
+    EXPECT_EQ(s.results[i].status, TrackingStatus::kOk) << "frame " << i;
   expect_tracked(s, degenerate);
   EXPECT_LT(s.max_rotation_error_deg, 0.5);
 }
@@ -157,12 +160,15 @@ TEST(SlamSystem, MoreThanMaxBadFramesInARowIsLost) {
   EXPECT_EQ(s.results[10].status, TrackingStatus::kDegraded) << s.results[10].report();
   EXPECT_EQ(s.results[11].status, TrackingStatus::kDegraded) << s.results[11].report();
   const SE3 held = s.results[11].T_world_cam;
-  for (int i : {12, 13}) {  // the third weak frame in a row is LOST; a weak frame does not re-acquire
-    EXPECT_EQ(s.results[i].status, TrackingStatus::kLost) << "frame " << i << ": " << s.results[i].report();
+  for (int i :
+       {12, 13}) {  // the third weak frame in a row is LOST; a weak frame does not re-acquire
+    EXPECT_EQ(s.results[i].status, TrackingStatus::kLost)
+        << "frame " << i << ": " << s.results[i].report();
     EXPECT_FALSE(s.results[i].fused) << "frame " << i;
     EXPECT_LT((s.results[i].T_world_cam.translation() - held.translation()).norm(), 1e-12);
   }
-  EXPECT_EQ(s.results[14].status, TrackingStatus::kOk) << "a good frame re-acquires: " << s.results[14].report();
+  EXPECT_EQ(s.results[14].status, TrackingStatus::kOk)
+      << "a good frame re-acquires: " << s.results[14].report();
   expect_tracked(s, degenerate);
 }
 
@@ -175,7 +181,8 @@ TEST(SlamSystem, DegradedFramesAreNotFusedWhenFuseDegradedIsOff) {
   for (int i : {10, 20}) {
     EXPECT_EQ(s.results[i].status, TrackingStatus::kDegraded) << s.results[i].report();
     EXPECT_FALSE(s.results[i].fused) << "frame " << i;
-    EXPECT_EQ(s.results[i].fusion.surfels, s.results[i - 1].fusion.surfels) << "the map is unchanged";
+    EXPECT_EQ(s.results[i].fusion.surfels, s.results[i - 1].fusion.surfels)
+        << "the map is unchanged";
   }
   EXPECT_TRUE(s.results[11].fused);
   EXPECT_TRUE(s.results[21].fused);
@@ -198,14 +205,16 @@ TEST(SlamSystem, FusesAtKnownPosesAndReportsTheTrackingEstimate) {
   const PinholeIntrinsics K = test::small_intrinsics();
   for (int i = 0; i <= 10; ++i) {
     const SE3 gt = test::trajectory_pose(i);
-    // The last known pose is 2 cm off the truth: the state follows the given pose, while the tracker
-    // (from the previous pose, against the map of the exact frames) reports where the frame aligns.
+    // The last known pose is 2 cm off the truth: the state follows the given pose, while the
+    // tracker (from the previous pose, against the map of the exact frames) reports where the frame
+    // aligns.
     const SE3 given = i < 10 ? gt : SE3(gt.rotation(), gt.translation() + Vec3(0.02, 0, 0));
     const SlamFrameResult r = slam.process_at_known_pose(scene.render(gt, K, i), given);
     EXPECT_NE(r.status, TrackingStatus::kLost) << r.report();
     EXPECT_TRUE(r.fused);
     EXPECT_LT((r.T_world_cam.translation() - given.translation()).norm(), 1e-12);
-    EXPECT_LT((r.tracked_T_world_cam.translation() - gt.translation()).norm(), 0.006) << "frame " << i;
+    EXPECT_LT((r.tracked_T_world_cam.translation() - gt.translation()).norm(), 0.006)
+        << "frame " << i;
   }
   EXPECT_EQ(slam.frame_count(), 11);
 }

@@ -6,8 +6,8 @@
 //
 // Scratch folders: under <temp>/orpe_test_<pid>/ (one root per test process, so that two suites
 // running at once never share a folder), one per test and name; a test that passes has its folders
-// removed when it ends (ScratchCleaner in test_main.cpp), a failing test's folders are kept and named;
-// process_scratch_dir() folders live until the process ends.
+// removed when it ends (ScratchCleaner in test_main.cpp), a failing test's folders are kept and
+// named; process_scratch_dir() folders live until the process ends.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -26,8 +26,10 @@ namespace orpe::test {
 /// $ORPE_DATA_DIR, else <source>/../shared/data. Empty when the folder does not exist.
 inline std::string data_dir() {
   std::string dir;
-  if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env) dir = env;
-  else dir = std::string(ORPE_SOURCE_DIR) + "/../shared/data";
+  if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env)
+    dir = env;
+  else
+    dir = std::string(ORPE_SOURCE_DIR) + "/../shared/data";
   return std::filesystem::is_directory(dir) ? dir : std::string();
 }
 
@@ -86,9 +88,9 @@ inline std::string process_scratch_dir(const std::string& name) {
   return p.string();
 }
 
-/// A measured figure that a test bounds: printed as "FIGURE name = value" when $ORPE_PRINT_FIGURES is
-/// set (to re-measure the bounds after a change that moves them on purpose), and recorded as a test
-/// property (ctest --output-junit / gtest --gtest_output=xml).
+/// A measured figure that a test bounds: printed as "FIGURE name = value" when $ORPE_PRINT_FIGURES
+/// is set (to re-measure the bounds after a change that moves them on purpose), and recorded as a
+/// test property (ctest --output-junit / gtest --gtest_output=xml).
 inline void print_figure(const std::string& name, double value) {
   if (std::getenv("ORPE_PRINT_FIGURES")) std::printf("FIGURE %s = %.4f\n", name.c_str(), value);
   ::testing::Test::RecordProperty(name, std::to_string(value));
@@ -103,8 +105,10 @@ class ScratchCleaner : public ::testing::EmptyTestEventListener {
     std::lock_guard<std::mutex> lock(reg.mutex);
     for (const auto& d : reg.dirs) {
       std::error_code ec;
-      if (info.result()->Failed()) std::fprintf(stderr, "kept scratch folder %s\n", d.c_str());
-      else std::filesystem::remove_all(d, ec);
+      if (info.result()->Failed())
+        std::fprintf(stderr, "kept scratch folder %s\n", d.c_str());
+      else
+        std::filesystem::remove_all(d, ec);
     }
     reg.dirs.clear();
   }
@@ -112,8 +116,10 @@ class ScratchCleaner : public ::testing::EmptyTestEventListener {
     std::error_code ec;
     auto& reg = ScratchRegistry::get();
     for (const auto& d : reg.process_dirs) {
-      if (unit.Passed()) std::filesystem::remove_all(d, ec);
-      else std::fprintf(stderr, "kept scratch folder %s\n", d.c_str());
+      if (unit.Passed())
+        std::filesystem::remove_all(d, ec);
+      else
+        std::fprintf(stderr, "kept scratch folder %s\n", d.c_str());
     }
     std::filesystem::remove(scratch_root(), ec);  // only when empty
   }
@@ -121,16 +127,16 @@ class ScratchCleaner : public ::testing::EmptyTestEventListener {
 
 }  // namespace orpe::test
 
-/// Skips the current test with a clear message when the shared data (or a sub-path) is absent; fails
-/// it instead when $ORPE_REQUIRE_DATA=1 (CI).
-#define ORPE_REQUIRE_DATA(var, subpath)                                                            \
-  const std::string var = ::orpe::test::data_dir();                                                \
-  if (var.empty() || !std::filesystem::exists(var + "/" + std::string(subpath))) {                 \
-    if (::orpe::test::data_required())                                                             \
-      GTEST_FAIL() << "real data not found at '" << ::orpe::test::data_dir_setting() << "/"        \
-                   << (subpath) << "' and ORPE_REQUIRE_DATA=1: set ORPE_DATA_DIR to the shared "   \
-                   << "data folder";                                                               \
-    GTEST_SKIP() << "real data not found: set ORPE_DATA_DIR to the shared data folder (needs '"    \
-                 << (subpath) << "'; looked in '" << ::orpe::test::data_dir_setting() << "')";     \
-  }                                                                                                \
+/// Skips the current test with a clear message when the shared data (or a sub-path) is absent;
+/// fails it instead when $ORPE_REQUIRE_DATA=1 (CI).
+#define ORPE_REQUIRE_DATA(var, subpath)                                                          \
+  const std::string var = ::orpe::test::data_dir();                                              \
+  if (var.empty() || !std::filesystem::exists(var + "/" + std::string(subpath))) {               \
+    if (::orpe::test::data_required())                                                           \
+      GTEST_FAIL() << "real data not found at '" << ::orpe::test::data_dir_setting() << "/"      \
+                   << (subpath) << "' and ORPE_REQUIRE_DATA=1: set ORPE_DATA_DIR to the shared " \
+                   << "data folder";                                                             \
+    GTEST_SKIP() << "real data not found: set ORPE_DATA_DIR to the shared data folder (needs '"  \
+                 << (subpath) << "'; looked in '" << ::orpe::test::data_dir_setting() << "')";   \
+  }                                                                                              \
   static_assert(true, "")

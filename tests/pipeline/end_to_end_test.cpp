@@ -80,8 +80,8 @@ TEST(EndToEnd, FullModeRecoversObjectPosesOnASyntheticScene) {
       EXPECT_EQ(o["source"].get<std::string>(), "ekf");
       EXPECT_EQ(o["covariance"].size(), 36u);
     }
-    // The usual correctness criterion (ADD-S below a tenth of the object's diameter), and most
-    // objects within 2 cm (the half pallet, 1 m across, is the estimator's hard case).
+    // The usual correctness criterion (ADD-S below a tenth of the object's diameter), and the
+    // objects within 2 cm.
     std::vector<Eigen::Vector3f> ptsf;
     for (const auto& p : pts) ptsf.push_back(p.cast<float>());
     const double diameter = model_diameter_m(ptsf);
@@ -90,7 +90,11 @@ TEST(EndToEnd, FullModeRecoversObjectPosesOnASyntheticScene) {
     ++checked;
     within_2cm += best < 0.02;
   }
-  EXPECT_GE(checked, 2);
+  test::print_figure("checked", checked);
+  test::print_figure("within_2cm", within_2cm);
+  // Measured on main (8c81327): 3 objects checked, 2 within 2 cm -- the half pallet (1 m across) is
+  // the estimator's hard case and is within a tenth of its diameter only; so one may miss 2 cm.
+  EXPECT_EQ(checked, 3);
   EXPECT_GE(within_2cm, checked - 1);
 
   // Per-frame rows through orpe eval poses, over the evaluated frames.
@@ -99,7 +103,13 @@ TEST(EndToEnd, FullModeRecoversObjectPosesOnASyntheticScene) {
                     out + "/evaluated_frames.txt --json " + eval_json + " > /dev/null"),
             0);
   const auto ev = read_json(eval_json);
-  EXPECT_GT(ev["all"]["adds_auc"].get<double>(), 60.0);
+  test::print_figure("adds_auc", ev["all"]["adds_auc"].get<double>());
+  test::print_figure("estimated", ev["all"]["estimated"].get<double>());
+  test::print_figure("instances", ev["all"]["instances"].get<double>());
+  // Measured: ADD-S AUC 85.18 over 24 instances, all 24 estimated; bound -3 points.
+  EXPECT_GT(ev["all"]["adds_auc"].get<double>(), 82.0);
+  EXPECT_EQ(ev["all"]["estimated"].get<int>(), ev["all"]["instances"].get<int>());
+  EXPECT_EQ(ev["all"]["instances"].get<int>(), 24);
   const auto rows = read_bop_results(out + "/poses.csv");
   ASSERT_FALSE(rows.empty());
   for (const auto& r : rows) {
@@ -122,8 +132,11 @@ TEST(EndToEnd, FullModeRecoversObjectPosesOnASyntheticScene) {
     return evaluate_reconstruction(read_semantic_map_ply(out + "/semantic_map.ply"), gt, ptrs,
                                    info.class_names);
   }();
-  EXPECT_GT(recon.objects.size(), 0u);
-  EXPECT_LT(recon.mean_m, 0.02);
+  test::print_figure("recon_objects", recon.objects.size());
+  test::print_figure("recon_mm", recon.mean_m * 1000);
+  // Measured: 3 objects, reconstruction error 2.16 mm; bound 1.5x.
+  EXPECT_EQ(recon.objects.size(), 3u);
+  EXPECT_LT(recon.mean_m, 0.0032);
   ASSERT_EQ(run_cli("eval recon --dataset " + scene + " --run " + out + " --json " + out +
                     "/recon.json > /dev/null"),
             0);

@@ -1,4 +1,4 @@
-// Multi-view fusion does not lose against single view: `orpe run --mode full` on a tiny synthetic
+// Multi-view fusion gains over single view: `orpe run --mode full` on a tiny synthetic
 // table scene (sensor noise, degraded gt detections, a 60-degree camera arc, boxes and cans),
 // single view (DF-PM-PD-PC) and Object-RPE (the same single-view estimates fused by the EKF)
 // from one pass, both scored by `orpe eval poses` over the same evaluated frames.
@@ -27,7 +27,8 @@ int run_orpe(const std::string& args) {
 
 TEST(FusionGain, FusedPosesAreNotWorseThanSingleViewOnATinyScene) {
   // Table scene (boxes and cans; the floor scene's pallets defeat the single view in every frame).
-  // Checked with seeds 11-14: fused - single view = +1.3, -0.5, +0.5, +6.9 ADD-S AUC.
+  // Checked with seeds 11-14 (before issue #13): fused - single view = +1.3, -0.5, +0.5, +6.9 ADD-S
+  // AUC; the seed is fixed, so the figure below is deterministic.
   SynthParams p = test::small_scene_params(320, 240, 20, 4, 11);
   p.scene = "table";
   p.span_deg = 60;  // 3 degrees per frame: the views differ, tracking stays easy
@@ -48,15 +49,21 @@ TEST(FusionGain, FusedPosesAreNotWorseThanSingleViewOnATinyScene) {
   };
   const auto single = score("DF-PM-PD-PC");
   const auto fused = score("Object-RPE");
+  test::print_figure("single_adds_auc", single["adds_auc"].get<double>());
+  test::print_figure("fused_adds_auc", fused["adds_auc"].get<double>());
+  test::print_figure("single_estimated", single["estimated"].get<double>());
+  test::print_figure("fused_estimated", fused["estimated"].get<double>());
+  test::print_figure("instances", single["instances"].get<double>());
   ASSERT_GT(single["instances"].get<int>(), 20);
   EXPECT_EQ(single["instances"].get<int>(), fused["instances"].get<int>());  // the same frames
   // The fused rows cover at least the objects the single view estimates.
   EXPECT_GE(fused["estimated"].get<int>(), single["estimated"].get<int>());
-  // A sanity floor for the single view, then the claim: fusion does not lose (1 AUC point of slack
-  // for the tracked camera's error, which the per-frame fused pose carries and the single view
-  // does not).
-  EXPECT_GT(single["adds_auc"].get<double>(), 60.0);
-  EXPECT_GE(fused["adds_auc"].get<double>(), single["adds_auc"].get<double>() - 1.0)
+  // Measured on main (8c81327): single view 92.53, fused 93.92 ADD-S AUC (+1.39) over 78 instances,
+  // 75 / 76 estimated. Bounds: single view -3 points; fusion gains at least half the measured gain
+  // (so an EKF that passes measurements through, or fuses nothing, fails).
+  EXPECT_EQ(single["instances"].get<int>(), 78);
+  EXPECT_GT(single["adds_auc"].get<double>(), 89.5);
+  EXPECT_GT(fused["adds_auc"].get<double>(), single["adds_auc"].get<double>() + 0.7)
       << "single view " << single["adds_auc"] << ", fused " << fused["adds_auc"];
 }
 

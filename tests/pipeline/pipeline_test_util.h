@@ -23,27 +23,16 @@
 
 namespace orpe::test {
 
-/// Writes (once per process and `key`) a synthetic BOP scene into the temp folder; returns its path.
+/// Writes (once per process and `key`) a synthetic BOP scene into the process's scratch folder;
+/// returns its path.
 /// The scene folder is named 000000 (its scene id) so that keyframe lists (`SSSS/NNNNNN`) of
 /// `orpe eval poses --keyframes` name it.
 inline std::string synthetic_scene(const std::string& key, const SynthParams& params) {
   static std::mutex mutex;
   static std::map<std::string, std::string> made;
-  struct Cleanup {  // removes the scenes when the test process ends
-    std::vector<std::filesystem::path> dirs;
-    ~Cleanup() {
-      std::error_code ec;
-      for (const auto& d : dirs) std::filesystem::remove_all(d, ec);
-    }
-  };
-  static Cleanup cleanup;
   std::lock_guard<std::mutex> lock(mutex);
   if (const auto it = made.find(key); it != made.end()) return it->second;
-  const auto parent = std::filesystem::temp_directory_path() /
-                      ("orpe_test_pipeline_scene_" + key + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(parent);
-  const auto dir = parent / "000000";
-  cleanup.dirs.push_back(parent);
+  const auto dir = std::filesystem::path(process_scratch_dir("pipeline_scene_" + key)) / "000000";
   synth::SyntheticSceneGenerator(params).write_bop(dir.string());
   made[key] = dir.string();
   return dir.string();

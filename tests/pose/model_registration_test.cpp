@@ -106,7 +106,6 @@ TEST(ModelRegistration, AsymmetricShapeRecoversFullRotationUnderOcclusion) {
   opt.noise_std_m = 0.001;
   opt.plane_depth_m = 0.8;
   opt.occluded_fraction = 0.3;
-  int good = 0;
   const int n = 4;
   for (int k = 0; k < n; ++k) {
     const SE3 T_gt = random_pose(rng, 0.6);
@@ -115,14 +114,12 @@ TEST(ModelRegistration, AsymmetricShapeRecoversFullRotationUnderOcclusion) {
     const double rot_err_deg =
         rotation_distance_rad(c.estimate.T_cam_obj.rotation(), T_gt.rotation()) * 180.0 / M_PI;
     const double trans_err = (c.estimate.T_cam_obj.translation() - T_gt.translation()).norm();
-    good += c.add_s_m < 0.006;
-    if (c.add_s_m < 0.006) {
-      EXPECT_LT(rot_err_deg, 5.0) << "case " << k << ": " << c.estimate.report();
-      EXPECT_LT(trans_err, 0.006) << "case " << k;
-    }
+    // Measured ADD-S 2.0 / 0.6 / 1.4 / 0.4 mm for the four cases; bound 2x the worst. Every case
+    // must succeed (an L from one side, 30 % occluded, is not ambiguous for these seeds).
+    EXPECT_LT(c.add_s_m, 0.004) << "case " << k << ": " << c.estimate.report();
+    EXPECT_LT(rot_err_deg, 5.0) << "case " << k << ": " << c.estimate.report();
+    EXPECT_LT(trans_err, 0.006) << "case " << k;
   }
-  // An L seen from one side with 30% occluded can be genuinely ambiguous; most must succeed.
-  EXPECT_GE(good, n - 1);
 }
 
 TEST(ModelRegistration, HalfOccludedBox) {
@@ -135,15 +132,17 @@ TEST(ModelRegistration, HalfOccludedBox) {
   opt.noise_std_m = 0.001;
   opt.plane_depth_m = 0.75;
   opt.occluded_fraction = 0.5;
-  int good = 0;
-  const int n = 3;
-  for (int k = 0; k < n; ++k) {
+  // Measured ADD-S per case: 1.5, 17.0, 1.1 mm; bounds 2x for cases 0 and 2. Case 1 misses: a
+  // half-hidden object is the estimator's known weak case (docs/RESULTS.md, "Stress: damaged masks":
+  // with half of the box behind an occluder 6.5 % of the YCB-Video instances end >= 2 cm off), so it
+  // is bounded near its measured value rather than required to succeed.
+  const double bound_m[3] = {0.003, 0.025, 0.003};
+  for (int k = 0; k < 3; ++k) {
     const SE3 T_gt = random_pose(rng, 0.6);
     const Case c = run_case(dense, model, T_gt, opt);
     ASSERT_TRUE(c.estimate.valid) << c.estimate.reason;
-    good += c.add_s_m < 0.008;
+    EXPECT_LT(c.add_s_m, bound_m[k]) << "case " << k << ": " << c.estimate.report();
   }
-  EXPECT_GE(good, n - 1);
 }
 
 TEST(ModelRegistration, NoisyMaskBoundaryWithBackgroundLeak) {

@@ -63,7 +63,7 @@ nlohmann::json read_json(const std::string& path) {
 /// A small synthetic BOP scene (written once per process).
 const std::string& synthetic_scene() {
   static const std::string dir = [] {
-    const std::string parent = test::scratch_dir("scene");
+    const std::string parent = test::process_scratch_dir("mask_output_scene");
     SynthParams p;
     p.seed = 5;
     p.frames = 10;

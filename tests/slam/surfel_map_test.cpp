@@ -7,6 +7,7 @@
 #include "orpe/slam/map_io.h"
 #include "orpe/slam/map_renderer.h"
 #include "orpe/slam/surfel_map.h"
+#include "support/test_data.h"
 
 namespace orpe::slam {
 namespace {
@@ -41,7 +42,7 @@ TEST(SurfelMap, PushGetSetKeepArraysInStep) {
 TEST(SurfelMapPly, WritesTheSurfelsAboveTheConfidenceAndReadsBack) {
   SurfelMap map;
   for (int i = 1; i <= 4; ++i) map.push_back(make_surfel(0.1f * i, 0.2f, 1.0f + i, i));
-  const std::string path = ::testing::TempDir() + "orpe_surfel_map_test.ply";
+  const std::string path = ::orpe::test::scratch_dir("ply") + "/map.ply";
   EXPECT_EQ(write_surfel_ply(path, map, 2.5f), 2u);  // confidences 3 and 4
   const PointCloudData cloud = read_point_cloud_ply(path);
   ASSERT_EQ(cloud.size(), 2u);

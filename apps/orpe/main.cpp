@@ -56,7 +56,7 @@ class SplitStreamSink : public spdlog::sinks::base_sink<std::mutex> {
     std::FILE* f = msg.level >= spdlog::level::warn ? stderr : stdout;
     if (f == stderr) std::fflush(stdout);  // keep the order of the two streams on a terminal
     std::fwrite(buf.data(), 1, buf.size(), f);
-    if (f == stderr) std::fflush(stderr);
+    std::fflush(f);  // progress lines appear when they happen, also in a log file
   }
   void flush_() override {
     std::fflush(stdout);

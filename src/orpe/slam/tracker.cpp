@@ -93,8 +93,12 @@ bool TrackerParams::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0)
-    return fail("iterations must be >= 0");
+  // Bounded so that no setting can make a frame run for ever (ElasticFusion: 10 / 5 / 4).
+  if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0 || iterations_level0 > 1000 ||
+      iterations_level1 > 1000 || iterations_level2 > 1000)
+    return fail("iterations_level* must be in 0..1000");
+  if (!(convergence_step > 0 && convergence_step < 1))
+    return fail("convergence_step must be in (0, 1)");
   if (!(icp_max_dist_m > 0)) return fail("icp_max_dist_m must be positive");
   if (!(icp_max_angle_deg > 0 && icp_max_angle_deg <= 180))
     return fail("icp_max_angle_deg must be in (0, 180]");

@@ -172,7 +172,7 @@ TEST(CliEvalTraj, BadInputNamesTheFile) {
   EXPECT_NE(r.output.find("empty.txt"), std::string::npos) << r.output;
 
   // Issue 12: one pose gave "ATE 0"; equal timestamps were accepted; trailing junk was ignored.
-  std::ofstream(dir + "/one.txt") << "0 0 0 0 0 0 0 1\n";
+  std::ofstream(dir + "/one.txt") << "100 0 0 0 0 0 0 1\n";
   r = run_cli("eval traj " + dir + "/gt.txt " + dir + "/one.txt");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("only 1 pose"), std::string::npos) << r.output;

@@ -70,7 +70,7 @@ struct TrackerParams {
   double consistency_tolerance_m = 0.02;  ///< |depth difference| within this + consistency_tolerance_per_m * z -> consistent
   double consistency_tolerance_per_m = 0.02;
   double min_consistent_fraction = 0.85;  ///< consistent / overlapping pixels below this -> failed
-  double good_consistent_fraction = 0.93; ///< below this -> degraded
+  double good_consistent_fraction = 0.9;  ///< below this -> degraded
   double min_overlap_fraction = 0.15;     ///< overlapping / live pixels with depth below this -> failed
   double good_overlap_fraction = 0.35;    ///< below this -> degraded
   /// Last level-0 update larger than this (norm of [m; rad]) -> not converged -> degraded.

@@ -109,7 +109,7 @@ def main():
                 abl = []
                 for c in (["Object-RPE"] if with_final else []) + [c for c in configs if c != "Object-RPE"]:
                     abl += ["--ablation", c]
-                run([orpe, "run", "--dataset", args.dataset, "--out", sdir, "--mode", "full"] + abl +
+                run([orpe, "run", "--dataset", args.dataset, "--out", sdir, "--overwrite", "--mode", "full"] + abl +
                     common + scene_args)
             for c in configs:
                 poses[c].append(os.path.join(sdir, "ablation", c, "poses.csv"))
@@ -120,7 +120,7 @@ def main():
             for c in configs:
                 cdir = os.path.join(sdir, c)
                 if not (args.reuse and os.path.isfile(os.path.join(cdir, "summary.json"))):
-                    run([orpe, "run", "--dataset", args.dataset, "--out", cdir, "--mode", "full",
+                    run([orpe, "run", "--dataset", args.dataset, "--out", cdir, "--overwrite", "--mode", "full",
                          "--ablation", c] + common + scene_args)
                 poses[c].append(os.path.join(cdir, "ablation", c, "poses.csv"))
                 if c == "Object-RPE":

@@ -39,7 +39,7 @@ step "synthetic scene: $FRAMES frames, $OBJECTS objects, sensor noise on (orpe s
   --width 320 --height 240 --span-deg $((FRAMES * 3 / 2)) --preview-stride 0
 
 step "Object-RPE: SLAM + recognition of the known models (no ground truth) + semantic mapping + poses + EKF"
-"$ORPE" run --dataset "$SCENE" --out "$RUN" --mode full --set segmentation.backend=model \
+"$ORPE" run --dataset "$SCENE" --out "$RUN" --overwrite --mode full --set segmentation.backend=model \
   --set pipeline.progress_every_n_frames=8 | tee "$OUT/run.log"
 
 step "evaluation"

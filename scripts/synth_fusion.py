@@ -80,7 +80,7 @@ def main():
                  "--objects", str(args.objects), "--scene", args.scene, "--width", str(args.width),
                  "--height", str(args.height), "--span-deg", str(args.span_deg), "--preview-stride", "0"])
         if not (args.reuse and os.path.isfile(os.path.join(rdir, "summary.json"))):
-            run([orpe, "run", "--dataset", scene, "--out", rdir, "--mode", "full", "--ablation", "all",
+            run([orpe, "run", "--dataset", scene, "--out", rdir, "--overwrite", "--mode", "full", "--ablation", "all",
                  "--set", "pipeline.progress_every_n_frames=20"] + sets, quiet=False)
         keyframes = os.path.join(rdir, "evaluated_frames.txt")
         csvs = {c: os.path.join(rdir, "ablation", c, "poses.csv") for c in CONFIGS}

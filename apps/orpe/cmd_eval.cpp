@@ -61,6 +61,10 @@ void run_traj(const TrajCommand& c) {
                     "(estimate {:.6f}..{:.6f} s, ground truth {:.6f}..{:.6f} s)",
                     params.max_time_difference_s, c.gt_path, est.front().timestamp_s,
                     est.back().timestamp_s, gt.front().timestamp_s, gt.back().timestamp_s));
+  if (ev.matches.size() < 2)
+    throw IoError(c.est_path, fmt::format("only {} pose associated with {}: a rigid alignment of one pose "
+                                          "makes the ATE 0 by construction",
+                                          ev.matches.size(), c.gt_path));
   if (ev.rpe.translation_m.count == 0)
     spdlog::warn("RPE: only {} associated poses, none at delta {} frames", ev.matches.size(),
                  params.rpe_delta_frames);

@@ -1,7 +1,10 @@
 // `orpe run --dataset D --out OUT --mode slam|semantic|full [--ablation NAME|all]`: the pipeline
 // over a dataset, outputs in OUT (src/orpe/pipeline/run.h lists them).
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
+#include <atomic>
+#include <csignal>
 #include <iostream>
 #include <memory>
 
@@ -12,6 +15,25 @@
 namespace orpe::cli {
 namespace {
 
+// SIGINT / SIGTERM: the first asks the run to stop at the next frame boundary and write what it has
+// (exit code 3); a second one ends the process at once (exit code 128 + signal, nothing written).
+std::atomic<int> g_signals{0};  // lock-free: safe in a signal handler
+
+extern "C" void on_stop_signal(int sig) {
+  if (g_signals.fetch_add(1) > 0) _exit(128 + sig);
+  static const char msg[] =
+      "\norpe: stopping after this frame (send the signal again to quit at once)\n";
+  [[maybe_unused]] const ssize_t n = write(STDERR_FILENO, msg, sizeof msg - 1);
+}
+
+void install_stop_handlers() {
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+}
+
 struct RunCommand {
   ConfigOptions options;
   std::string dataset;
@@ -21,6 +43,7 @@ struct RunCommand {
   std::string render_view;
   double view_back_m = 0, view_up_m = 0;
   bool write_masks = false;
+  bool overwrite = false;
 };
 
 CommandRegistrar reg(30, [](CLI::App& root) {
@@ -61,6 +84,9 @@ CommandRegistrar reg(30, [](CLI::App& root) {
       "--write-masks", s->write_masks,
       "semantic/full: also write each keyframe's detections and the map's projected instance "
       "masks to OUT/masks/ (scored by `orpe eval masks`)");
+  app->add_flag(
+      "--overwrite", s->overwrite,
+      "Replace --out when it holds a previous run (else a folder that is not empty is refused)");
   add_config_options(*app, s->options);
   app->footer(
       "Outputs: OUT/trajectory.txt (TUM), map.ply, summary.json; semantic/full: semantic_map.ply,\n"
@@ -80,6 +106,9 @@ CommandRegistrar reg(30, [](CLI::App& root) {
     ro.view_back_m = s->view_back_m;
     ro.view_up_m = s->view_up_m;
     ro.write_masks = s->write_masks;
+    ro.overwrite = s->overwrite;
+    install_stop_handlers();
+    ro.stop_requested = [] { return g_signals.load() > 0; };
     for (const auto& a : s->ablations) {
       if (a == "all") {
         // The full model first: it is the primary configuration written to OUT/ directly.
@@ -94,6 +123,9 @@ CommandRegistrar reg(30, [](CLI::App& root) {
       throw ConfigError("--ablation needs --mode full");
     const RunSummary summary = run_object_rpe(config, ro);
     std::cout << summary.report();
+    if (summary.interrupted)
+      throw Interrupted("interrupted: the outputs in " + ro.out_dir + " hold " +
+                        std::to_string(summary.frames) + " frames (summary.json: interrupted)");
   });
 });
 

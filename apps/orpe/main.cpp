@@ -1,7 +1,10 @@
 // orpe: Object-RPE command-line tool. Subcommands live in cmd_*.cpp.
+#include <spdlog/sinks/base_sink.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <mutex>
 #include <exception>
 #include <iostream>
 
@@ -47,6 +50,29 @@ void write_text_atomic(const std::string& path, const std::string& text) {
   write_file_atomic(path, [&](std::ostream& os) { os << text << "\n"; });
 }
 
+/// Log sink writing warnings and errors to stderr, everything else (progress, results) to stdout.
+class SplitStreamSink : public spdlog::sinks::base_sink<std::mutex> {
+ protected:
+  void sink_it_(const spdlog::details::log_msg& msg) override {
+    spdlog::memory_buf_t buf;
+    formatter_->format(msg, buf);
+    std::FILE* f = msg.level >= spdlog::level::warn ? stderr : stdout;
+    if (f == stderr) std::fflush(stdout);  // keep the order of the two streams on a terminal
+    std::fwrite(buf.data(), 1, buf.size(), f);
+    std::fflush(f);  // progress lines appear when they happen, also in a log file
+  }
+  void flush_() override {
+    std::fflush(stdout);
+    std::fflush(stderr);
+  }
+};
+
+void route_log_streams() {
+  auto logger = std::make_shared<spdlog::logger>("orpe", std::make_shared<SplitStreamSink>());
+  logger->set_level(spdlog::level::info);
+  spdlog::set_default_logger(logger);
+}
+
 }  // namespace orpe::cli
 
 int main(int argc, char** argv) {
@@ -54,9 +80,10 @@ int main(int argc, char** argv) {
   CLI::App app{"orpe: object recognition and 6D pose estimation from RGB-D scans (Object-RPE)"};
   app.set_version_flag("--version", std::string("orpe ") + orpe::kVersion);
   app.require_subcommand(1);
-  bool verbose = false, quiet = false;
-  app.add_flag("-v,--verbose", verbose, "Debug logging");
-  app.add_flag("-q,--quiet", quiet, "Warnings and errors only");
+  route_log_streams();
+  app.add_flag_callback("-v,--verbose", [] { spdlog::set_level(spdlog::level::debug); }, "Debug logging");
+  app.add_flag_callback("-q,--quiet", [] { spdlog::set_level(spdlog::level::warn); },
+                        "Warnings and errors only");
   auto& registry = command_registry();
   std::stable_sort(registry.begin(), registry.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -64,7 +91,11 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help / --version exit 0; a bad command line is bad input (docs/CLI.md, exit codes).
+    return app.exit(e) == 0 ? 0 : 2;
+  } catch (const orpe::Interrupted& e) {
+    spdlog::error("{}", e.what());
+    return 3;
   } catch (const orpe::IoError& e) {
     spdlog::error("{}", e.what());
     return 2;

@@ -170,6 +170,21 @@ TEST(CliEvalTraj, BadInputNamesTheFile) {
   r = run_cli("eval traj " + dir + "/empty.txt " + dir + "/est.txt");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("empty.txt"), std::string::npos) << r.output;
+
+  // Issue 12: one pose gave "ATE 0"; equal timestamps were accepted; trailing junk was ignored.
+  std::ofstream(dir + "/one.txt") << "100 0 0 0 0 0 0 1\n";
+  r = run_cli("eval traj " + dir + "/gt.txt " + dir + "/one.txt");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("only 1 pose"), std::string::npos) << r.output;
+  std::ofstream(dir + "/dup.txt") << "0 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n";
+  r = run_cli("eval traj " + dir + "/gt.txt " + dir + "/dup.txt");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("line 3"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("timestamps must increase"), std::string::npos) << r.output;
+  std::ofstream(dir + "/junk.txt") << "0 0 0 0 0 0 0 1 7\n";
+  r = run_cli("eval traj " + dir + "/gt.txt " + dir + "/junk.txt");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("after the 8 numbers"), std::string::npos) << r.output;
 }
 
 TEST(CliEvalPoses, MissingResultFileIsNamed) {

@@ -1,9 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <fstream>
 
 #include "orpe/core/error.h"
 #include "orpe/io/bop_results.h"
+#include "orpe/io/image_io.h"
 #include "orpe/io/model_io.h"
 #include "orpe/io/trajectory_io.h"
 #include "support/test_data.h"
@@ -51,6 +54,19 @@ TEST(TumTrajectory, MalformedLinesNameFileAndLine) {
   std::ofstream(dir + "/q.txt") << "0 0 0 0 0 0 0 0\n";
   EXPECT_THROW(read_tum_trajectory(dir + "/q.txt"), IoError);
   EXPECT_THROW(read_tum_trajectory(dir + "/missing.txt"), IoError);
+}
+
+// Issue 12: a FIFO named as a frame blocked the reader for ever.
+TEST(ImageIo, AFrameThatIsNotARegularFileIsRefused) {
+  const std::string dir = test::scratch_dir("fifo");
+  const std::string fifo = dir + "/depth.png";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    read_depth_image(fifo, 1000.0);
+    FAIL() << "read a FIFO";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
 }
 
 TEST(BopResults, RoundTripInMillimetres) {

@@ -56,6 +56,29 @@ TEST(Config, FileRoundTripAndUnknownKeys) {
   }
 }
 
+// Issue 12: 1.5 for an integer was truncated to 1; 1e8 iterations with convergence_step 0 ran for ever.
+TEST(Config, IntegersAreNotTruncatedAndRunawayParametersAreRefused) {
+  const std::string dir = test::scratch_dir("cfg_int");
+  for (const char* text : {R"({"dataset": {"stride": 1.5}})", R"({"dataset": {"stride": 1e8}})",
+                           R"({"dataset": {"stride": 99999999999}})"}) {
+    std::ofstream(dir + "/c.json") << text;
+    OrpeConfig d;
+    try {
+      load_config_file(d, dir + "/c.json");
+      ADD_FAILURE() << text << " accepted: stride " << d.dataset.stride;
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find("dataset.stride"), std::string::npos) << e.what();
+    }
+  }
+  std::string why;
+  for (const char* bad : {"slam_tracking.iterations_level0=100000000", "slam_tracking.convergence_step=0",
+                          "slam_tracking.convergence_step=-1", "dataset.last_frame=-7"}) {
+    OrpeConfig c;
+    apply_config_override(c, bad);
+    EXPECT_FALSE(c.IsValid(&why)) << bad;
+  }
+}
+
 TEST(Config, ValidityCheckNamesSection) {
   OrpeConfig c;
   c.dataset.stride = 0;

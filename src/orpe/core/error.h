@@ -23,4 +23,10 @@ class ConfigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The user asked the program to stop (SIGINT / SIGTERM); the CLI exits with code 3.
+class Interrupted : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 }  // namespace orpe

@@ -1,6 +1,8 @@
 // Generic JSON / text conversion of Params structs (see params.h). Header-only; pulls nlohmann-json.
 #pragma once
 
+#include <cstdint>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -74,6 +76,17 @@ void params_from_json(P& p, const nlohmann::json& j, const std::string& section)
       try {
         if constexpr (std::is_same_v<T, bool>) {
           if (!it.value().is_boolean()) throw std::runtime_error("not a boolean");
+        } else if constexpr (std::is_integral_v<T>) {
+          // 1.5 or 1e8 for an integer is refused, not truncated; so is a value beyond the type's range.
+          if (!it.value().is_number_integer()) throw std::runtime_error("not an integer: " + it.value().dump());
+          const bool fits = it.value().is_number_unsigned()
+                                ? it.value().template get<std::uint64_t>() <=
+                                      static_cast<std::uint64_t>(std::numeric_limits<T>::max())
+                                : (it.value().template get<std::int64_t>() >=
+                                       static_cast<std::int64_t>(std::numeric_limits<T>::min()) &&
+                                   it.value().template get<std::int64_t>() <=
+                                       static_cast<std::int64_t>(std::numeric_limits<T>::max()));
+          if (!fits) throw std::runtime_error("out of range: " + it.value().dump());
         } else if constexpr (std::is_arithmetic_v<T>) {
           if (!it.value().is_number()) throw std::runtime_error("not a number");
         } else {

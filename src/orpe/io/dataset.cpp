@@ -18,6 +18,7 @@ bool DatasetParams::IsValid(std::string* why) const {
       format != "bop")
     return fail("format must be one of auto, tum, 7scenes, ycbv, bop (got '" + format + "')");
   if (first_frame < 0) return fail("first_frame must be >= 0");
+  if (last_frame < -1) return fail("last_frame must be -1 (to the end) or a frame index, not " + std::to_string(last_frame));
   if (last_frame >= 0 && last_frame < first_frame)
     return fail("last_frame must be -1 or >= first_frame");
   if (stride < 1) return fail("stride must be >= 1");

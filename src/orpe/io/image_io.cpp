@@ -15,6 +15,8 @@ namespace {
 
 cv::Mat imread_checked(const std::string& path, int flags) {
   if (!std::filesystem::exists(path)) throw IoError(path, "file not found");
+  // A FIFO or device would block the reader for ever; a folder is a mistake.
+  if (!std::filesystem::is_regular_file(path)) throw IoError(path, "not a regular file");
   cv::Mat m;
   try {
     m = cv::imread(path, flags);

@@ -25,12 +25,19 @@ std::vector<StampedPose> read_tum_trajectory(const std::string& path) {
     double v[8];
     for (double& x : v) ls >> x;
     if (ls.fail()) throw IoError(path, fmt::format("line {}: expected 8 numbers 'timestamp tx ty tz qx qy qz qw'", line_no));
+    std::string extra;
+    if (ls >> extra)
+      throw IoError(path, fmt::format("line {}: '{}' after the 8 numbers 'timestamp tx ty tz qx qy qz qw'", line_no, extra));
     for (double x : v)
       if (!std::isfinite(x)) throw IoError(path, fmt::format("line {}: non-finite value", line_no));
     Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // Eigen: (w, x, y, z)
     const double n = q.norm();
     if (n < 0.9 || n > 1.1)
       throw IoError(path, fmt::format("line {}: quaternion norm {:.3f} is not ~1 (order must be qx qy qz qw)", line_no, n));
+    // Poses are matched by time: a repeated or decreasing timestamp would pair poses with the wrong ones.
+    if (!poses.empty() && !(v[0] > poses.back().timestamp_s))
+      throw IoError(path, fmt::format("line {}: timestamp {:.6f} is not after the previous one ({:.6f}); "
+                                      "timestamps must increase", line_no, v[0], poses.back().timestamp_s));
     poses.push_back({v[0], SE3(q.normalized(), Vec3(v[1], v[2], v[3]))});
   }
   return poses;

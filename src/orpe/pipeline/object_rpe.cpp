@@ -115,6 +115,7 @@ std::string PipelineFrameResult::report() const {
   if (semantic_ms > 0) line += fmt::format(" sem {:.0f}", semantic_ms);
   if (evaluated) line += fmt::format(" render {:.0f} pose {:.0f}", render_ms, single_view_ms);
   line += fmt::format(" total {:.0f} ms", total_ms);
+  if (slam.status != slam::TrackingStatus::kOk && !slam.reason.empty()) line += " | " + slam.reason;
   return line;
 }
 

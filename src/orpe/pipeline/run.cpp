@@ -12,6 +12,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/staged_dir.h"
 #include "orpe/core/version.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/bop_results.h"
@@ -46,6 +47,34 @@ double peak_rss_mb() {
   rusage ru{};
   getrusage(RUSAGE_SELF, &ru);
   return ru.ru_maxrss / 1024.0;  // kilobytes on Linux
+}
+
+// --render-view: a PNG name, inside the output folder unless absolute.
+void check_render_view(const std::string& name) {
+  if (name.empty()) return;
+  namespace fs = std::filesystem;
+  const fs::path p(name);
+  std::string ext = p.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".png")
+    throw ConfigError("--render-view '" + name + "': the picture is written as PNG; name it *.png");
+  if (!p.is_absolute()) {
+    for (const auto& part : p)
+      if (part == "..")
+        throw ConfigError("--render-view '" + name + "': a relative name must stay inside --out");
+    return;
+  }
+  std::error_code ec;
+  if (fs::is_directory(p, ec)) throw ConfigError("--render-view '" + name + "' is a folder");
+  if (p.has_parent_path() && fs::exists(p.parent_path(), ec) &&
+      !fs::is_directory(p.parent_path(), ec))
+    throw ConfigError("--render-view '" + name + "': " + p.parent_path().string() +
+                      " is not a folder");
+}
+
+bool same_frame_size(const RgbdFrame& a, const RgbdFrame& b) {
+  return a.depth.width() == b.depth.width() && a.depth.height() == b.depth.height() &&
+         a.intrinsics == b.intrinsics;
 }
 
 }  // namespace
@@ -137,6 +166,9 @@ std::string RunSummary::report() const {
       stats.single_view_ms / n, stats.ekf_ms / n, wall_ms / 1000);
   s += fmt::format("frames/s {:.1f}; map {:.1f} MB; peak RSS {:.0f} MB\n",
                    frames / std::max(wall_ms / 1000, 1e-9), map_bytes / 1048576.0, peak_rss_mb);
+  if (interrupted) s += "INTERRUPTED: the outputs hold the frames processed before the signal\n";
+  if (no_depth_frames)
+    s += fmt::format("{} frames had too little valid depth (not tracked)\n", no_depth_frames);
   if (ate_rmse_m)
     s += fmt::format("camera ATE RMSE {:.4f} m (rigid alignment to the ground truth)\n",
                      *ate_rmse_m);
@@ -172,6 +204,9 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   if (options.mode == "full" && info.model_points_paths.empty())
     throw IoError(options.dataset_path,
                   "the dataset has no object models (full mode estimates object poses)");
+  // Every output place and name is checked before the first frame; outputs go to a staging folder.
+  check_render_view(options.render_view);
+  StagedDir staged(options.out_dir, options.overwrite, "summary.json");
 
   ObjectRpePipeline pipeline(params, info);
   RunSummary summary;
@@ -194,34 +229,64 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   std::unique_ptr<MaskRecorder> masks;
   if (options.write_masks) {
     if (!pipeline.semantic()) throw ConfigError("run: --write-masks needs --mode semantic or full");
-    masks =
-        std::make_unique<MaskRecorder>((std::filesystem::path(options.out_dir) / "masks").string(),
-                                       static_cast<float>(config.segmentation.mask_threshold));
+    masks = std::make_unique<MaskRecorder>((std::filesystem::path(staged.dir()) / "masks").string(),
+                                           static_cast<float>(config.segmentation.mask_threshold));
   }
   FrameStream stream(*reader);
-  RgbdFrame frame;
+  RgbdFrame frame, first_frame;
+  std::vector<std::string> wrong_size;
   const int every = config.pipeline.progress_every_n_frames;
   const size_t total = reader->size();
   while (true) {
+    if (options.stop_requested && options.stop_requested()) {
+      summary.interrupted = true;
+      spdlog::warn("interrupted after {} frames: writing their outputs (marked interrupted)",
+                   summary.frames);
+      break;
+    }
     const auto t_read = Clock::now();
     if (!stream.next(frame)) break;
     summary.read_ms += ms_since(t_read);
+    if (summary.frames == 0) {
+      first_frame.depth = frame.depth;
+      first_frame.intrinsics = frame.intrinsics;
+    } else if (!same_frame_size(frame, first_frame)) {
+      const std::string msg =
+          fmt::format("frame {} ('{}'): {}x{} or intrinsics differ from the first frame's {}x{}",
+                      frame.index, frame.name, frame.depth.width(), frame.depth.height(),
+                      first_frame.depth.width(), first_frame.depth.height());
+      spdlog::warn("skipping {}", msg);
+      wrong_size.push_back(msg);
+      continue;
+    }
     const PipelineFrameResult& r = pipeline.process(frame);
     ++summary.frames;
+    summary.no_depth_frames += r.slam.no_depth;
+    spdlog::debug("{}", r.slam.report());
     if (masks && r.keyframe)
       masks->record(frame, r.slam.T_world_cam, pipeline.slam().map(), *pipeline.semantic());
     if (every > 0 && (summary.frames % every == 0 || summary.frames == static_cast<int>(total)))
       progress(fmt::format("[{:4d}/{}] {}", summary.frames, total, r.report()));
   }
-  summary.skipped_frames = static_cast<int>(stream.skipped());
+  summary.wrong_size_frames = static_cast<int>(wrong_size.size());
+  summary.skipped_frames = static_cast<int>(stream.skipped() + wrong_size.size());
+  if (summary.frames == 0 && summary.interrupted)
+    throw Interrupted("interrupted before the first frame was processed; nothing written");
   if (summary.frames == 0)
     throw IoError(options.dataset_path, "no readable frame (every selected frame failed to load)");
+  if (summary.no_depth_frames == summary.frames)
+    throw IoError(
+        options.dataset_path,
+        fmt::format("no frame had usable depth ({} frames; depth read at {} units per metre, "
+                    "valid between slam_preprocess.min_depth_m and max_depth_m): check "
+                    "dataset.depth_units_per_m and the depth images",
+                    summary.frames, info.depth_units_per_m));
   pipeline.finalize();
 
   // Outputs, each atomic.
   const auto t_out = Clock::now();
   namespace fs = std::filesystem;
-  const std::string out = options.out_dir;
+  const std::string out = staged.dir();
   auto path = [&](const std::string& name) { return (fs::path(out) / name).string(); };
   write_tum_trajectory(path("trajectory.txt"), pipeline.trajectory());
   summary.files.push_back("trajectory.txt");
@@ -299,7 +364,9 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     slam::MapRenderer viewer;
     write_color_png(render_png,
                     slam::render_map_image(viewer, pipeline.slam().map(), view, K, min_conf));
-    summary.files.push_back(fs::path(render_png).lexically_relative(out).string());
+    summary.files.push_back(fs::path(options.render_view).is_absolute()
+                                ? options.render_view
+                                : fs::path(render_png).lexically_relative(out).string());
   }
   summary.stats = pipeline.stats();
   summary.output_ms = ms_since(t_out);
@@ -308,6 +375,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   JsonSummary js;
   js.set("orpe_version", std::string(kVersion));
   js.set("mode", options.mode);
+  js.set("complete", !summary.interrupted);
+  js.set("interrupted", summary.interrupted);
   js.set("dataset.path", options.dataset_path);
   js.set("dataset.format", info.format);
   js.set("dataset.scene_id", info.scene_id);
@@ -316,7 +385,9 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("dataset.frames_skipped", summary.skipped_frames);
   std::vector<std::string> skipped;
   for (const auto& [pos, msg] : stream.skipped_frames()) skipped.push_back(msg);
+  skipped.insert(skipped.end(), wrong_size.begin(), wrong_size.end());
   js.set("dataset.skipped_messages", skipped);
+  js.set("dataset.frames_wrong_size", summary.wrong_size_frames);
   js.set("single_view_estimator",
          pipeline.single_view_estimator() ? pipeline.single_view_estimator()->name() : "none");
   js.set("variants", summary.variants);
@@ -337,6 +408,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("counts.evaluated_frames", st.evaluated_frames);
   js.set("counts.tracking_degraded", st.degraded_frames);
   js.set("counts.tracking_lost", st.lost_frames);
+  js.set("counts.no_depth_frames", summary.no_depth_frames);
   js.set("counts.detections", st.detections);
   js.set("counts.instances", summary.instances);
   js.set("counts.surfels", summary.surfels);
@@ -386,6 +458,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   summary.files.push_back("summary.json");
   js.set("files", summary.files);
   js.write(path("summary.json"));
+  staged.commit();
   return summary;
 }
 

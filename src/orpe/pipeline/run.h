@@ -51,6 +51,12 @@ struct RunOptions {
   bool write_masks = false;
   /// Called with each progress line; null = spdlog::info.
   std::function<void(const std::string&)> progress;
+  /// Replace an existing out_dir that holds a previous run (else an out_dir that is not empty is
+  /// refused before the first frame).
+  bool overwrite = false;
+  /// Polled at every frame boundary; true = stop there and write the outputs of the frames so far,
+  /// marked "interrupted" in summary.json (RunSummary::interrupted). Null = never.
+  std::function<bool()> stop_requested;
 };
 
 struct RunSummary {
@@ -68,12 +74,19 @@ struct RunSummary {
   size_t map_bytes = 0;
   std::optional<double> ate_rmse_m;  ///< when the dataset has camera ground truth
   std::vector<std::string> files;    ///< written, relative to out_dir
+  bool interrupted = false;          ///< stopped early by RunOptions::stop_requested
+  int no_depth_frames = 0;           ///< frames with too little valid depth (not tracked)
+  int wrong_size_frames = 0;         ///< frames of another size than the first (skipped)
   std::string report() const;
 };
 
 /// Runs the pipeline over the dataset at options.dataset_path (config.dataset selects the scene and
 /// frames) and writes the outputs above. Throws IoError / ConfigError with the file and the
-/// problem; outputs already written stay complete (each file is atomic).
+/// problem. The outputs form one set: they are written into a staging folder next to out_dir, which
+/// replaces out_dir at the end (core/staged_dir.h), so a failed or killed run leaves the previous
+/// out_dir as it was. The output folder and the --render-view name are checked before the first
+/// frame. A frame of another size than the first is skipped with a warning; a run where no frame
+/// had usable depth is an IoError.
 RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options);
 
 /// single_view.csv: every single-view estimate of a variant, one line each:

@@ -37,6 +37,10 @@ bool SlamOptions::IsValid(std::string* why) const {
     if (why) *why = "prediction_radius_scale must be in [0.3, 2]";
     return false;
   }
+  if (!(min_valid_depth_fraction >= 0 && min_valid_depth_fraction <= 1) || min_valid_depth_px < 0) {
+    if (why) *why = "need min_valid_depth_fraction in [0, 1] and min_valid_depth_px >= 0";
+    return false;
+  }
   return true;
 }
 
@@ -63,10 +67,11 @@ bool SlamParams::IsValid(std::string* why) const {
 
 std::string SlamFrameResult::report() const {
   return fmt::format(
-      "frame {:5d} {:<8} inliers {:6d} ({:4.2f}) icp_rms {:6.4f} m rgb_rms {:5.2f} it {:2d} | +{} ~{} -{} "
+      "frame {:5d} {:<8} inliers {:6d} ({:4.2f}) icp_rms {:6.4f} m rgb_rms {:5.2f} it {:2d} "
+      "overlap {:4.2f} agree {:4.2f} step {:.1e} | +{} ~{} -{} "
       "merged {} surfels {} | {:5.1f} ms (pre {:4.1f} pred {:4.1f} track {:5.1f} fuse {:5.1f}){}{}",
       frame_index, to_string(status), icp_inliers, inlier_fraction, icp_rms_m, rgb_rms, iterations,
-      fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space, fusion.merged,
+      overlap_fraction, consistent_fraction, final_step, fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space, fusion.merged,
       fusion.surfels, total_ms, preprocess_ms, predict_ms, track_ms, fuse_ms, reason.empty() ? "" : " | ",
       reason);
 }
@@ -106,8 +111,22 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
   preprocessor_.process(frame, &pyramid_);
   res.preprocess_ms = ms_since(t);
 
+  const DepthImage& depth0 = pyramid_.levels[0].depth;
+  for (const float z : depth0) res.valid_depth_px += z > 0.0f;
+  res.no_depth = res.valid_depth_px < params_.options.min_valid_depth_px ||
+                 res.valid_depth_px < params_.options.min_valid_depth_fraction * static_cast<double>(depth0.size());
   bool accept = true;
-  if (!map_.empty()) {
+  if (res.no_depth) {
+    // Nothing to align or fuse: hold the pose; the next frame with depth has to re-acquire (or, before
+    // there is a map, starts it).
+    res.reason = fmt::format("too little valid depth: {} of {} px in [{}, {}] m", res.valid_depth_px,
+                             depth0.size(), params_.preprocess.min_depth_m, params_.preprocess.max_depth_m);
+    if (!map_.empty()) status_ = TrackingStatus::kLost;
+    ++bad_frames_;
+    accept = false;
+    last_motion_ = SE3();
+    res.tracked_T_world_cam = T_world_cam_;
+  } else if (!map_.empty()) {
     t = std::chrono::steady_clock::now();
     RenderOptions opt;
     opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
@@ -142,6 +161,9 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     res.icp_rms_m = a.icp_rms_m;
     res.rgb_rms = a.rgb_rms;
     res.iterations = a.iterations;
+    res.overlap_fraction = a.overlap_fraction;
+    res.consistent_fraction = a.consistent_fraction;
+    res.final_step = a.final_step;
     res.reason = a.reason;
     if (a.failed) {
       ++bad_frames_;
@@ -185,7 +207,7 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
   } else if (map_.empty()) {
     res.tracked_T_world_cam = T_world_cam_;
   }
-  res.status = status_;
+  res.status = res.no_depth ? TrackingStatus::kLost : status_;
   res.T_world_cam = T_world_cam_;
 
   prev_frame_at_pose_ = accept;

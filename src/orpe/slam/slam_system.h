@@ -5,7 +5,8 @@
 //  - OK: the alignment passed every quality gate; the pose is updated and the frame fused.
 //  - DEGRADED: usable but weak (low inlier fraction, high residual or degenerate geometry); the pose is
 //    updated and the frame fused. More than TrackerParams::max_bad_frames in a row -> LOST.
-//  - LOST: the alignment failed (or too many degraded frames). The system holds its last good pose,
+//  - LOST: the alignment failed (or too many degraded frames), or the frame had too little valid depth
+//    (SlamFrameResult::no_depth; also on the first frames, before there is a map). The system holds its last good pose,
 //    does not fuse, and tries each following frame against the map rendered at that pose; the first
 //    frame that aligns well (OK) re-acquires tracking.
 //
@@ -48,6 +49,10 @@ struct SlamOptions {
   /// RgbdOdometry) instead of the colours rendered from the map (ElasticFusion). Useful when colour
   /// and depth are not registered (7-Scenes), which blurs the map's colours.
   bool rgb_against_previous_frame = false;
+  /// A frame with fewer full-resolution pixels of valid depth in [min_depth_m, max_depth_m] than this
+  /// fraction of its pixels, or than min_valid_depth_px, is not tracked nor fused (SlamFrameResult::no_depth).
+  double min_valid_depth_fraction = 0.02;
+  int min_valid_depth_px = 100;
 
   template <class V>
   void visit(V&& v) {
@@ -61,6 +66,9 @@ struct SlamOptions {
       "Resolution level of the tracking prediction: 0 = full (EF), 1 = half (faster)");
     v("rgb_against_previous_frame", rgb_against_previous_frame,
       "Photometric term against the previous frame (intensity + depth) instead of the map's colours (EF)");
+    v("min_valid_depth_fraction", min_valid_depth_fraction,
+      "Frames with less valid depth (in range) than this fraction of their pixels are not tracked (LOST)");
+    v("min_valid_depth_px", min_valid_depth_px, "... or than this many pixels");
   }
   bool IsValid(std::string* why) const;
 };
@@ -88,6 +96,12 @@ struct SlamFrameResult {
   double icp_rms_m = 0;
   double rgb_rms = 0;
   int iterations = 0;
+  double overlap_fraction = 0;     ///< self-check (AlignmentResult)
+  double consistent_fraction = 0;  ///< self-check (AlignmentResult)
+  double final_step = 0;
+  /// Too little valid depth in range (SlamOptions::min_valid_depth_fraction): not tracked, not fused.
+  bool no_depth = false;
+  int valid_depth_px = 0;  ///< level-0 pixels with depth in [min_depth_m, max_depth_m]
   FusionStats fusion;
   // Stage timings, milliseconds.
   double preprocess_ms = 0, predict_ms = 0, track_ms = 0, fuse_ms = 0, total_ms = 0;

@@ -1,5 +1,7 @@
 #include "orpe/slam/tracker.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -91,8 +93,12 @@ bool TrackerParams::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0)
-    return fail("iterations must be >= 0");
+  // Bounded so that no setting can make a frame run for ever (ElasticFusion: 10 / 5 / 4).
+  if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0 || iterations_level0 > 1000 ||
+      iterations_level1 > 1000 || iterations_level2 > 1000)
+    return fail("iterations_level* must be in 0..1000");
+  if (!(convergence_step > 0 && convergence_step < 1))
+    return fail("convergence_step must be in (0, 1)");
   if (!(icp_max_dist_m > 0)) return fail("icp_max_dist_m must be positive");
   if (!(icp_max_angle_deg > 0 && icp_max_angle_deg <= 180))
     return fail("icp_max_angle_deg must be in (0, 180]");
@@ -112,6 +118,14 @@ bool TrackerParams::IsValid(std::string* why) const {
   if (!(good_icp_rms_m > 0 && good_icp_rms_m <= max_icp_rms_m))
     return fail("need 0 < good_icp_rms_m <= max_icp_rms_m");
   if (max_bad_frames < 0) return fail("max_bad_frames must be >= 0");
+  if (!(consistency_tolerance_m > 0 && consistency_tolerance_per_m >= 0))
+    return fail("consistency_tolerance_m must be positive and consistency_tolerance_per_m >= 0");
+  if (!(min_consistent_fraction >= 0 && min_consistent_fraction <= good_consistent_fraction &&
+        good_consistent_fraction <= 1))
+    return fail("need 0 <= min_consistent_fraction <= good_consistent_fraction <= 1");
+  if (!(min_overlap_fraction >= 0 && min_overlap_fraction <= good_overlap_fraction && good_overlap_fraction <= 1))
+    return fail("need 0 <= min_overlap_fraction <= good_overlap_fraction <= 1");
+  if (!(max_final_step > 0)) return fail("max_final_step must be positive");
   return true;
 }
 
@@ -169,6 +183,44 @@ void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, i
     }
     compute_vertex_map(C.depth, C.K, &C.vertex);
   }
+}
+
+DepthConsistency depth_consistency(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
+                                   double tolerance_m, double tolerance_per_m, int pixel_step) {
+  const RigidF T(T_ref_cam);
+  const int W = live.depth.width(), H = live.depth.height();
+  const int MW = model.depth.width(), MH = model.depth.height();
+  const float fx = static_cast<float>(model.K.fx), fy = static_cast<float>(model.K.fy);
+  const float cx = static_cast<float>(model.K.cx), cy = static_cast<float>(model.K.cy);
+  const float tol0 = static_cast<float>(tolerance_m), tol1 = static_cast<float>(tolerance_per_m);
+  const int step = std::max(1, pixel_step);
+  int n_live = 0, n_overlap = 0, n_consistent = 0, n_front = 0, n_behind = 0;
+#pragma omp parallel for schedule(static) reduction(+ : n_live, n_overlap, n_consistent, n_front, n_behind)
+  for (int v = 0; v < H; v += step) {
+    const Vec3f* vrow = live.vertex.row(v);
+    for (int u = 0; u < W; u += step) {
+      const Vec3f& x = vrow[u];
+      if (x.z() <= 0.0f) continue;
+      ++n_live;
+      const Vec3f q = T(x);
+      if (q.z() <= 0.0f) continue;
+      const int mu = static_cast<int>(std::floor(fx * q.x() / q.z() + cx + 0.5f));
+      const int mv = static_cast<int>(std::floor(fy * q.y() / q.z() + cy + 0.5f));
+      if (mu < 0 || mv < 0 || mu >= MW || mv >= MH) continue;
+      const float zm = model.depth.at(mu, mv);
+      if (zm <= 0.0f) continue;
+      ++n_overlap;
+      const float dz = q.z() - zm;
+      const float tol = tol0 + tol1 * zm;
+      if (dz > tol)
+        ++n_behind;
+      else if (dz < -tol)
+        ++n_front;
+      else
+        ++n_consistent;
+    }
+  }
+  return {n_live, n_overlap, n_consistent, n_front, n_behind};
 }
 
 Tracker::Tracker(const TrackerParams& params) : params_(params) {
@@ -341,6 +393,7 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
         break;
       }
       T = SE3::exp(xi) * T;
+      if (level == 0) res.final_step = xi.norm();
       if (xi.norm() < params_.convergence_step) {
         if (level == 0) res.converged = true;
         break;
@@ -361,6 +414,15 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
   if (params_.use_rgb) {
     res.rgb_count = last_rgb.count;
     res.rgb_rms = last_rgb.count > 0 ? std::sqrt(last_rgb.sum_sq / last_rgb.count) : 0.0;
+  }
+
+  {
+    const int step = std::max(2, params_.level0_pixel_step);
+    const DepthConsistency dc =
+        depth_consistency(live.levels[0], model.levels[0], T, params_.consistency_tolerance_m,
+                          params_.consistency_tolerance_per_m, step);
+    res.overlap_fraction = dc.live > 0 ? double(dc.overlap) / dc.live : 0.0;
+    res.consistent_fraction = dc.overlap > 0 ? double(dc.consistent) / dc.overlap : 0.0;
   }
 
   // Quality gates.
@@ -389,6 +451,12 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
   } else if (params_.use_icp && res.icp_rms_m > params_.max_icp_rms_m) {
     res.failed = true;
     res.reason = "ICP RMS " + std::to_string(res.icp_rms_m) + " m too high";
+  } else if (res.overlap_fraction < params_.min_overlap_fraction) {
+    res.failed = true;
+    res.reason = fmt::format("only {:.2f} of the frame overlaps the map", res.overlap_fraction);
+  } else if (res.consistent_fraction < params_.min_consistent_fraction) {
+    res.failed = true;
+    res.reason = fmt::format("depth agrees with the map at only {:.2f} of the overlap", res.consistent_fraction);
   } else if (params_.use_icp && inlier_fraction < params_.good_inlier_fraction) {
     res.weak = true;
     res.reason = "low inlier fraction " + std::to_string(inlier_fraction);
@@ -398,6 +466,15 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
   } else if (params_.use_icp && res.min_eigenvalue < params_.min_hessian_eigenvalue) {
     res.weak = true;
     res.reason = "degenerate geometry (eigenvalue " + std::to_string(res.min_eigenvalue) + ")";
+  } else if (res.overlap_fraction < params_.good_overlap_fraction) {
+    res.weak = true;
+    res.reason = fmt::format("low overlap with the map {:.2f}", res.overlap_fraction);
+  } else if (res.consistent_fraction < params_.good_consistent_fraction) {
+    res.weak = true;
+    res.reason = fmt::format("depth agrees with the map at {:.2f} of the overlap", res.consistent_fraction);
+  } else if (res.final_step > params_.max_final_step) {
+    res.weak = true;
+    res.reason = fmt::format("not converged (last step {:.2g})", res.final_step);
   }
   return res;
 }

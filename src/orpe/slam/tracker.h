@@ -64,6 +64,17 @@ struct TrackerParams {
   double good_icp_rms_m = 0.03;           ///< above this -> degraded
   double min_hessian_eigenvalue = 1e-3;   ///< of the per-inlier ICP normal matrix; below -> degraded
   int max_bad_frames = 10;                ///< consecutive degraded frames before LOST (ElasticFusion)
+  // Self-checks of the final alignment against the frame's own depth (docs/SLAM.md, "Tracking states"):
+  // each live pixel with depth is moved by the estimate into the reference view and compared with the
+  // model depth there. A wrong pose puts live points in front of or behind the map's surfaces.
+  double consistency_tolerance_m = 0.02;  ///< |depth difference| within this + consistency_tolerance_per_m * z -> consistent
+  double consistency_tolerance_per_m = 0.02;
+  double min_consistent_fraction = 0.85;  ///< consistent / overlapping pixels below this -> failed
+  double good_consistent_fraction = 0.9;  ///< below this -> degraded
+  double min_overlap_fraction = 0.15;     ///< overlapping / live pixels with depth below this -> failed
+  double good_overlap_fraction = 0.35;    ///< below this -> degraded
+  /// Last level-0 update larger than this (norm of [m; rad]) -> not converged -> degraded.
+  double max_final_step = 2e-3;
 
   template <class V>
   void visit(V&& v) {
@@ -97,6 +108,17 @@ struct TrackerParams {
     v("min_hessian_eigenvalue", min_hessian_eigenvalue,
       "Smallest eigenvalue of the ICP normal matrix per inlier below this -> degraded (geometry degenerate)");
     v("max_bad_frames", max_bad_frames, "Consecutive degraded frames before LOST (EF: 10)");
+    v("consistency_tolerance_m", consistency_tolerance_m,
+      "Self-check: a live pixel agrees with the map when depths differ by less than this (m) ...");
+    v("consistency_tolerance_per_m", consistency_tolerance_per_m, "... plus this times the depth (m per m)");
+    v("min_consistent_fraction", min_consistent_fraction,
+      "Self-check: agreeing / overlapping pixels below this -> failed (LOST)");
+    v("good_consistent_fraction", good_consistent_fraction, "Agreeing / overlapping pixels below this -> degraded");
+    v("min_overlap_fraction", min_overlap_fraction,
+      "Self-check: live pixels landing on the map / live pixels with depth below this -> failed");
+    v("good_overlap_fraction", good_overlap_fraction, "Overlap fraction below this -> degraded");
+    v("max_final_step", max_final_step,
+      "Last full-resolution update norm (m, rad) above this -> not converged -> degraded");
   }
   bool IsValid(std::string* why) const;
 };
@@ -136,7 +158,23 @@ struct AlignmentResult {
   double rgb_rms = 0;     ///< photometric RMS (0..255), level 0
   double min_eigenvalue = 0;  ///< smallest eigenvalue of A_icp / inliers
   int iterations = 0;     ///< total over levels
+  double final_step = 0;  ///< norm of the last level-0 update
+  // Self-check against the frame's own depth (DepthConsistency), at the final estimate.
+  double overlap_fraction = 0;     ///< live pixels with depth that land on the map
+  double consistent_fraction = 0;  ///< of those, depth agrees with the map's
 };
+
+/// Live pixels with depth moved by T_ref_cam into the reference view and compared with the model's
+/// depth at the pixel they land on (level 0 of both pyramids, every `pixel_step`-th row and column).
+struct DepthConsistency {
+  int live = 0;        ///< live pixels with depth
+  int overlap = 0;     ///< ... that land on a model pixel with depth
+  int consistent = 0;  ///< ... whose depth agrees within the tolerance
+  int in_front = 0;    ///< ... nearer than the model surface
+  int behind = 0;      ///< ... behind it (seeing through a mapped surface)
+};
+DepthConsistency depth_consistency(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
+                                   double tolerance_m, double tolerance_per_m, int pixel_step);
 
 /// Per-iteration normal equations (exposed for the Jacobian tests).
 struct NormalEquations {

@@ -56,9 +56,10 @@ TEST(RealDataEndToEnd, SlamTracksTheFirst150SevenScenesFrames) {
   test::print_figure("degraded", degraded);
   // Measured on main (8c81327): ATE RMSE 0.0169 m over the 150 frames; bound 1.5x.
   EXPECT_LT(ate, 0.025) << "ATE RMSE over the first 150 frames";
-  // Measured: 0 frames lost, 0 degraded (all 500 frames: 1 degraded, docs/BENCHMARKS.md).
+  // Measured: 0 frames lost, 0 degraded on 8c81327; with the tracker's depth self-check (below 0.9
+  // of the overlap agreeing with the map = DEGRADED, docs/SLAM.md) 2 degraded, 0 lost. Bound: 4.
   EXPECT_EQ(lost, 0);
-  EXPECT_LE(degraded, 1);
+  EXPECT_LE(degraded, 4);
   // Measured: RPE (1 frame) rotation RMSE 0.206 deg; bound 1.5x.
   EXPECT_LT(rpe_rot, 0.31);
 }

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <set>
 
+#include "orpe/synth/bop_writer.h"
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pipeline/object_rpe.h"
@@ -120,10 +121,13 @@ TEST(ModelBackend, ReadsNoGroundTruth) {
   if (fs::exists(fs::path(scene).parent_path() / "models"))
     fs::copy(fs::path(scene).parent_path() / "models", copy.parent_path() / "models",
              fs::copy_options::recursive);
-  fs::remove_all(copy / "mask_visib");
-  fs::remove_all(copy / "mask");
-  fs::remove(copy / "scene_gt.json");
-  fs::remove(copy / "scene_gt_info.json");
+  // orpe synth writes a BOP dataset: the scene's ground truth is in its test/000000 folder.
+  const fs::path copy_scene = synth::bop_scene_dir(copy.string());
+  ASSERT_TRUE(fs::exists(copy_scene / "scene_gt.json"));
+  fs::remove_all(copy_scene / "mask_visib");
+  fs::remove_all(copy_scene / "mask");
+  fs::remove(copy_scene / "scene_gt.json");
+  fs::remove(copy_scene / "scene_gt_info.json");
   {
     const auto reader = open_dataset(copy.string(), DatasetParams{});
     const RgbdFrame f = reader->read(0);

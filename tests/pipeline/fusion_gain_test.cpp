@@ -51,6 +51,8 @@ TEST(FusionGain, FusedPosesAreNotWorseThanSingleViewOnATinyScene) {
   const auto fused = score("Object-RPE");
   test::print_figure("single_adds_auc", single["adds_auc"].get<double>());
   test::print_figure("fused_adds_auc", fused["adds_auc"].get<double>());
+  test::print_figure("single_add_auc", single["add_auc"].get<double>());
+  test::print_figure("fused_add_auc", fused["add_auc"].get<double>());
   test::print_figure("single_estimated", single["estimated"].get<double>());
   test::print_figure("fused_estimated", fused["estimated"].get<double>());
   test::print_figure("instances", single["instances"].get<double>());
@@ -58,13 +60,19 @@ TEST(FusionGain, FusedPosesAreNotWorseThanSingleViewOnATinyScene) {
   EXPECT_EQ(single["instances"].get<int>(), fused["instances"].get<int>());  // the same frames
   // The fused rows cover at least the objects the single view estimates.
   EXPECT_GE(fused["estimated"].get<int>(), single["estimated"].get<int>());
-  // Measured on main (8c81327): single view 92.53, fused 93.92 ADD-S AUC (+1.39) over 78 instances,
-  // 75 / 76 estimated. Bounds: single view -3 points; fusion gains at least half the measured gain
-  // (so an EKF that passes measurements through, or fuses nothing, fails).
-  EXPECT_EQ(single["instances"].get<int>(), 78);
-  EXPECT_GT(single["adds_auc"].get<double>(), 89.5);
-  EXPECT_GT(fused["adds_auc"].get<double>(), single["adds_auc"].get<double>() + 0.7)
-      << "single view " << single["adds_auc"] << ", fused " << fused["adds_auc"];
+  // Measured on main (cbb4642, after the colour ranking and segment guards): 75 instances (synth's
+  // visib_fract counts the image border since session 4; 78 before); ADD-S AUC single view 96.18,
+  // fused 96.34 -- the single view is near the ceiling of ADD-S here, so the fusion gain shows in the
+  // rotation: plain ADD AUC single view 90.81, fused 95.97 (+5.16). Seeds 12-14 (scripts: the same
+  // scene with --seed N): ADD gains +7.9, +4.9, +1.9; ADD-S gains +0.6, -0.8, +5.7.
+  // Bounds: single view ADD-S -3 points; fused ADD-S not more than 0.5 below the single view; the
+  // fusion gains at least half the measured ADD gain (an EKF that passes measurements through, or
+  // fuses nothing, fails).
+  EXPECT_EQ(single["instances"].get<int>(), 75);
+  EXPECT_GT(single["adds_auc"].get<double>(), 93.0);
+  EXPECT_GT(fused["adds_auc"].get<double>(), single["adds_auc"].get<double>() - 0.5);
+  EXPECT_GT(fused["add_auc"].get<double>(), single["add_auc"].get<double>() + 2.6)
+      << "single view " << single["add_auc"] << ", fused " << fused["add_auc"];
 }
 
 }  // namespace

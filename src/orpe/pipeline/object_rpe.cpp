@@ -465,7 +465,10 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
                           estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
                           use_prior || learned ? static_cast<int>(vi) : -1);
       auto cached = cache.find(key);
-      const bool skip = use_prior && !c.report_only &&
+      // The skip rule needs a fused pose, not the prior hypothesis: it holds with
+      // ekf_prior_hypothesis off (the default).
+      const bool fused = cfg.ekf && track && track->ekf && track->ekf->has_estimate();
+      const bool skip = fused && !c.report_only &&
                         skip_estimate(track->skip, track->ekf->accepted(), T_world_cam, pp);
       if (c.report_only) {
         est.single_view = SingleViewPose{};

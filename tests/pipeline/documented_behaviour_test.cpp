@@ -226,5 +226,82 @@ TEST(DocumentedBehaviour, OnlyKeyframesAreSegmentedAndEveryNthKeyframeEvaluated)
   EXPECT_EQ(pose_frames, (std::set<int>{0, 6}));
 }
 
+TEST(DocumentedBehaviour, LostFramesAreNeitherSegmentedNorEvaluated) {
+  // docs/PIPELINE.md: a frame whose tracking is LOST (here: no depth) has no camera pose to place
+  // detections or poses with; it is not segmented, fused or evaluated, and has no pose rows.
+  const std::string dir =
+      test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
+  const auto reader = open_dataset(dir, DatasetParams{});
+  ObjectRpeParams params = exact_mask_params();
+  params.segmentation.keyframe_every_n_frames = 1;  // every tracked frame is a keyframe
+  params.pipeline.pose_every_n_keyframes = 1;
+  ObjectRpePipeline pipeline(params, reader->info());
+  auto shared = std::make_shared<test::RecordingEstimator::Shared>();
+  shared->record_images = false;
+  pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
+  const std::set<int> no_depth = {5, 6};
+  std::set<int> lost, segmented;
+  for (size_t i = 0; i < reader->size(); ++i) {
+    RgbdFrame f = reader->read(i);
+    if (no_depth.count(f.index))
+      for (auto& z : f.depth) z = 0.0f;
+    test::set_truth(*shared, f);
+    const PipelineFrameResult& r = pipeline.process(f);
+    if (r.slam.status == slam::TrackingStatus::kLost) lost.insert(f.index);
+    if (r.keyframe || r.evaluated) segmented.insert(f.index);
+  }
+  EXPECT_EQ(lost, no_depth);
+  for (int i : no_depth) EXPECT_FALSE(segmented.count(i)) << "LOST frame " << i << " was segmented";
+  EXPECT_EQ(pipeline.semantic()->keyframes(), 10);
+  EXPECT_EQ(pipeline.stats().evaluated_frames, 10);
+  for (const auto& row : pipeline.pose_rows(0))
+    EXPECT_FALSE(no_depth.count(row.im_id)) << "a pose row for LOST frame " << row.im_id;
+}
+
+TEST(DocumentedBehaviour, FinalizeDropsTheTrackOfAnInstanceWhoseClassChanged) {
+  // docs/PIPELINE.md: after the last frame, the filter of an instance whose final (argmax) class
+  // differs from the filter's class is dropped: its pose came from another class's model. Here one
+  // object is detected as class A on frames 0-3 and as class B on frames 4-11, and only frame 0 is
+  // evaluated, so the only filter is A's while the instance ends as B.
+  const std::string dir =
+      test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
+  const auto reader = open_dataset(dir, DatasetParams{});
+  ObjectRpeParams params = exact_mask_params();
+  params.segmentation.keyframe_every_n_frames = 1;
+  params.pipeline.pose_every_n_keyframes = 100;  // frame 0 only
+  params.pipeline.ekf_init_views = 1;
+  ObjectRpePipeline pipeline(params, reader->info());
+  auto shared = std::make_shared<test::RecordingEstimator::Shared>();
+  shared->record_images = false;
+  pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
+  const RgbdFrame first = reader->read(0);
+  ASSERT_GE(first.objects_gt.size(), 2u);
+  const int class_a = first.objects_gt[0].class_id, class_b = first.objects_gt[1].class_id;
+  ASSERT_NE(class_a, class_b);
+  for (size_t i = 0; i < reader->size(); ++i) {
+    RgbdFrame f = reader->read(i);
+    if (i >= 4)
+      for (auto& g : f.objects_gt)
+        if (g.class_id == class_a) g.class_id = class_b;
+    test::set_truth(*shared, f);
+    pipeline.process(f);
+  }
+  // Before finalize: a filter of class A sits on an instance whose argmax class is now B.
+  const auto& instances = pipeline.semantic()->fusion().instances();
+  int relabelled = 0;
+  for (const auto& o : pipeline.object_poses(0))
+    if (o.class_id == class_a && instances.at(o.instance_id).argmax_class() == class_b)
+      relabelled = o.instance_id;
+  ASSERT_GT(relabelled, 0) << "the scene must end with a class-A filter on a class-B instance";
+  pipeline.finalize();
+  for (const auto& o : pipeline.object_poses(0)) {
+    const auto inst = instances.find(o.instance_id);
+    ASSERT_NE(inst, instances.end());
+    EXPECT_EQ(o.class_id, inst->second.argmax_class())
+        << "instance " << o.instance_id << " is reported with its filter's class " << o.class_id;
+    EXPECT_NE(o.instance_id, relabelled);
+  }
+}
+
 }  // namespace
 }  // namespace orpe

@@ -130,7 +130,10 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     t = std::chrono::steady_clock::now();
     RenderOptions opt;
     opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
-    opt.also_seen_since = (params_.options.track_recent_unstable || now < 15) ? now - 1 : -1;
+    // Unstable surfels of the last fused frame (not of the previous frame: after frames that were
+    // not fused -- no depth, LOST -- those would be none, and the young map too sparse to re-acquire).
+    opt.also_seen_since =
+        (params_.options.track_recent_unstable || fused_frames_ < 15) ? last_fused_time_ : -1;
     opt.active_window_frames = params_.fusion.active_window_frames;
     opt.now = now;
     opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
@@ -218,6 +221,8 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     res.fusion = fusion_.fuse(pyramid_, T_world_cam_, now, &map_, &pixel_surfel_);
     res.fuse_ms = ms_since(t);
     res.fused = true;
+    last_fused_time_ = now;
+    ++fused_frames_;
   } else {
     pixel_surfel_ = IndexImage();
     res.fusion.surfels = map_.size();

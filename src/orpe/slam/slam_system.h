@@ -157,6 +157,8 @@ class SlamSystem {
   SE3 T_world_cam_;
   SE3 last_motion_;  // T_prev_cur of the last accepted frame, for the constant-velocity guess
   std::int32_t frame_count_ = 0;
+  std::int32_t last_fused_time_ = -1;  ///< time stamp (frame count) of the last fused frame
+  int fused_frames_ = 0;
   int bad_frames_ = 0;
   TrackingStatus status_ = TrackingStatus::kOk;
 };

@@ -1,20 +1,20 @@
 // Cost of the dataset readers on the shared real data (ORPE_DATA_DIR or ../shared/data next to the
-// build's source) and of the point-cloud PLY writer. Benchmarks whose data is absent report an error
-// and are skipped.
+// build's source) and of the point-cloud PLY writer. Benchmarks whose data is absent report an
+// error and are skipped.
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <random>
 
+#include "bench_args.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/point_cloud_io.h"
 
 namespace {
 
 std::string data_dir() {
-  if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env) return env;
-  return "../shared/data";
+  return orpe::bench::shared_data_dir();
 }
 
 void read_frames(benchmark::State& state, const std::string& sub, const std::string& format,
@@ -36,10 +36,18 @@ void read_frames(benchmark::State& state, const std::string& sub, const std::str
   state.SetItemsProcessed(state.iterations());
 }
 
-void BM_Read7ScenesTumLayout(benchmark::State& s) { read_frames(s, "7scenes-seq", "tum", false); }
-void BM_Read7ScenesNative(benchmark::State& s) { read_frames(s, "7scenes-seq", "7scenes", false); }
-void BM_ReadYcbVideo(benchmark::State& s) { read_frames(s, "ycbv", "ycbv", false); }
-void BM_ReadYcbVideoAnnotations(benchmark::State& s) { read_frames(s, "ycbv", "ycbv", true); }
+void BM_Read7ScenesTumLayout(benchmark::State& s) {
+  read_frames(s, "7scenes-seq", "tum", false);
+}
+void BM_Read7ScenesNative(benchmark::State& s) {
+  read_frames(s, "7scenes-seq", "7scenes", false);
+}
+void BM_ReadYcbVideo(benchmark::State& s) {
+  read_frames(s, "ycbv", "ycbv", false);
+}
+void BM_ReadYcbVideoAnnotations(benchmark::State& s) {
+  read_frames(s, "ycbv", "ycbv", true);
+}
 BENCHMARK(BM_Read7ScenesTumLayout)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Read7ScenesNative)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ReadYcbVideo)->Unit(benchmark::kMillisecond);

@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_args.h"
 #include "orpe/core/error.h"
 #include "orpe/core/params_io.h"
 #include "orpe/eval/pose_metrics.h"
@@ -57,9 +58,7 @@ std::vector<std::string> split(const std::string& s, char sep) {
 }
 
 std::string default_data_dir() {
-  if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env)
-    return std::string(env) + "/ycbv";
-  return "../shared/data/ycbv";
+  return orpe::bench::shared_data_dir() + "/ycbv";
 }
 
 struct Row {

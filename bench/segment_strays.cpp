@@ -21,6 +21,7 @@
 #include <iostream>
 #include <map>
 
+#include "bench_args.h"
 #include "orpe/core/error.h"
 #include "orpe/pipeline/config.h"
 #include "orpe/pipeline/reconstruction_error.h"
@@ -53,29 +54,13 @@ double distance_to_object(const Scene& s, int cls, const Eigen::Vector3f& p_worl
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data = std::getenv("ORPE_DATA_DIR") ? std::string(std::getenv("ORPE_DATA_DIR"))
-                                                  : "/work/shared/data";
-  std::vector<std::string> scenes;
-  double far_m = 0.02;
-  OrpeConfig config;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--data" && i + 1 < argc)
-        data = argv[++i];
-      else if (a == "--scene" && i + 1 < argc)
-        scenes.push_back(argv[++i]);
-      else if (a == "--far-m" && i + 1 < argc)
-        far_m = std::stod(argv[++i]);
-      else if (a == "--set" && i + 1 < argc)
-        apply_config_override(config, argv[++i]);
-      else {
-        std::cerr << "unknown argument " << a << "\n";
-        return 2;
-      }
-    }
-    std::string why;
-    if (!config.IsValid(&why)) throw ConfigError(why);
+    const bench::BenchArgs args = bench::parse_bench_args(argc, argv, {"--far-m"});
+    const std::string& data = args.data;
+    std::vector<std::string> scenes = args.scenes;
+    const OrpeConfig& config = args.config;
+    const double far_m = args.number("--far-m", 0.02);
+    if (!(far_m > 0)) throw ConfigError("--far-m must be positive");
     if (scenes.empty()) scenes = {"0000", "0001", "0002"};
     for (const std::string& scene : scenes) {
       DatasetParams dp = config.dataset;

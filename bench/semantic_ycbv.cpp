@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "bench_args.h"
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 #include "orpe/eval/mask_metrics.h"
@@ -42,34 +43,15 @@ struct SceneResult {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data = std::getenv("ORPE_DATA_DIR") ? std::string(std::getenv("ORPE_DATA_DIR"))
-                                                  : "/work/shared/data";
-  std::vector<std::string> scenes;
-  std::string poses = "gt", out_dir, figures_dir;
-  OrpeConfig config;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--data" && i + 1 < argc)
-        data = argv[++i];
-      else if (a == "--scene" && i + 1 < argc)
-        scenes.push_back(argv[++i]);
-      else if (a == "--poses" && i + 1 < argc)
-        poses = argv[++i];
-      else if (a == "--out" && i + 1 < argc)
-        out_dir = argv[++i];
-      else if (a == "--figures" && i + 1 < argc)
-        figures_dir = argv[++i];
-      else if (a == "--set" && i + 1 < argc)
-        apply_config_override(config, argv[++i]);
-      else {
-        std::cerr << "unknown argument " << a << "\n";
-        return 2;
-      }
-    }
+    const bench::BenchArgs args =
+        bench::parse_bench_args(argc, argv, {"--poses", "--out", "--figures"});
+    const std::string& data = args.data;
+    std::vector<std::string> scenes = args.scenes;
+    const OrpeConfig& config = args.config;
+    const std::string poses = args.get("--poses", "gt"), out_dir = args.get("--out", ""),
+                      figures_dir = args.get("--figures", "");
     if (poses != "gt" && poses != "slam") throw ConfigError("--poses must be gt or slam");
-    std::string why;
-    if (!config.IsValid(&why)) throw ConfigError(why);
     if (scenes.empty()) scenes = {"0000", "0001", "0002"};
     const std::string root = data + "/ycbv";
 
@@ -126,10 +108,9 @@ int main(int argc, char** argv) {
         LabelClasses gt_classes, det_classes, proj_classes;
         for (size_t k = 0; k < frame.objects_gt.size(); ++k)
           gt_classes[static_cast<int>(k) + 1] = frame.objects_gt[k].class_id;
-        const LabelImage det =
-            detection_label_image(step.detections, frame.depth.width(), frame.depth.height(),
-                                  static_cast<float>(config.segmentation.mask_threshold),
-                                  &det_classes);
+        const LabelImage det = detection_label_image(
+            step.detections, frame.depth.width(), frame.depth.height(),
+            static_cast<float>(config.segmentation.mask_threshold), &det_classes);
         for (const auto id : projected)
           if (id > 0 && !proj_classes.count(id))
             proj_classes[id] = mapper.fusion().instances().at(id).argmax_class();

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_args.h"
 #include "orpe/core/error.h"
 #include "orpe/core/frame.h"
 #include "orpe/eval/trajectory_metrics.h"
@@ -20,9 +21,7 @@
 namespace orpe::bench {
 
 inline std::string seven_scenes_dir() {
-  if (const char* env = std::getenv("ORPE_DATA_DIR"); env && *env)
-    return std::string(env) + "/7scenes-seq";
-  return "/work/shared/data/7scenes-seq";
+  return shared_data_dir() + "/7scenes-seq";
 }
 
 /// Applies `--set section.key=value` or `--preset NAME` to `config`; prints the error and returns

@@ -149,8 +149,15 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
 const ObjectModel& ObjectModelLibrary::get(int class_id) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto& slot = models_[class_id];
-  if (!slot)
-    slot = std::make_unique<ObjectModel>(load_dataset_object_model(info_, class_id, surface_points_));
+  if (!slot) {
+    auto model =
+        std::make_unique<ObjectModel>(load_dataset_object_model(info_, class_id, surface_points_));
+    if (!colour_dir_.empty()) {
+      const std::string path = colour_dir_ + "/" + class_name(class_id) + ".colour";
+      if (std::filesystem::is_regular_file(path)) model->colour = read_model_colour(path);
+    }
+    slot = std::move(model);
+  }
   return *slot;
 }
 

@@ -38,6 +38,9 @@ class ObjectModelLibrary {
   /// The prepared model (loaded on the first call). Throws IoError (see above). Thread-safe.
   const ObjectModel& get(int class_id) const;
   const DatasetInfo& info() const { return info_; }
+  /// Colour models to load with the models (pipeline.model_colour_dir): `<dir>/<class name>.colour`
+  /// replaces a model's own colour when the file exists. Call before the first get().
+  void set_colour_dir(std::string dir) { colour_dir_ = std::move(dir); }
   /// Class name for messages and outputs ("class <id>" when the dataset has none).
   std::string class_name(int class_id) const;
   /// The symmetry group the EKF uses for the class, by pipeline.ekf_symmetry `mode`: "none" = no
@@ -49,6 +52,7 @@ class ObjectModelLibrary {
  private:
   DatasetInfo info_;
   int surface_points_;
+  std::string colour_dir_;
   mutable std::mutex mutex_;  // the cache fills lazily behind a const interface
   mutable std::map<int, std::unique_ptr<ObjectModel>> models_;
 };

@@ -166,6 +166,7 @@ struct ObjectRpePipeline::Candidate {
 
 ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const DatasetInfo& dataset)
     : params_(params), dataset_(dataset), models_(dataset) {
+  models_.set_colour_dir(params_.pipeline.model_colour_dir);
   std::string why;
   if (!params_.IsValid(&why)) throw ConfigError("pipeline: " + why);
   slam_ = std::make_unique<slam::SlamSystem>(params_.slam);
@@ -629,8 +630,11 @@ std::vector<ObjectWorldPose> ObjectRpePipeline::object_poses(size_t vi) const {
     o.class_probability = inst->second.argmax_probability();
     o.detections = inst->second.detections;
     if (const auto g = geometry.find(id); g != geometry.end()) o.surfels = g->second.surfels;
-    if (models_.has(track.class_id) && !model_errors_.count(track.class_id))
-      o.model_symmetry = models_.get(track.class_id).symmetry.describe();
+    if (models_.has(track.class_id) && !model_errors_.count(track.class_id)) {
+      const ObjectModel& m = models_.get(track.class_id);
+      o.model_symmetry = m.symmetry.describe();
+      if (m.colour) o.model_colour = m.colour->source;
+    }
     if (track.ekf) {
       const FusedObjectPose f = track.ekf->result();
       o.source = "ekf";

@@ -122,6 +122,7 @@ struct ObjectWorldPose {
   int detections = 0;  ///< keyframes that detected the instance
   int surfels = 0;
   std::string model_symmetry;  ///< the class model's detected symmetry (what the EKF treats as equal)
+  std::string model_colour;    ///< where the class model's colour came from; empty = none
   bool valid = false;  ///< a pose exists
   /// "ekf" (the filter's state) or "best_single_view" (the highest-scoring single-view estimate moved
   /// to the world, for variants without the EKF).

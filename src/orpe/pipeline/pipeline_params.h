@@ -45,6 +45,11 @@ struct PipelineParams {
   /// dataset's symmetric classes (those scored with ADD-S): the dataset's annotated group (BOP
   /// models_info.json) when it has one, else the detected one; "none" = no symmetry (the paper).
   std::string ekf_symmetry = "dataset";
+  /// A folder of colour models (`orpe colour` writes them: <class name>.colour,
+  /// pose/colour_score.h): a class with a file there uses it to rank the poses geometry confuses,
+  /// in place of its mesh's own colour. Empty = none. Never colour a model from the frames it is
+  /// then scored on.
+  std::string model_colour_dir;
   /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
   /// object_fusion.h); 1 = from the first measurement (the paper).
   int ekf_init_views = 5;
@@ -98,6 +103,9 @@ struct PipelineParams {
     v("ekf_symmetry", ekf_symmetry,
       "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the dataset's "
       "symmetric classes; their annotated group when the dataset has one) | none");
+    v("model_colour_dir", model_colour_dir,
+      "Folder of colour models (<class name>.colour, from `orpe colour`) that replace the models' "
+      "own colour; empty = none");
     v("ekf_init_views", ekf_init_views,
       "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,

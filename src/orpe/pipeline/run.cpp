@@ -124,6 +124,7 @@ std::string object_poses_json(const std::vector<ObjectWorldPose>& objects,
     r["valid"] = o.valid;
     r["source"] = o.source;
     r["model_symmetry"] = o.model_symmetry;
+    r["model_colour"] = o.model_colour;
     r["num_views"] = o.num_views;
     r["num_rejected"] = o.num_rejected;
     r["num_reinitialisations"] = o.num_reinitialisations;

@@ -46,6 +46,8 @@ int main(int argc, char** argv) {
       context = true;
     else if (a == "--verbose")
       spdlog::set_level(spdlog::level::debug);
+    else if (a == "--trace")
+      spdlog::set_level(spdlog::level::trace);
     else if (a == "--set")
       orpe::apply_config_override(config, next());
     else {

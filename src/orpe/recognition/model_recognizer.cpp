@@ -44,6 +44,9 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("max_boundary_leak must be in [0, 1], boundary_continuation_m > 0");
   if (!(smooth_edge_max_angle_deg >= 0 && smooth_edge_max_angle_deg <= 90))
     return fail("smooth_edge_max_angle_deg must be in [0, 90]");
+  if (!(smooth_edge_max_step_m >= 0)) return fail("smooth_edge_max_step_m must be >= 0");
+  if (!(smooth_edge_max_colour_step >= 0 && smooth_edge_max_colour_step <= 256))
+    return fail("smooth_edge_max_colour_step must be in [0, 256]");
   if (normal_radius_cells < 1 || normal_radius_cells > 10)
     return fail("normal_radius_cells must be in [1, 10]");
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
@@ -274,10 +277,34 @@ class GridNormals {
 /// any kept object, or across an edge shared with another kept object that shows no crease
 /// (normals within smooth_edge_max_angle_deg): a smooth surface running across two hypotheses is
 /// one surface tiled by them, not two objects.
-double boundary_leak(const SceneGrid& g, const std::vector<int>& explained_by, int i,
-                     const RecognitionParams& p, GridNormals& normals) {
-  int tested = 0, leaks = 0;
+/// Mean colour over the 3x3 pixels around a grid cell's pixel.
+Eigen::Vector3f mean_colour(const ColorImage& im, int u, int v) {
+  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+  int n = 0;
+  for (int y = std::max(0, v - 1); y <= std::min(im.height() - 1, v + 1); ++y)
+    for (int x = std::max(0, u - 1); x <= std::min(im.width() - 1, u + 1); ++x) {
+      const Rgb8& c = im.at(x, y);
+      sum += Eigen::Vector3f(c.r, c.g, c.b);
+      ++n;
+    }
+  return n ? Eigen::Vector3f(sum / static_cast<float>(n)) : sum;
+}
+
+/// Whether the colour is the same on both sides (largest channel difference of the 3x3 means under
+/// max_colour_step); true without a colour image (geometry alone decides).
+bool same_colour(const SceneGrid& g, const ColorImage& im, int a, int b, double max_step) {
+  if (im.empty() || im.width() <= g.pixel_u(a) || im.height() <= g.pixel_v(a)) return true;
+  const Eigen::Vector3f d = mean_colour(im, g.pixel_u(a), g.pixel_v(a)) -
+                            mean_colour(im, g.pixel_u(b), g.pixel_v(b));
+  return d.cwiseAbs().maxCoeff() < static_cast<float>(max_step);
+}
+
+double boundary_leak(const SceneGrid& g, const ColorImage& colour,
+                     const std::vector<int>& explained_by, int i, const RecognitionParams& p,
+                     GridNormals& normals) {
+  int tested = 0, leaks = 0, smooth = 0;
   const float reach = static_cast<float>(p.boundary_continuation_m);
+  const float coplanar = static_cast<float>(p.smooth_edge_max_step_m);
   const float min_cos = static_cast<float>(std::cos(p.smooth_edge_max_angle_deg * M_PI / 180.0));
   const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
   for (size_t c = 0; c < explained_by.size(); ++c) {
@@ -299,9 +326,14 @@ double boundary_leak(const SceneGrid& g, const std::vector<int>& explained_by, i
       }
       const Vec3f& a = normals.at(static_cast<int>(c));
       const Vec3f& b = normals.at(n);
-      if (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) >= min_cos) ++leaks;
+      if (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) >= min_cos &&
+          std::abs(a.dot(g.points[n] - g.points[c])) < coplanar &&
+          same_colour(g, colour, static_cast<int>(c), n, p.smooth_edge_max_colour_step))
+        ++leaks, ++smooth;
     }
   }
+  spdlog::debug("recognition: outline of {}: {} tested, {} leak ({} across smooth shared edges)",
+                i, tested, leaks, smooth);
   return tested ? static_cast<double>(leaks) / tested : 0.0;
 }
 
@@ -507,8 +539,13 @@ void ModelRecognizer::Pass::search_regions() {
       ok[k] = register_crop(tasks[k].first, tasks[k].second, nullptr, &found[k]);
     searches += static_cast<int>(tasks.size());
     const size_t begin = hyps.size();
-    for (size_t k = 0; k < tasks.size(); ++k)
-      if (ok[k]) hyps.push_back(std::move(found[k]));
+    for (size_t k = 0; k < tasks.size(); ++k) {
+      if (!ok[k]) continue;
+      spdlog::trace("recognition: {} on {} crop points: explains {}, support {:.2f}, violation {:.2f}",
+                    rec.models_[found[k].model].name, tasks[k].second.size(),
+                    found[k].explained.size(), found[k].support, found[k].violation);
+      hyps.push_back(std::move(found[k]));
+    }
     searched.push_back({centroid_world, begin, hyps.size()});
     spdlog::debug("recognition: region of {} points ({} unexplained): {} searches",
                   region.cells.size(), rest.size(), tasks.size());
@@ -548,17 +585,18 @@ void ModelRecognizer::Pass::reject_clutter() {
   // Each round drops at least one hypothesis for good, so this ends; the last selection is
   // always checked (a clutter surface with many candidate models refills itself round after round).
   for (size_t round = 0; round <= hyps.size(); ++round) {
-    bool leaked = false;
+    // The worst leaking object only: its neighbours' outlines change once it is replaced (a wrong
+    // hypothesis next to a right one makes the right one's outline leak too).
+    int worst = -1;
+    double worst_leak = p.max_boundary_leak;
     for (int i : kept) {
-      const double leak = boundary_leak(g, explained_by, i, p, normals);
+      const double leak = boundary_leak(g, frame.color, explained_by, i, p, normals);
       spdlog::debug("recognition: {} ({} points) outline leak {:.2f}",
                     rec.models_[hyps[i].model].name, hyps[i].explained.size(), leak);
-      if (leak > p.max_boundary_leak) {
-        hyps[static_cast<size_t>(i)].support = -1;  // out of the next selection
-        leaked = true;
-      }
+      if (leak > worst_leak) worst_leak = leak, worst = i;
     }
-    if (leaked) {
+    if (worst >= 0) {
+      hyps[static_cast<size_t>(worst)].support = -1;  // out of the next selection
       select();
       continue;
     }

@@ -59,6 +59,8 @@ struct RecognitionParams {
   double max_boundary_leak = 0.25;   ///< outline fraction continuing into unexplained surface
   double boundary_continuation_m = 0.015;
   double smooth_edge_max_angle_deg = 20;  ///< a shared edge without a crease continues the surface
+  double smooth_edge_max_step_m = 0.004;  ///< and the far side within this of the near tangent plane
+  double smooth_edge_max_colour_step = 25;  ///< and the colour the same on both sides (0-255)
   int normal_radius_cells = 3;            ///< window of the grid normals (edge test)
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
@@ -114,6 +116,12 @@ struct RecognitionParams {
       "Outline test across two kept objects' shared edge: where the surface continues (within "
       "boundary_continuation_m) with normals within this angle (deg), no crease or depth step "
       "separates them, so the edge counts as leaking (clutter tiled by hypotheses)");
+    v("smooth_edge_max_step_m", smooth_edge_max_step_m,
+      "... and the far side of the edge lies within this distance (m) of the near side's tangent "
+      "plane (no step)");
+    v("smooth_edge_max_colour_step", smooth_edge_max_colour_step,
+      "... and the colour (3x3 means, largest channel difference, 0-255) differs by less than "
+      "this across it (no colour image: geometry alone)");
     v("normal_radius_cells", normal_radius_cells,
       "Half-width (grid cells) of the window whose points' plane fit gives a cell's normal");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");

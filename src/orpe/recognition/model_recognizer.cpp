@@ -462,7 +462,6 @@ struct ModelRecognizer::Pass {
   std::vector<int> kept;          ///< indices into hyps
   struct Searched {
     Vec3 centroid_world;
-    size_t begin = 0, end = 0;  ///< the hypotheses its search added
   };
   std::vector<Searched> searched;
   int refinements = 0, searches = 0;
@@ -538,7 +537,6 @@ void ModelRecognizer::Pass::search_regions() {
     for (int k = 0; k < static_cast<int>(tasks.size()); ++k)
       ok[k] = register_crop(tasks[k].first, tasks[k].second, nullptr, &found[k]);
     searches += static_cast<int>(tasks.size());
-    const size_t begin = hyps.size();
     for (size_t k = 0; k < tasks.size(); ++k) {
       if (!ok[k]) continue;
       spdlog::trace("recognition: {} on {} crop points: explains {}, support {:.2f}, violation {:.2f}",
@@ -546,7 +544,7 @@ void ModelRecognizer::Pass::search_regions() {
                     found[k].explained.size(), found[k].support, found[k].violation);
       hyps.push_back(std::move(found[k]));
     }
-    searched.push_back({centroid_world, begin, hyps.size()});
+    searched.push_back({centroid_world});
     spdlog::debug("recognition: region of {} points ({} unexplained): {} searches",
                   region.cells.size(), rest.size(), tasks.size());
   }
@@ -590,6 +588,7 @@ void ModelRecognizer::Pass::reject_clutter() {
     int worst = -1;
     double worst_leak = p.max_boundary_leak;
     for (int i : kept) {
+      if (hyps[static_cast<size_t>(i)].from_track) continue;  // passed when it was found
       const double leak = boundary_leak(g, frame.color, explained_by, i, p, normals);
       spdlog::debug("recognition: {} ({} points) outline leak {:.2f}",
                     rec.models_[hyps[i].model].name, hyps[i].explained.size(), leak);
@@ -614,7 +613,9 @@ void ModelRecognizer::Pass::reject_clutter() {
         total += n;
         if (explained[r] < p.min_region_coverage * regions[r].cells.size()) in_poor += n;
       }
-      if (total > 0 && in_poor > total / 2) {
+      // A known object (confirmed on an earlier keyframe) is not dropped for its region: an
+      // unknown object touching it leaves the region poorly explained, not the object wrong.
+      if (total > 0 && in_poor > total / 2 && !hyps[static_cast<size_t>(i)].from_track) {
         hyps[static_cast<size_t>(i)].support = -1;
         dropped = true;
       }
@@ -719,17 +720,13 @@ void ModelRecognizer::Pass::update_tracks() {
   state->tracks = std::move(alive);
 }
 
-/// A searched region none of whose hypotheses was kept (clutter, or surface the known objects
-/// explain) is not searched again for reject_memory_keyframes keyframes: later keyframes then cost
-/// the refinements of the known objects and the search of new surface only.
+/// Every searched region is not searched again for reject_memory_keyframes keyframes: what its
+/// search found is a known object from now on (refined, not searched), what it did not find
+/// (clutter, an unknown object) would be found again. Later keyframes then cost the refinements of
+/// the known objects and the search of new surface only.
 void ModelRecognizer::Pass::remember_searches() {
   if (!state) return;
-  for (const Searched& s : searched) {
-    const bool added = std::any_of(kept.begin(), kept.end(), [&](int i) {
-      return static_cast<size_t>(i) >= s.begin && static_cast<size_t>(i) < s.end;
-    });
-    if (!added) state->rejected.push_back({s.centroid_world, state->keyframe});
-  }
+  for (const Searched& s : searched) state->rejected.push_back({s.centroid_world, state->keyframe});
   std::erase_if(state->rejected, [&](const Rejected& r) {
     return state->keyframe - r.keyframe >= p.reject_memory_keyframes;
   });

@@ -65,7 +65,7 @@ struct RecognitionParams {
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
-  int reject_memory_keyframes = 10;  ///< keyframes a searched region that added nothing is skipped
+  int reject_memory_keyframes = 10;  ///< keyframes a searched region is not searched again
   double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
   double detection_probability = 0.9;  ///< soft mask value on the explained pixels
 
@@ -128,10 +128,11 @@ struct RecognitionParams {
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");
     v("reject_memory_keyframes", reject_memory_keyframes,
-      "Keyframes during which a searched region that added no kept object (clutter, or surface "
-      "the known objects already explain) is not searched again");
+      "Keyframes during which a searched region is not searched again (what it held is known "
+      "and refined from then on; what no model explained would not be found either)");
     v("reject_radius_m", reject_radius_m,
-      "A region whose centroid is within this distance (m) of a rejected one is skipped");
+      "A region whose unexplained part's centroid is within this distance (m) of a searched one "
+      "is skipped");
     v("detection_probability", detection_probability,
       "Soft mask probability of the pixels a kept hypothesis explains");
   }

@@ -147,7 +147,8 @@ int main(int argc, char** argv) {
                               o.support, o.violation, b.u_min, b.u_max, b.v_min, b.v_max);
         }
       std::printf(
-          "%s/%06d %zu det %.0f ms (cpu %.0f; geometry %.0f, tracks %.0f, search %.0f, verify %.0f, "
+          "%s/%06d %zu det %.0f ms (cpu %.0f; geometry %.0f, tracks %.0f, search %.0f, verify "
+          "%.0f, "
           "masks %.0f; %d refinements, %d searches)%s\n",
           video.c_str(), frame.index, dets.size(), ms, tm.cpu_ms, tm.geometry_ms, tm.tracks_ms,
           tm.search_ms, tm.verify_ms, tm.detections_ms, tm.refinements, tm.searches, line.c_str());

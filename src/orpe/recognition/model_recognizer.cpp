@@ -6,8 +6,8 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
+#include <ctime>
 #include <functional>
 #include <limits>
 #include <numeric>
@@ -45,6 +45,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(smooth_edge_max_angle_deg >= 0 && smooth_edge_max_angle_deg <= 90))
     return fail("smooth_edge_max_angle_deg must be in [0, 90]");
   if (!(smooth_edge_max_step_m >= 0)) return fail("smooth_edge_max_step_m must be >= 0");
+  if (!(max_seam_fraction >= 0 && max_seam_fraction <= 1) || min_seam_pairs < 1)
+    return fail("max_seam_fraction must be in [0, 1], min_seam_pairs >= 1");
   if (!(smooth_edge_max_colour_step >= 0 && smooth_edge_max_colour_step <= 256))
     return fail("smooth_edge_max_colour_step must be in [0, 256]");
   if (normal_radius_cells < 1 || normal_radius_cells > 10)
@@ -294,15 +296,22 @@ Eigen::Vector3f mean_colour(const ColorImage& im, int u, int v) {
 /// max_colour_step); true without a colour image (geometry alone decides).
 bool same_colour(const SceneGrid& g, const ColorImage& im, int a, int b, double max_step) {
   if (im.empty() || im.width() <= g.pixel_u(a) || im.height() <= g.pixel_v(a)) return true;
-  const Eigen::Vector3f d = mean_colour(im, g.pixel_u(a), g.pixel_v(a)) -
-                            mean_colour(im, g.pixel_u(b), g.pixel_v(b));
+  const Eigen::Vector3f d =
+      mean_colour(im, g.pixel_u(a), g.pixel_v(a)) - mean_colour(im, g.pixel_u(b), g.pixel_v(b));
   return d.cwiseAbs().maxCoeff() < static_cast<float>(max_step);
 }
 
-double boundary_leak(const SceneGrid& g, const ColorImage& colour,
-                     const std::vector<int>& explained_by, int i, const RecognitionParams& p,
-                     GridNormals& normals) {
-  int tested = 0, leaks = 0, smooth = 0;
+struct OutlineTest {
+  double leak = 0;     ///< fraction of the outline continuing (unexplained or seamless)
+  int seam_with = -1;  ///< the neighbour whose shared edge is most seamless
+  double seam = 0;     ///< its fraction of seamless pairs
+};
+
+OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
+                          const std::vector<int>& explained_by, int i, const RecognitionParams& p,
+                          GridNormals& normals) {
+  int tested = 0, leaks = 0;
+  std::map<int, std::pair<int, int>> shared;  // neighbour -> (pairs, seamless pairs)
   const float reach = static_cast<float>(p.boundary_continuation_m);
   const float coplanar = static_cast<float>(p.smooth_edge_max_step_m);
   const float min_cos = static_cast<float>(std::cos(p.smooth_edge_max_angle_deg * M_PI / 180.0));
@@ -318,8 +327,9 @@ double boundary_leak(const SceneGrid& g, const ColorImage& colour,
       if (u2 < 0 || v2 < 0 || u2 >= g.width || v2 >= g.height) continue;
       const int n = g.cell(u2, v2);
       ++tested;
-      if (!g.kept[n] || explained_by[n] == i || (g.points[n] - g.points[c]).norm() >= reach)
-        continue;
+      if (!g.kept[n] || explained_by[n] == i) continue;
+      if (explained_by[n] >= 0) ++shared[explained_by[n]].first;
+      if ((g.points[n] - g.points[c]).norm() >= reach) continue;
       if (explained_by[n] < 0) {
         ++leaks;
         continue;
@@ -328,13 +338,21 @@ double boundary_leak(const SceneGrid& g, const ColorImage& colour,
       const Vec3f& b = normals.at(n);
       if (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) >= min_cos &&
           std::abs(a.dot(g.points[n] - g.points[c])) < coplanar &&
-          same_colour(g, colour, static_cast<int>(c), n, p.smooth_edge_max_colour_step))
-        ++leaks, ++smooth;
+          same_colour(g, colour, static_cast<int>(c), n, p.smooth_edge_max_colour_step)) {
+        ++leaks;
+        ++shared[explained_by[n]].second;
+      }
     }
   }
-  spdlog::debug("recognition: outline of {}: {} tested, {} leak ({} across smooth shared edges)",
-                i, tested, leaks, smooth);
-  return tested ? static_cast<double>(leaks) / tested : 0.0;
+  OutlineTest out;
+  out.leak = tested ? static_cast<double>(leaks) / tested : 0.0;
+  for (const auto& [j, counts] : shared) {
+    const double f = static_cast<double>(counts.second) / counts.first;
+    if (counts.first >= p.min_seam_pairs && f > out.seam) out.seam = f, out.seam_with = j;
+  }
+  spdlog::debug("recognition: outline of {}: {} tested, leak {:.2f}, seam {:.2f} with {}", i,
+                tested, out.leak, out.seam, out.seam_with);
+  return out;
 }
 
 /// Full-image mask of a crop's grid cells (stride x stride blocks).
@@ -539,9 +557,10 @@ void ModelRecognizer::Pass::search_regions() {
     searches += static_cast<int>(tasks.size());
     for (size_t k = 0; k < tasks.size(); ++k) {
       if (!ok[k]) continue;
-      spdlog::trace("recognition: {} on {} crop points: explains {}, support {:.2f}, violation {:.2f}",
-                    rec.models_[found[k].model].name, tasks[k].second.size(),
-                    found[k].explained.size(), found[k].support, found[k].violation);
+      spdlog::trace(
+          "recognition: {} on {} crop points: explains {}, support {:.2f}, violation {:.2f}",
+          rec.models_[found[k].model].name, tasks[k].second.size(), found[k].explained.size(),
+          found[k].support, found[k].violation);
       hyps.push_back(std::move(found[k]));
     }
     searched.push_back({centroid_world});
@@ -553,8 +572,8 @@ void ModelRecognizer::Pass::search_regions() {
 /// Greedy selection, best first: a hypothesis is kept when it newly explains enough points.
 void ModelRecognizer::Pass::select() {
   for (auto& h : hyps)
-    h.rank = static_cast<double>(h.explained.size()) * h.support *
-             (h.from_track ? p.track_bonus : 1.0);
+    h.rank =
+        static_cast<double>(h.explained.size()) * h.support * (h.from_track ? p.track_bonus : 1.0);
   std::vector<int> order(hyps.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
@@ -584,16 +603,21 @@ void ModelRecognizer::Pass::reject_clutter() {
   // always checked (a clutter surface with many candidate models refills itself round after round).
   for (size_t round = 0; round <= hyps.size(); ++round) {
     // The worst leaking object only: its neighbours' outlines change once it is replaced (a wrong
-    // hypothesis next to a right one makes the right one's outline leak too).
-    int worst = -1;
-    double worst_leak = p.max_boundary_leak;
+    // hypothesis next to a right one makes the right one's outline leak too). Failing that, of
+    // two objects whose shared edge is mostly seamless (one surface tiled by two hypotheses),
+    // the lower-ranked one.
+    int worst = -1, seam_drop = -1;
+    double worst_leak = p.max_boundary_leak, worst_seam = p.max_seam_fraction;
     for (int i : kept) {
       if (hyps[static_cast<size_t>(i)].from_track) continue;  // passed when it was found
-      const double leak = boundary_leak(g, frame.color, explained_by, i, p, normals);
-      spdlog::debug("recognition: {} ({} points) outline leak {:.2f}",
-                    rec.models_[hyps[i].model].name, hyps[i].explained.size(), leak);
-      if (leak > worst_leak) worst_leak = leak, worst = i;
+      const OutlineTest t = boundary_leak(g, frame.color, explained_by, i, p, normals);
+      if (t.leak > worst_leak) worst_leak = t.leak, worst = i;
+      if (t.seam > worst_seam) {
+        worst_seam = t.seam;
+        seam_drop = hyps[static_cast<size_t>(t.seam_with)].rank < hyps[i].rank ? t.seam_with : i;
+      }
     }
+    if (worst < 0) worst = seam_drop;
     if (worst >= 0) {
       hyps[static_cast<size_t>(worst)].support = -1;  // out of the next selection
       select();

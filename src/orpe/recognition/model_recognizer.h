@@ -59,9 +59,12 @@ struct RecognitionParams {
   double max_boundary_leak = 0.25;   ///< outline fraction continuing into unexplained surface
   double boundary_continuation_m = 0.015;
   double smooth_edge_max_angle_deg = 20;  ///< a shared edge without a crease continues the surface
-  double smooth_edge_max_step_m = 0.004;  ///< and the far side within this of the near tangent plane
+  double smooth_edge_max_step_m =
+      0.004;  ///< and the far side within this of the near tangent plane
   double smooth_edge_max_colour_step = 25;  ///< and the colour the same on both sides (0-255)
-  int normal_radius_cells = 3;            ///< window of the grid normals (edge test)
+  int normal_radius_cells = 3;              ///< window of the grid normals (edge test)
+  double max_seam_fraction = 0.5;  ///< a shared edge more seamless than this is no object boundary
+  int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
@@ -124,6 +127,10 @@ struct RecognitionParams {
       "this across it (no colour image: geometry alone)");
     v("normal_radius_cells", normal_radius_cells,
       "Half-width (grid cells) of the window whose points' plane fit gives a cell's normal");
+    v("max_seam_fraction", max_seam_fraction,
+      "Two kept objects whose shared edge is seamless (surface, normals and colour continue) for "
+      "more than this fraction of its outline pairs tile one surface: the lower-ranked is dropped");
+    v("min_seam_pairs", min_seam_pairs, "Outline pairs a shared edge needs for the seam test");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");

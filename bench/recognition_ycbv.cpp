@@ -10,7 +10,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <sstream>
@@ -44,6 +46,8 @@ int main(int argc, char** argv) {
       context = true;
     else if (a == "--verbose")
       spdlog::set_level(spdlog::level::debug);
+    else if (a == "--trace")
+      spdlog::set_level(spdlog::level::trace);
     else if (a == "--set")
       orpe::apply_config_override(config, next());
     else {
@@ -54,8 +58,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> videos;
   std::stringstream ss(videos_arg);
   for (std::string v; std::getline(ss, v, ',');) videos.push_back(v);
-  int objects = 0, found = 0, wrong_class = 0, spurious = 0, frames = 0;
-  double total_ms = 0, first_ms = 0;
+  int objects = 0, found = 0, wrong_class = 0, spurious = 0;
+  std::vector<double> first_ms, first_cpu_ms, later_ms, later_cpu_ms;
   std::vector<double> adds;
   std::map<std::string, std::pair<int, int>> per_class;
   for (const auto& video : videos) {
@@ -80,9 +84,9 @@ int main(int argc, char** argv) {
       const auto dets = context ? rec.detect_in_context(frame, ctx) : rec.detect(frame);
       const double ms =
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      if (fi == 0) first_ms += ms;
-      total_ms += ms;
-      ++frames;
+      const auto& tm = rec.last_timing();
+      (fi == 0 ? first_ms : later_ms).push_back(ms);
+      (fi == 0 ? first_cpu_ms : later_cpu_ms).push_back(tm.cpu_ms);
       std::vector<int> used(dets.size(), 0);
       std::string line;
       for (size_t k = 0; k < frame.objects_gt.size(); ++k) {
@@ -137,20 +141,33 @@ int main(int argc, char** argv) {
         if (!used[d]) {
           ++spurious;
           const auto& o = rec.last_objects()[d];
-          line += fmt::format(" spurious:{}[n{} s{:.2f} v{:.2f}]",
+          const auto& b = dets[d].box;
+          line += fmt::format(" spurious:{}[n{} s{:.2f} v{:.2f} px {}-{},{}-{}]",
                               reader->info().class_names.at(dets[d].class_id), o.explained_points,
-                              o.support, o.violation);
+                              o.support, o.violation, b.u_min, b.u_max, b.v_min, b.v_max);
         }
-      std::printf("%s/%06d %zu det %.0f ms (%d reg)%s\n", video.c_str(), frame.index, dets.size(),
-                  ms, rec.last_registrations(), line.c_str());
+      std::printf(
+          "%s/%06d %zu det %.0f ms (cpu %.0f; geometry %.0f, tracks %.0f, search %.0f, verify "
+          "%.0f, "
+          "masks %.0f; %d refinements, %d searches)%s\n",
+          video.c_str(), frame.index, dets.size(), ms, tm.cpu_ms, tm.geometry_ms, tm.tracks_ms,
+          tm.search_ms, tm.verify_ms, tm.detections_ms, tm.refinements, tm.searches, line.c_str());
       std::fflush(stdout);
     }
   }
   std::printf("\nobjects %d, right class %d (%.1f %%), wrong class %d, spurious %d\n", objects,
               found, 100.0 * found / std::max(1, objects), wrong_class, spurious);
   std::printf("ADD-S AUC (misses count) %.2f\n", orpe::ycb_auc_percent(adds));
-  std::printf("time per frame %.0f ms, first frames %.0f ms\n", total_ms / std::max(1, frames),
-              first_ms / videos.size());
+  auto quantile = [](std::vector<double> v, double q) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[static_cast<size_t>(std::min<double>(v.size() - 1, std::floor(q * v.size())))];
+  };
+  std::printf("first frame of each clip: wall ms median %.0f max %.0f, cpu ms median %.0f\n",
+              quantile(first_ms, 0.5), quantile(first_ms, 1.0), quantile(first_cpu_ms, 0.5));
+  std::printf("later frames (%zu): wall ms median %.0f p90 %.0f, cpu ms median %.0f p90 %.0f\n",
+              later_ms.size(), quantile(later_ms, 0.5), quantile(later_ms, 0.9),
+              quantile(later_cpu_ms, 0.5), quantile(later_cpu_ms, 0.9));
   for (const auto& [name, c] : per_class)
     std::printf("  %-22s %d / %d\n", name.c_str(), c.first, c.second);
   return 0;

@@ -17,22 +17,14 @@
 #include <set>
 #include <string>
 
+#include "support/cli_run.h"
 #include "support/test_data.h"
 
 namespace orpe {
 namespace {
 
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream is(path);
-  EXPECT_TRUE(is.good()) << path;
-  if (!is.good()) return nlohmann::json::object();
-  return nlohmann::json::parse(is);
-}
-
-int run_cli(const std::string& args) {
-  const std::string cmd = std::string("OMP_WAIT_POLICY=passive ") + ORPE_CLI_PATH + " -q " + args;
-  return std::system(cmd.c_str());
-}
+using test::read_json;
+using test::run_cli;
 
 TEST(RealDataEndToEnd, SlamTracksTheFirst150SevenScenesFrames) {
   ORPE_REQUIRE_DATA(data, "7scenes-seq/rgb.txt");

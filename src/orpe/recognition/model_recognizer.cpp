@@ -5,7 +5,9 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <ctime>
 #include <functional>
 #include <limits>
 #include <numeric>
@@ -40,6 +42,15 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (min_explained_points < 1) return fail("min_explained_points must be >= 1");
   if (!(max_boundary_leak >= 0 && max_boundary_leak <= 1) || !(boundary_continuation_m > 0))
     return fail("max_boundary_leak must be in [0, 1], boundary_continuation_m > 0");
+  if (!(smooth_edge_max_angle_deg >= 0 && smooth_edge_max_angle_deg <= 90))
+    return fail("smooth_edge_max_angle_deg must be in [0, 90]");
+  if (!(smooth_edge_max_step_m >= 0)) return fail("smooth_edge_max_step_m must be >= 0");
+  if (!(max_seam_fraction >= 0 && max_seam_fraction <= 1) || min_seam_pairs < 1)
+    return fail("max_seam_fraction must be in [0, 1], min_seam_pairs >= 1");
+  if (!(smooth_edge_max_colour_step >= 0 && smooth_edge_max_colour_step <= 256))
+    return fail("smooth_edge_max_colour_step must be in [0, 256]");
+  if (normal_radius_cells < 1 || normal_radius_cells > 10)
+    return fail("normal_radius_cells must be in [1, 10]");
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
@@ -121,6 +132,11 @@ ModelRegistrationParams refine_params(const RecognitionParams& p) {
   return r;
 }
 
+}  // namespace
+
+// Named (not anonymous): ModelRecognizer::Pass holds these.
+namespace recognition_detail {
+
 struct Hypothesis {
   int model = 0;  // index into models_
   SE3 T_cam_obj;
@@ -130,6 +146,13 @@ struct Hypothesis {
   int track = -1;
   double rank = 0;
 };
+
+}  // namespace recognition_detail
+
+namespace {
+
+using recognition_detail::Hypothesis;
+using Vec3f = Eigen::Vector3f;
 
 /// A hypothesis against the whole scene: explained kept cells, support and violations.
 void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics& K,
@@ -210,12 +233,88 @@ bool extents_compatible(const Vec3f& obs, const Vec3f& model, const RecognitionP
          obs[0] >= p.min_extent_factor * model[0];
 }
 
+/// Unit normals of the grid's kept cells (plane fit over a window of kept cells within 1 cm of the
+/// centre's depth), computed on demand and cached; zero when the window has too few points.
+class GridNormals {
+ public:
+  GridNormals(const SceneGrid& g, int radius)
+      : g_(g), r_(radius), n_(g.points.size()), done_(g.points.size(), 0) {}
+  const Vec3f& at(int c) {
+    if (!done_[c]) {
+      n_[c] = fit(c);
+      done_[c] = 1;
+    }
+    return n_[c];
+  }
+
+ private:
+  Vec3f fit(int c) const {
+    const int gu = c % g_.width, gv = c / g_.width;
+    const Vec3f& p = g_.points[c];
+    Eigen::Matrix3f cov = Eigen::Matrix3f::Zero();
+    Vec3f sum = Vec3f::Zero();
+    int n = 0;
+    for (int v = std::max(0, gv - r_); v <= std::min(g_.height - 1, gv + r_); ++v)
+      for (int u = std::max(0, gu - r_); u <= std::min(g_.width - 1, gu + r_); ++u) {
+        const int k = g_.cell(u, v);
+        if (!g_.kept[k] || std::abs(g_.points[k].z() - p.z()) > 0.01f) continue;
+        sum += g_.points[k];
+        cov += g_.points[k] * g_.points[k].transpose();
+        ++n;
+      }
+    if (n < 6) return Vec3f::Zero();
+    const Vec3f mean = sum / static_cast<float>(n);
+    cov = cov / static_cast<float>(n) - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> es(cov);
+    return es.eigenvectors().col(0).normalized();
+  }
+  const SceneGrid& g_;
+  int r_;
+  std::vector<Vec3f> n_;
+  std::vector<std::uint8_t> done_;
+};
+
 /// Fraction of the outward neighbours (two cells out) of a kept object's explained cells that
-/// continue its surface (kept cells within 1.5 cm) without being explained by any kept object.
-double boundary_leak(const SceneGrid& g, const std::vector<int>& explained_by, int i,
-                     const RecognitionParams& p) {
+/// continue its surface (kept cells within boundary_continuation_m) without being explained by
+/// any kept object, or across an edge shared with another kept object that shows no crease
+/// (normals within smooth_edge_max_angle_deg): a smooth surface running across two hypotheses is
+/// one surface tiled by them, not two objects.
+/// Mean colour over the 3x3 pixels around a grid cell's pixel.
+Eigen::Vector3f mean_colour(const ColorImage& im, int u, int v) {
+  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+  int n = 0;
+  for (int y = std::max(0, v - 1); y <= std::min(im.height() - 1, v + 1); ++y)
+    for (int x = std::max(0, u - 1); x <= std::min(im.width() - 1, u + 1); ++x) {
+      const Rgb8& c = im.at(x, y);
+      sum += Eigen::Vector3f(c.r, c.g, c.b);
+      ++n;
+    }
+  return n ? Eigen::Vector3f(sum / static_cast<float>(n)) : sum;
+}
+
+/// Whether the colour is the same on both sides (largest channel difference of the 3x3 means under
+/// max_colour_step); true without a colour image (geometry alone decides).
+bool same_colour(const SceneGrid& g, const ColorImage& im, int a, int b, double max_step) {
+  if (im.empty() || im.width() <= g.pixel_u(a) || im.height() <= g.pixel_v(a)) return true;
+  const Eigen::Vector3f d =
+      mean_colour(im, g.pixel_u(a), g.pixel_v(a)) - mean_colour(im, g.pixel_u(b), g.pixel_v(b));
+  return d.cwiseAbs().maxCoeff() < static_cast<float>(max_step);
+}
+
+struct OutlineTest {
+  double leak = 0;     ///< fraction of the outline continuing (unexplained or seamless)
+  int seam_with = -1;  ///< the neighbour whose shared edge is most seamless
+  double seam = 0;     ///< its fraction of seamless pairs
+};
+
+OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
+                          const std::vector<int>& explained_by, int i, const RecognitionParams& p,
+                          GridNormals& normals) {
   int tested = 0, leaks = 0;
+  std::map<int, std::pair<int, int>> shared;  // neighbour -> (pairs, seamless pairs)
   const float reach = static_cast<float>(p.boundary_continuation_m);
+  const float coplanar = static_cast<float>(p.smooth_edge_max_step_m);
+  const float min_cos = static_cast<float>(std::cos(p.smooth_edge_max_angle_deg * M_PI / 180.0));
   const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
   for (size_t c = 0; c < explained_by.size(); ++c) {
     if (explained_by[c] != i) continue;
@@ -228,10 +327,32 @@ double boundary_leak(const SceneGrid& g, const std::vector<int>& explained_by, i
       if (u2 < 0 || v2 < 0 || u2 >= g.width || v2 >= g.height) continue;
       const int n = g.cell(u2, v2);
       ++tested;
-      if (g.kept[n] && explained_by[n] < 0 && (g.points[n] - g.points[c]).norm() < reach) ++leaks;
+      if (!g.kept[n] || explained_by[n] == i) continue;
+      if (explained_by[n] >= 0) ++shared[explained_by[n]].first;
+      if ((g.points[n] - g.points[c]).norm() >= reach) continue;
+      if (explained_by[n] < 0) {
+        ++leaks;
+        continue;
+      }
+      const Vec3f& a = normals.at(static_cast<int>(c));
+      const Vec3f& b = normals.at(n);
+      if (!a.isZero() && !b.isZero() && std::abs(a.dot(b)) >= min_cos &&
+          std::abs(a.dot(g.points[n] - g.points[c])) < coplanar &&
+          same_colour(g, colour, static_cast<int>(c), n, p.smooth_edge_max_colour_step)) {
+        ++leaks;
+        ++shared[explained_by[n]].second;
+      }
     }
   }
-  return tested ? static_cast<double>(leaks) / tested : 0.0;
+  OutlineTest out;
+  out.leak = tested ? static_cast<double>(leaks) / tested : 0.0;
+  for (const auto& [j, counts] : shared) {
+    const double f = static_cast<double>(counts.second) / counts.first;
+    if (counts.first >= p.min_seam_pairs && f > out.seam) out.seam = f, out.seam_with = j;
+  }
+  spdlog::debug("recognition: outline of {}: {} tested, leak {:.2f}, seam {:.2f} with {}", i,
+                tested, out.leak, out.seam, out.seam_with);
+  return out;
 }
 
 /// Full-image mask of a crop's grid cells (stride x stride blocks).
@@ -315,146 +436,191 @@ std::vector<Detection> ModelRecognizer::detect_in_context(const RgbdFrame& frame
   return run(frame, context.T_world_cam, &state_);
 }
 
-std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T_world_cam,
-                                            State* state) const {
-  PinholeIntrinsics K = frame.intrinsics;
-  const int W = frame.depth.width(), H = frame.depth.height();
-  K.width = W;
-  K.height = H;
-  last_registrations_ = 0;
-  SceneGrid g = make_scene_grid(frame.depth, K, geometry_);
-  remove_support_planes(g, geometry_);
-  const std::vector<SceneRegion> regions = split_regions(g, geometry_);
-  const SE3 T_cam_world = T_world_cam.inverse();
-  if (state) ++state->keyframe;
+namespace {
 
-  std::vector<Hypothesis> hyps;
-  auto register_crop = [&](int mi, const std::vector<int>& cells, const SE3* prior,
-                           Hypothesis* out) {
-    if (static_cast<int>(cells.size()) < params_.min_explained_points) return false;
-    const MaskImage mask = crop_mask(g, cells, W, H);
-    SingleViewInput in;
-    in.mask = &mask;
-    in.depth = &frame.depth;
-    in.intrinsics = K;
-    in.model = &models_[static_cast<size_t>(mi)];
-    in.class_id = in.model->class_id;
-    if (prior) in.T_cam_obj_prior = *prior;
-    const SingleViewPose pose = (prior ? refine_ : search_).estimate(in);
-    if (!pose.valid) return false;
-    out->model = mi;
-    out->T_cam_obj = pose.T_cam_obj;
-    verify(g, frame.depth, K, *in.model, params_, *out);
-    return true;
-  };
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
 
-  // 1. Known objects, refined from their last pose.
-  if (state) {
-    for (size_t ti = 0; ti < state->tracks.size(); ++ti) {
-      const Track& t = state->tracks[ti];
-      int mi = -1;
-      for (size_t m = 0; m < models_.size(); ++m)
-        if (models_[m].class_id == t.class_id) mi = static_cast<int>(m);
-      if (mi < 0) continue;
-      const SE3 prior = T_cam_world * t.T_world_obj;
-      const Vec3f c = prior.translation().cast<float>();
-      const float r = static_cast<float>(0.6 * models_[mi].diameter_m);
-      std::vector<int> cells;
-      for (size_t k = 0; k < g.kept.size(); ++k)
-        if (g.kept[k] && (g.points[k] - c).squaredNorm() < r * r)
-          cells.push_back(static_cast<int>(k));
-      Hypothesis h;
-      ++last_registrations_;
-      if (!register_crop(mi, cells, &prior, &h)) continue;
-      h.from_track = true;
-      h.track = static_cast<int>(ti);
-      hyps.push_back(std::move(h));
-    }
+}  // namespace
+
+/// One call of the recogniser: the frame's geometry, the hypotheses and the selection.
+struct ModelRecognizer::Pass {
+  Pass(const ModelRecognizer& r, const RgbdFrame& f, const SE3& T_wc, State* s)
+      : rec(r), p(r.params_), frame(f), T_world_cam(T_wc), T_cam_world(T_wc.inverse()), state(s) {
+    K = frame.intrinsics;
+    W = frame.depth.width(), H = frame.depth.height();
+    K.width = W, K.height = H;
+    g = make_scene_grid(frame.depth, K, rec.geometry_);
+    remove_support_planes(g, rec.geometry_);
+    regions = split_regions(g, rec.geometry_);
   }
 
-  auto select = [&](std::vector<Hypothesis>& all, std::vector<int>* explained_by) {
-    for (auto& h : all)
-      h.rank = static_cast<double>(h.explained.size()) * h.support *
-               (h.from_track ? params_.track_bonus : 1.0);
-    std::vector<int> order(all.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(),
-                     [&](int a, int b) { return all[a].rank > all[b].rank; });
-    std::vector<int> kept;
-    explained_by->assign(g.kept.size(), -1);
-    for (int i : order) {
-      const Hypothesis& h = all[static_cast<size_t>(i)];
-      if (h.support < params_.min_support || h.violation > params_.max_violation) continue;
-      int fresh = 0;
-      for (int c : h.explained) fresh += (*explained_by)[c] < 0;
-      if (fresh < params_.min_explained_points ||
-          fresh < params_.min_new_fraction * static_cast<double>(h.explained.size()))
-        continue;
-      for (int c : h.explained)
-        if ((*explained_by)[c] < 0) (*explained_by)[c] = i;
-      kept.push_back(i);
-    }
-    return kept;
-  };
+  bool register_crop(int mi, const std::vector<int>& cells, const SE3* prior,
+                     Hypothesis* out) const;
+  void refine_tracks();
+  void search_regions();
+  void select();
+  void reject_clutter();
+  std::vector<Detection> detections();
+  void update_tracks();
+  void remember_searches();
 
-  // 2. Search what the known objects leave unexplained, region by region.
-  std::vector<int> explained_by;
-  select(hyps, &explained_by);
+  const ModelRecognizer& rec;
+  const RecognitionParams& p;
+  const RgbdFrame& frame;
+  const SE3 T_world_cam, T_cam_world;
+  State* state;
+  PinholeIntrinsics K;
+  int W = 0, H = 0;
+  SceneGrid g;
+  std::vector<SceneRegion> regions;
+  std::vector<Hypothesis> hyps;
+  std::vector<int> explained_by;  ///< per grid cell: the kept hypothesis explaining it, or -1
+  std::vector<int> kept;          ///< indices into hyps
+  struct Searched {
+    Vec3 centroid_world;
+  };
+  std::vector<Searched> searched;
+  int refinements = 0, searches = 0;
+};
+
+bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells, const SE3* prior,
+                                          Hypothesis* out) const {
+  if (static_cast<int>(cells.size()) < p.min_explained_points) return false;
+  const MaskImage mask = crop_mask(g, cells, W, H);
+  SingleViewInput in;
+  in.mask = &mask;
+  in.depth = &frame.depth;
+  in.intrinsics = K;
+  in.model = &rec.models_[static_cast<size_t>(mi)];
+  in.class_id = in.model->class_id;
+  if (prior) in.T_cam_obj_prior = *prior;
+  const SingleViewPose pose = (prior ? rec.refine_ : rec.search_).estimate(in);
+  if (!pose.valid) return false;
+  out->model = mi;
+  out->T_cam_obj = pose.T_cam_obj;
+  verify(g, frame.depth, K, *in.model, p, *out);
+  return true;
+}
+
+/// Known objects, refined from their last pose on the kept points around it.
+void ModelRecognizer::Pass::refine_tracks() {
+  if (!state) return;
+  for (size_t ti = 0; ti < state->tracks.size(); ++ti) {
+    const Track& t = state->tracks[ti];
+    int mi = -1;
+    for (size_t m = 0; m < rec.models_.size(); ++m)
+      if (rec.models_[m].class_id == t.class_id) mi = static_cast<int>(m);
+    if (mi < 0) continue;
+    const SE3 prior = T_cam_world * t.T_world_obj;
+    const Vec3f c = prior.translation().cast<float>();
+    const float r = static_cast<float>(0.6 * rec.models_[mi].diameter_m);
+    std::vector<int> cells;
+    for (size_t k = 0; k < g.kept.size(); ++k)
+      if (g.kept[k] && (g.points[k] - c).squaredNorm() < r * r)
+        cells.push_back(static_cast<int>(k));
+    Hypothesis h;
+    ++refinements;
+    if (!register_crop(mi, cells, &prior, &h)) continue;
+    h.from_track = true;
+    h.track = static_cast<int>(ti);
+    hyps.push_back(std::move(h));
+  }
+}
+
+/// Every region's part the current selection leaves unexplained, searched with every model whose
+/// size fits (in parallel); regions near one whose search recently added nothing are skipped.
+void ModelRecognizer::Pass::search_regions() {
   for (const SceneRegion& region : regions) {
     std::vector<int> rest;
     for (int c : region.cells)
       if (explained_by[c] < 0) rest.push_back(c);
-    if (static_cast<int>(rest.size()) < geometry_.min_region_points) continue;
-    Vec3f lo = Vec3f::Constant(1e9f), hi = -lo, centroid = Vec3f::Zero();
-    for (int c : rest) {
-      lo = lo.cwiseMin(g.points[c]);
-      hi = hi.cwiseMax(g.points[c]);
-      centroid += g.points[c];
-    }
+    if (static_cast<int>(rest.size()) < rec.geometry_.min_region_points) continue;
+    Vec3f centroid = Vec3f::Zero();
+    for (int c : rest) centroid += g.points[c];
     centroid /= static_cast<float>(rest.size());
     const Vec3 centroid_world = T_world_cam * centroid.cast<double>();
-    if (state) {
-      bool skip = false;
-      for (const auto& r : state->rejected)
-        skip |= (r.centroid_world - centroid_world).norm() < params_.reject_radius_m;
-      if (skip) continue;
-    }
-    const float extent = (hi - lo).norm();
+    if (state && std::any_of(state->rejected.begin(), state->rejected.end(), [&](const auto& r) {
+          return (r.centroid_world - centroid_world).norm() < p.reject_radius_m;
+        }))
+      continue;
     std::vector<std::pair<int, std::vector<int>>> tasks;
-    for (size_t mi = 0; mi < models_.size(); ++mi)
-      for (auto& crop : region_crops(g, rest, models_[mi], model_extents_[mi], params_))
+    for (size_t mi = 0; mi < rec.models_.size(); ++mi)
+      for (auto& crop : region_crops(g, rest, rec.models_[mi], rec.model_extents_[mi], p))
         tasks.emplace_back(static_cast<int>(mi), std::move(crop));
     std::vector<Hypothesis> found(tasks.size());
     std::vector<char> ok(tasks.size(), 0);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int k = 0; k < static_cast<int>(tasks.size()); ++k)
       ok[k] = register_crop(tasks[k].first, tasks[k].second, nullptr, &found[k]);
-    last_registrations_ += static_cast<int>(tasks.size());
-    bool any = false;
+    searches += static_cast<int>(tasks.size());
     for (size_t k = 0; k < tasks.size(); ++k) {
       if (!ok[k]) continue;
-      any |= found[k].support >= params_.min_support && found[k].violation <= params_.max_violation;
+      spdlog::trace(
+          "recognition: {} on {} crop points: explains {}, support {:.2f}, violation {:.2f}",
+          rec.models_[found[k].model].name, tasks[k].second.size(), found[k].explained.size(),
+          found[k].support, found[k].violation);
       hyps.push_back(std::move(found[k]));
     }
-    spdlog::debug("recognition: region of {} points ({} unexplained), extent {:.3f} m: {} searches",
-                  region.cells.size(), rest.size(), extent, tasks.size());
-    if (!any && state) state->rejected.push_back({centroid_world, state->keyframe});
+    searched.push_back({centroid_world});
+    spdlog::debug("recognition: region of {} points ({} unexplained): {} searches",
+                  region.cells.size(), rest.size(), tasks.size());
   }
-  std::vector<int> kept = select(hyps, &explained_by);
-  // Clutter: an object whose observed surface continues past its outline into points no kept
-  // object explains is a part of something larger; a region the kept objects explain poorly holds
-  // no object. Both are dropped, then the selection runs again.
-  for (int round = 0; round < 4; ++round) {
-    bool leaked = false;
+}
+
+/// Greedy selection, best first: a hypothesis is kept when it newly explains enough points.
+void ModelRecognizer::Pass::select() {
+  for (auto& h : hyps)
+    h.rank =
+        static_cast<double>(h.explained.size()) * h.support * (h.from_track ? p.track_bonus : 1.0);
+  std::vector<int> order(hyps.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return hyps[a].rank > hyps[b].rank; });
+  kept.clear();
+  explained_by.assign(g.kept.size(), -1);
+  for (int i : order) {
+    const Hypothesis& h = hyps[static_cast<size_t>(i)];
+    if (h.support < p.min_support || h.violation > p.max_violation) continue;
+    int fresh = 0;
+    for (int c : h.explained) fresh += explained_by[c] < 0;
+    if (fresh < p.min_explained_points ||
+        fresh < p.min_new_fraction * static_cast<double>(h.explained.size()))
+      continue;
+    for (int c : h.explained)
+      if (explained_by[c] < 0) explained_by[c] = i;
+    kept.push_back(i);
+  }
+}
+
+/// Clutter: an object whose observed surface continues past its outline (into points no kept
+/// object explains, or smoothly into a neighbour's) is a part of something larger; a region the
+/// kept objects explain poorly holds no object. Both are dropped, then the selection runs again.
+void ModelRecognizer::Pass::reject_clutter() {
+  GridNormals normals(g, p.normal_radius_cells);
+  // Each round drops at least one hypothesis for good, so this ends; the last selection is
+  // always checked (a clutter surface with many candidate models refills itself round after round).
+  for (size_t round = 0; round <= hyps.size(); ++round) {
+    // The worst leaking object only: its neighbours' outlines change once it is replaced (a wrong
+    // hypothesis next to a right one makes the right one's outline leak too). Failing that, of
+    // two objects whose shared edge is mostly seamless (one surface tiled by two hypotheses),
+    // the lower-ranked one.
+    int worst = -1, seam_drop = -1;
+    double worst_leak = p.max_boundary_leak, worst_seam = p.max_seam_fraction;
     for (int i : kept) {
-      const double leak = boundary_leak(g, explained_by, i, params_);
-      if (leak > params_.max_boundary_leak) {
-        hyps[static_cast<size_t>(i)].support = -1;
-        leaked = true;
+      if (hyps[static_cast<size_t>(i)].from_track) continue;  // passed when it was found
+      const OutlineTest t = boundary_leak(g, frame.color, explained_by, i, p, normals);
+      if (t.leak > worst_leak) worst_leak = t.leak, worst = i;
+      if (t.seam > worst_seam) {
+        worst_seam = t.seam;
+        seam_drop = hyps[static_cast<size_t>(t.seam_with)].rank < hyps[i].rank ? t.seam_with : i;
       }
     }
-    if (leaked) {
-      kept = select(hyps, &explained_by);
+    if (worst < 0) worst = seam_drop;
+    if (worst >= 0) {
+      hyps[static_cast<size_t>(worst)].support = -1;  // out of the next selection
+      select();
       continue;
     }
     std::vector<int> explained(regions.size(), 0);
@@ -469,24 +635,28 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
       int total = 0, in_poor = 0;
       for (const auto& [r, n] : owned[i]) {
         total += n;
-        if (explained[r] < params_.min_region_coverage * regions[r].cells.size()) in_poor += n;
+        if (explained[r] < p.min_region_coverage * regions[r].cells.size()) in_poor += n;
       }
-      if (total > 0 && in_poor > total / 2) {
-        hyps[static_cast<size_t>(i)].support = -1;  // out of the next selection
+      // A known object (confirmed on an earlier keyframe) is not dropped for its region: an
+      // unknown object touching it leaves the region poorly explained, not the object wrong.
+      if (total > 0 && in_poor > total / 2 && !hyps[static_cast<size_t>(i)].from_track) {
+        hyps[static_cast<size_t>(i)].support = -1;
         dropped = true;
       }
     }
     if (!dropped) break;
-    kept = select(hyps, &explained_by);
+    select();
   }
+}
 
-  // 3. Detections: pixels within the inlier distance of their nearest kept model.
-  const float d_in = static_cast<float>(params_.inlier_distance_m);
+/// Per kept object, the pixels within the inlier distance of its model (nearest model wins).
+std::vector<Detection> ModelRecognizer::Pass::detections() {
+  const float d_in = static_cast<float>(p.inlier_distance_m);
   Image<float> best(W, H, d_in);
   Image<int> owner(W, H, -1);
   for (int i : kept) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
-    const ObjectModel& model = models_[static_cast<size_t>(h.model)];
+    const ObjectModel& model = rec.models_[static_cast<size_t>(h.model)];
     BoxPx box;
     for (int c : h.explained) box.include(g.pixel_u(c), g.pixel_v(c));
     const int pad = g.stride + 2;
@@ -499,9 +669,9 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
         if (!(z > 0)) continue;
         const int c = g.cell(u / g.stride, v / g.stride);
         if (explained_by[c] >= 0 && explained_by[c] != i) continue;
-        const Vec3f p = K.backproject(u, v, z).cast<float>();
+        const Vec3f q = K.backproject(u, v, z).cast<float>();
         float dist2 = 0;
-        model.search_index->nearest(R * p + t, &dist2);
+        model.search_index->nearest(R * q + t, &dist2);
         const float dist = std::sqrt(dist2);
         if (dist < best.at(u, v)) {
           best.at(u, v) = dist;
@@ -510,12 +680,13 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
       }
   }
   std::vector<Detection> out;
-  last_objects_.clear();
-  const float prob = static_cast<float>(params_.detection_probability);
+  rec.last_objects_.clear();
+  const float prob = static_cast<float>(p.detection_probability);
+  const SegmentationParams& sp = rec.segmentation_;
   for (int i : kept) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
     Detection d;
-    d.class_id = models_[static_cast<size_t>(h.model)].class_id;
+    d.class_id = rec.models_[static_cast<size_t>(h.model)].class_id;
     d.score = static_cast<float>(std::clamp(0.5 + 0.5 * h.support - h.violation, 0.0, 1.0));
     d.probability = ProbabilityImage(W, H, 0.0f);
     for (int v = 0; v < H; ++v)
@@ -524,55 +695,96 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
           d.probability.at(u, v) = prob;
           d.box.include(u, v);
         }
-    if (d.score < segmentation_.min_score ||
-        mask_area(d.probability, static_cast<float>(segmentation_.mask_threshold)) <
-            segmentation_.min_mask_area_px)
+    if (d.score < sp.min_score ||
+        mask_area(d.probability, static_cast<float>(sp.mask_threshold)) < sp.min_mask_area_px)
       continue;
     out.push_back(std::move(d));
-    last_objects_.push_back({out.back().class_id, h.T_cam_obj, static_cast<int>(h.explained.size()),
-                             h.support, h.violation, h.from_track});
+    rec.last_objects_.push_back({out.back().class_id, h.T_cam_obj,
+                                 static_cast<int>(h.explained.size()), h.support, h.violation,
+                                 h.from_track});
   }
+  return out;
+}
 
-  // 4. Tracks: kept objects update (or start) theirs; known objects in view but not kept miss.
-  if (state) {
-    std::vector<int> confirmed(state->tracks.size(), 0);
-    for (int i : kept) {
-      const Hypothesis& h = hyps[static_cast<size_t>(i)];
-      const SE3 T_world_obj = T_world_cam * h.T_cam_obj;
-      int ti = h.track;
-      if (ti < 0) {
-        for (size_t k = 0; k < state->tracks.size(); ++k)
-          if (state->tracks[k].class_id == models_[h.model].class_id &&
-              (state->tracks[k].T_world_obj.translation() - T_world_obj.translation()).norm() <
-                  0.3 * models_[h.model].diameter_m)
-            ti = static_cast<int>(k);
-      }
-      if (ti < 0) {
-        state->tracks.push_back({models_[h.model].class_id, T_world_obj, 0, 0});
-        confirmed.push_back(0);
-        ti = static_cast<int>(state->tracks.size()) - 1;
-      }
-      Track& t = state->tracks[static_cast<size_t>(ti)];
-      t.T_world_obj = T_world_obj;
-      ++t.hits;
-      t.misses = 0;
-      confirmed[static_cast<size_t>(ti)] = 1;
+/// Kept objects update (or start) their tracks; known objects in view but not kept miss.
+void ModelRecognizer::Pass::update_tracks() {
+  if (!state) return;
+  std::vector<int> confirmed(state->tracks.size(), 0);
+  for (int i : kept) {
+    const Hypothesis& h = hyps[static_cast<size_t>(i)];
+    const ObjectModel& model = rec.models_[static_cast<size_t>(h.model)];
+    const SE3 T_world_obj = T_world_cam * h.T_cam_obj;
+    int ti = h.track;
+    for (size_t k = 0; ti < 0 && k < state->tracks.size(); ++k)
+      if (state->tracks[k].class_id == model.class_id &&
+          (state->tracks[k].T_world_obj.translation() - T_world_obj.translation()).norm() <
+              0.3 * model.diameter_m)
+        ti = static_cast<int>(k);
+    if (ti < 0) {
+      state->tracks.push_back({model.class_id, T_world_obj, 0, 0});
+      confirmed.push_back(0);
+      ti = static_cast<int>(state->tracks.size()) - 1;
     }
-    std::vector<Track> alive;
-    for (size_t k = 0; k < state->tracks.size(); ++k) {
-      Track t = state->tracks[k];
-      if (!confirmed[k]) {
-        const Vec3 c = T_cam_world * t.T_world_obj.translation();
-        const Eigen::Vector2d px = c.z() > 0.05 ? K.project(c) : Eigen::Vector2d(-1, -1);
-        if (px.x() >= 0 && px.y() >= 0 && px.x() < W && px.y() < H) ++t.misses;
-      }
-      if (t.misses < params_.track_max_misses) alive.push_back(t);
-    }
-    state->tracks = std::move(alive);
-    std::erase_if(state->rejected, [&](const Rejected& r) {
-      return state->keyframe - r.keyframe >= params_.reject_memory_keyframes;
-    });
+    Track& t = state->tracks[static_cast<size_t>(ti)];
+    t.T_world_obj = T_world_obj;
+    ++t.hits;
+    t.misses = 0;
+    confirmed[static_cast<size_t>(ti)] = 1;
   }
+  std::vector<Track> alive;
+  for (size_t k = 0; k < state->tracks.size(); ++k) {
+    Track t = state->tracks[k];
+    if (!confirmed[k]) {
+      const Vec3 c = T_cam_world * t.T_world_obj.translation();
+      const Eigen::Vector2d px = c.z() > 0.05 ? K.project(c) : Eigen::Vector2d(-1, -1);
+      if (px.x() >= 0 && px.y() >= 0 && px.x() < W && px.y() < H) ++t.misses;
+    }
+    if (t.misses < p.track_max_misses) alive.push_back(t);
+  }
+  state->tracks = std::move(alive);
+}
+
+/// Every searched region is not searched again for reject_memory_keyframes keyframes: what its
+/// search found is a known object from now on (refined, not searched), what it did not find
+/// (clutter, an unknown object) would be found again. Later keyframes then cost the refinements of
+/// the known objects and the search of new surface only.
+void ModelRecognizer::Pass::remember_searches() {
+  if (!state) return;
+  for (const Searched& s : searched) state->rejected.push_back({s.centroid_world, state->keyframe});
+  std::erase_if(state->rejected, [&](const Rejected& r) {
+    return state->keyframe - r.keyframe >= p.reject_memory_keyframes;
+  });
+}
+
+std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T_world_cam,
+                                            State* state) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::clock_t cpu0 = std::clock();
+  RecognitionTiming& timing = last_timing_;
+  timing = {};
+  if (state) ++state->keyframe;
+  Pass pass(*this, frame, T_world_cam, state);
+  timing.geometry_ms = ms_since(t0);
+  auto t = std::chrono::steady_clock::now();
+  pass.refine_tracks();
+  pass.select();
+  timing.tracks_ms = ms_since(t);
+  t = std::chrono::steady_clock::now();
+  pass.search_regions();
+  timing.search_ms = ms_since(t);
+  t = std::chrono::steady_clock::now();
+  pass.select();
+  pass.reject_clutter();
+  timing.verify_ms = ms_since(t);
+  t = std::chrono::steady_clock::now();
+  std::vector<Detection> out = pass.detections();
+  pass.update_tracks();
+  pass.remember_searches();
+  timing.detections_ms = ms_since(t);
+  timing.total_ms = ms_since(t0);
+  timing.cpu_ms = 1000.0 * static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
+  timing.refinements = pass.refinements;
+  timing.searches = pass.searches;
   return out;
 }
 

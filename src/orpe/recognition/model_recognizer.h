@@ -58,10 +58,17 @@ struct RecognitionParams {
   double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
   double max_boundary_leak = 0.25;   ///< outline fraction continuing into unexplained surface
   double boundary_continuation_m = 0.015;
+  double smooth_edge_max_angle_deg = 20;  ///< a shared edge without a crease continues the surface
+  double smooth_edge_max_step_m =
+      0.004;  ///< and the far side within this of the near tangent plane
+  double smooth_edge_max_colour_step = 25;  ///< and the colour the same on both sides (0-255)
+  int normal_radius_cells = 3;              ///< window of the grid normals (edge test)
+  double max_seam_fraction = 0.5;  ///< a shared edge more seamless than this is no object boundary
+  int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
-  int reject_memory_keyframes = 10;  ///< keyframes a rejected region is not searched again
+  int reject_memory_keyframes = 10;  ///< keyframes a searched region is not searched again
   double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
   double detection_probability = 0.9;  ///< soft mask value on the explained pixels
 
@@ -108,13 +115,31 @@ struct RecognitionParams {
     v("boundary_continuation_m", boundary_continuation_m,
       "Outline test: a point two grid cells outside within this distance (m) continues the "
       "surface");
+    v("smooth_edge_max_angle_deg", smooth_edge_max_angle_deg,
+      "Outline test across two kept objects' shared edge: where the surface continues (within "
+      "boundary_continuation_m) with normals within this angle (deg), no crease or depth step "
+      "separates them, so the edge counts as leaking (clutter tiled by hypotheses)");
+    v("smooth_edge_max_step_m", smooth_edge_max_step_m,
+      "... and the far side of the edge lies within this distance (m) of the near side's tangent "
+      "plane (no step)");
+    v("smooth_edge_max_colour_step", smooth_edge_max_colour_step,
+      "... and the colour (3x3 means, largest channel difference, 0-255) differs by less than "
+      "this across it (no colour image: geometry alone)");
+    v("normal_radius_cells", normal_radius_cells,
+      "Half-width (grid cells) of the window whose points' plane fit gives a cell's normal");
+    v("max_seam_fraction", max_seam_fraction,
+      "Two kept objects whose shared edge is seamless (surface, normals and colour continue) for "
+      "more than this fraction of its outline pairs tile one surface: the lower-ranked is dropped");
+    v("min_seam_pairs", min_seam_pairs, "Outline pairs a shared edge needs for the seam test");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");
     v("reject_memory_keyframes", reject_memory_keyframes,
-      "Keyframes during which a region no model explained is not searched again");
+      "Keyframes during which a searched region is not searched again (what it held is known "
+      "and refined from then on; what no model explained would not be found either)");
     v("reject_radius_m", reject_radius_m,
-      "A region whose centroid is within this distance (m) of a rejected one is skipped");
+      "A region whose unexplained part's centroid is within this distance (m) of a searched one "
+      "is skipped");
     v("detection_probability", detection_probability,
       "Soft mask probability of the pixels a kept hypothesis explains");
   }
@@ -127,6 +152,19 @@ struct RecognitionParams {
 std::vector<int> resolve_model_classes(const std::string& spec,
                                        const std::map<int, std::string>& class_names,
                                        const std::vector<int>& classes_with_models);
+
+/// Where the time of one call went (wall ms per step; cpu_ms = process CPU time over all threads,
+/// which bounds the wall time of the call on an idle machine).
+struct RecognitionTiming {
+  double geometry_ms = 0;    ///< grid, support planes, regions
+  double tracks_ms = 0;      ///< refinement of the known objects
+  double search_ms = 0;      ///< searches of the unexplained regions
+  double verify_ms = 0;      ///< joint selection and clutter rejection
+  double detections_ms = 0;  ///< masks
+  double total_ms = 0;
+  double cpu_ms = 0;
+  int refinements = 0, searches = 0;
+};
 
 /// One verified object hypothesis (for diagnosis and tests).
 struct RecognizedObject {
@@ -152,7 +190,8 @@ class ModelRecognizer final : public Segmenter {
   /// The objects kept in the last call.
   const std::vector<RecognizedObject>& last_objects() const { return last_objects_; }
   /// Registrations run in the last call (searches and refinements).
-  int last_registrations() const { return last_registrations_; }
+  int last_registrations() const { return last_timing_.refinements + last_timing_.searches; }
+  const RecognitionTiming& last_timing() const { return last_timing_; }
 
   struct Track {
     int class_id = 0;
@@ -170,6 +209,7 @@ class ModelRecognizer final : public Segmenter {
   };
 
  private:
+  struct Pass;  ///< one call's working set (model_recognizer.cpp)
   std::vector<Detection> run(const RgbdFrame& frame, const SE3& T_world_cam, State* state) const;
   SegmentationParams segmentation_;
   RecognitionParams params_;
@@ -179,7 +219,7 @@ class ModelRecognizer final : public Segmenter {
   ModelRegistrationEstimator search_, refine_;
   State state_;
   mutable std::vector<RecognizedObject> last_objects_;
-  mutable int last_registrations_ = 0;
+  mutable RecognitionTiming last_timing_;
 };
 
 }  // namespace orpe

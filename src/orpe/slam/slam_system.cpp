@@ -71,12 +71,13 @@ bool SlamParams::IsValid(std::string* why) const {
 std::string SlamFrameResult::report() const {
   return fmt::format(
       "frame {:5d} {:<8} inliers {:6d} ({:4.2f}) icp_rms {:6.4f} m rgb_rms {:5.2f} it {:2d} "
-      "overlap {:4.2f} agree {:4.2f} step {:.1e} | +{} ~{} -{} "
+      "overlap {:4.2f} agree {:4.2f} front {:5.3f} behind {:5.3f} step {:.1e} | +{} ~{} -{} "
       "merged {} surfels {} | {:5.1f} ms (pre {:4.1f} pred {:4.1f} track {:5.1f} fuse {:5.1f}){}{}",
       frame_index, to_string(status), icp_inliers, inlier_fraction, icp_rms_m, rgb_rms, iterations,
-      overlap_fraction, consistent_fraction, final_step, fusion.created, fusion.updated,
-      fusion.removed_unstable + fusion.removed_free_space, fusion.merged, fusion.surfels, total_ms,
-      preprocess_ms, predict_ms, track_ms, fuse_ms, reason.empty() ? "" : " | ", reason);
+      overlap_fraction, consistent_fraction, in_front_fraction, behind_fraction, final_step,
+      fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space,
+      fusion.merged, fusion.surfels, total_ms, preprocess_ms, predict_ms, track_ms, fuse_ms,
+      reason.empty() ? "" : " | ", reason);
 }
 
 SlamSystem::SlamSystem(const SlamParams& params)
@@ -179,6 +180,8 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     res.iterations = a.iterations;
     res.overlap_fraction = a.overlap_fraction;
     res.consistent_fraction = a.consistent_fraction;
+    res.in_front_fraction = a.in_front_fraction;
+    res.behind_fraction = a.behind_fraction;
     res.final_step = a.final_step;
     res.reason = a.reason;
     if (a.failed) {

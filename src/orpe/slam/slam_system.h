@@ -35,8 +35,8 @@ const char* to_string(TrackingStatus s);
 
 /// System-level options (the stage Params are separate config sections).
 struct SlamOptions {
-  /// Track unstable surfels that the last fused frame created or updated, in addition to stable ones
-  /// (otherwise new parts of the scene are unusable for ~10 frames).
+  /// Track unstable surfels that the last fused frame created or updated, in addition to stable
+  /// ones (otherwise new parts of the scene are unusable for ~10 frames).
   bool track_recent_unstable = true;
   /// Initial surfel capacity reserved (surfels), to avoid reallocations.
   int reserve_surfels = 500000;
@@ -104,6 +104,8 @@ struct SlamFrameResult {
   int iterations = 0;
   double overlap_fraction = 0;     ///< self-check (AlignmentResult)
   double consistent_fraction = 0;  ///< self-check (AlignmentResult)
+  double in_front_fraction = 0;    ///< self-check (AlignmentResult): free-space violations
+  double behind_fraction = 0;      ///< self-check (AlignmentResult)
   double final_step = 0;
   /// Too little valid depth in range (SlamOptions::min_valid_depth_fraction): not tracked, not
   /// fused.

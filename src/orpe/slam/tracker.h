@@ -79,10 +79,10 @@ struct TrackerParams {
   double consistency_noise_sigmas = 3.0;
   // The free-space test, on by default (docs/SLAM.md, "The tracker's self-check"): a live point
   // in front of the map's surface by more than the tolerance sits where the map has seen empty
-  // space. On correctly tracked frames this is rare even on Kinect v1 data (7-Scenes frames 1-196:
-  // <= 0.028 of the overlap, median 0.002), whose disagreement is nearly all on the other side
-  // (live points behind the rendered surface: up to 0.37, map artefacts); a wrong alignment
-  // violates both sides (synthetic camera jumps: 0.075-0.128 in front).
+  // space. On correctly tracked frames this is rare even on Kinect v1 data (7-Scenes, 500 frames:
+  // median 0.002, <= 0.028 but for frame 313 at 0.063), whose disagreement is nearly all on the
+  // other side (live points behind the rendered surface: up to 0.37, map artefacts); a wrong
+  // alignment violates both sides (synthetic camera jumps: 0.075-0.203 in front).
   double max_in_front_fraction =
       0.06;  ///< in-front / overlapping pixels above this -> failed (LOST)
   double good_in_front_fraction = 0.04;  ///< above this -> degraded

@@ -65,6 +65,15 @@ void run_recon(const ReconCommand& c) {
   const ReconstructionEvaluation ev =
       evaluate_reconstruction(map, objects, surface_ptrs, info.class_names, params);
   std::cout << (c.markdown ? ev.markdown() : ev.report());
+  // A map whose objects have no surfels measures nothing (this printed "MEAN 0.00" before).
+  if (ev.objects_measured == 0)
+    throw IoError(
+        map_path,
+        fmt::format(
+            "none of the {} ground-truth objects has surfels in the map (instance ids > 0{}): "
+            "nothing to measure",
+            ev.objects.size(),
+            c.min_confidence > 0 ? fmt::format(", confidence >= {}", c.min_confidence) : ""));
   if (!c.json_path.empty()) write_text_atomic(c.json_path, ev.to_json());
 }
 

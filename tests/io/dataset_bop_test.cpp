@@ -161,6 +161,46 @@ TEST(BopReader, DatasetRootPicksSceneAndFindsModels) {
   EXPECT_THROW(open_dataset(no_scenes, DatasetParams{}), IoError);
 }
 
+// A missing models_info.json silently dropped every symmetry (ADD instead of ADD-S); issue 12.
+TEST(BopReader, MissingModelsInfoIsRefusedUnlessAskedFor) {
+  const std::string root = test::scratch_dir("bop");
+  const std::string scene = make_bop(root);
+  EXPECT_EQ(open_dataset(scene, DatasetParams{})->info().symmetric_classes, std::vector<int>{2});
+  std::filesystem::remove(root + "/models/models_info.json");
+  test::expect_io_error_naming([&] { open_dataset(scene, DatasetParams{}); }, "models_info.json");
+  DatasetParams p;
+  p.bop_without_models_info = true;
+  const auto reader = open_dataset(scene, p);
+  EXPECT_TRUE(reader->info().symmetric_classes.empty());
+  EXPECT_EQ(reader->info().model_points_paths.size(), 2u);
+}
+
+// Overflowing ids were a bare "[error] stoi" (issue 12); now they name the file or folder.
+TEST(BopReader, OverflowingIdsAreErrorsNamingTheFile) {
+  const std::string root = test::scratch_dir("bop");
+  const std::string scene = make_bop(root);
+  json cams = json::parse(std::ifstream(scene + "/scene_camera.json"));
+  cams["99999999999"] = cams["0"];
+  test::write_text(scene + "/scene_camera.json", cams.dump());
+  test::expect_io_error_naming([&] { open_dataset(scene, DatasetParams{}); }, "scene_camera.json");
+  try {
+    open_dataset(scene, DatasetParams{});
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("'99999999999' is out of range"), std::string::npos)
+        << e.what();
+  }
+  const std::string root2 = test::scratch_dir("bop2");
+  const std::string scene2 = make_bop(root2);
+  const std::string big = root2 + "/test/99999999999999";
+  std::filesystem::rename(scene2, big);
+  test::expect_io_error_naming([&] { open_dataset(big, DatasetParams{}); }, "99999999999999");
+  test::write_text(root2 + "/models/models_info.json",
+                   R"({"1": {"diameter": 40.0}, "99999999999": {"diameter": 1}})");
+  DatasetParams p;
+  p.scene = "000005";
+  test::expect_io_error_naming([&] { open_dataset(root2, p); }, "models_info.json");
+}
+
 TEST(BopReader, BadEntriesAreErrorsNamingTheFile) {
   const std::string root = test::scratch_dir("bop");
   const std::string scene = make_bop(root);

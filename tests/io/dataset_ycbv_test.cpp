@@ -253,6 +253,27 @@ TEST(YcbReader, BadMetaFilesAreErrorsNamingTheFile) {
   EXPECT_NO_THROW(open_dataset(dir, p)->read(1));
 }
 
+// cls_indexes past classes.txt named no class and was accepted (issue 12).
+TEST(YcbReader, ClassIndexBeyondTheClassListIsAnError) {
+  const std::string root = make_ycb(test::scratch_dir("ycb"));
+  YcbFrameSpec spec;
+  spec.classes = {2, 25};
+  write_ycb_frame(root + "/data/0003", 2, spec);
+  DatasetParams p;
+  p.scene = "0003";
+  auto reader = open_dataset(root, p);
+  EXPECT_NO_THROW(reader->read_annotations(0));
+  test::expect_io_error_naming([&] { reader->read_annotations(1); }, "000002-meta.mat");
+  try {
+    reader->read(1);
+    ADD_FAILURE() << "no error";
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("cls_indexes[1] = 25 is beyond the 3 classes"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(YcbReader, LabelSizeMismatchAndMissingMeta) {
   const std::string dir = test::scratch_dir("ycb") + "/data/0001";
   for (int i = 1; i <= 3; ++i) write_ycb_frame(dir, i, YcbFrameSpec{});

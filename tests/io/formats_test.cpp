@@ -101,6 +101,38 @@ TEST(BopResults, BadRowsAreErrors) {
   EXPECT_THROW(read_bop_results(dir + "/b.csv"), IoError);
 }
 
+// Integer fields were read by prefix (1.5 -> 1, 14abc -> 14, 1e+20 -> 1: rows on the wrong image)
+// and a NaN score was accepted (issue 12).
+TEST(BopResults, EveryFieldIsParsedWholeNamingLineAndField) {
+  const std::string dir = test::scratch_dir("strict");
+  const std::string rest = ",1 0 0 0 1 0 0 0 1,0 0 500,-1\n";
+  const std::string header = "scene_id,im_id,obj_id,score,R,t,time\n";
+  struct Case {
+    std::string row, needle;
+  };
+  for (const Case& c :
+       {Case{"1,1.5,3,0.9", "line 3, field im_id: '1.5' is not an integer"},
+        Case{"1,14abc,3,0.9", "line 3, field im_id: '14abc'"},
+        Case{"1,1e+20,3,0.9", "line 3, field im_id: '1e+20'"},
+        Case{"99999999999,1,3,0.9", "line 3, field scene_id: '99999999999' is out of range"},
+        Case{"1,-2,3,0.9", "line 3, field im_id: '-2' is out of range"},
+        Case{"1,1,3x,0.9", "line 3, field obj_id"},
+        Case{"1,1,3,nan", "line 3, field score: 'nan' is not a finite number"},
+        Case{"1,1,3,0.9z", "line 3, field score"}}) {
+    const std::string path = dir + "/r.csv";
+    std::ofstream(path) << header << "1,1,3,0.5" << rest << c.row << rest;
+    try {
+      read_bop_results(path);
+      ADD_FAILURE() << c.row << ": no error";
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.needle), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+  std::ofstream(dir + "/ok.csv") << header << "1,1,3,0.5" << rest;
+  EXPECT_EQ(read_bop_results(dir + "/ok.csv").size(), 1u);
+}
+
 TEST(ModelPoints, ReadsXyzAndRejectsGarbage) {
   const std::string dir = test::scratch_dir("x");
   std::ofstream(dir + "/p.xyz") << "0.1 0.2 0.3\n-1 0 1\n";

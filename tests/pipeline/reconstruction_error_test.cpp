@@ -3,7 +3,10 @@
 // reader.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <random>
+#include <sstream>
 
 #include "orpe/core/error.h"
 #include "orpe/io/point_cloud_io.h"
@@ -111,6 +114,33 @@ TEST(ReconstructionError, MeanDistanceAtTheGroundTruthPoseAndAssignment) {
   PointCloudData bare;
   bare.positions_m = map.positions_m;
   EXPECT_THROW(evaluate_reconstruction(bare, objects, {{2, &surface}}, {}), std::invalid_argument);
+}
+
+// A map whose objects have no surfels printed "MEAN 0.00" (issue 12): now "-", null in JSON, and
+// objects_measured = 0 (`orpe eval recon` then exits with an error).
+TEST(ReconstructionError, NoObjectSurfelsMeasureNothing) {
+  const TriangleMesh box = make_box(V3(0.2f, 0.1f, 0.3f), 0.05f);
+  const ModelSurface surface = ModelSurface::from_mesh(box);
+  PointCloudData map;
+  map.positions_m.push_back(V3(5, 5, 5));
+  map.instance_ids.push_back(0);
+  map.class_ids.push_back(0);
+  map.confidences.push_back(20);
+  const std::vector<GroundTruthObjectPose> objects = {{101, 2, SE3(), {}}};
+  const ReconstructionEvaluation ev =
+      evaluate_reconstruction(map, objects, {{2, &surface}}, {{2, "box"}});
+  EXPECT_EQ(ev.objects_measured, 0);
+  EXPECT_EQ(ev.objects_without_surfels, 1);
+  const std::string report = ev.report();
+  // The first column after the row's name is the mean (mm).
+  std::istringstream mean_row(report.substr(report.find("MEAN (objects)") + 14));
+  std::string mean_field;
+  mean_row >> mean_field;
+  EXPECT_EQ(mean_field, "-") << report;
+  EXPECT_NE(ev.markdown().find("| **mean** | | | - |"), std::string::npos) << ev.markdown();
+  const auto j = nlohmann::json::parse(ev.to_json());
+  EXPECT_TRUE(j["mean_mm"].is_null()) << j.dump();
+  EXPECT_EQ(j["objects_measured"], 0);
 }
 
 TEST(ReconstructionError, FarFractionsAndCompletenessOverTheSeenSurface) {

@@ -1,4 +1,5 @@
 #include "orpe/eval/bop_pose_errors.h"
+#include "orpe/core/parse_number.h"
 
 #include <fmt/format.h>
 
@@ -77,8 +78,9 @@ std::map<int, BopModelInfo> read_bop_models_info(const std::string& path) {
   for (const auto& [key, e] : j.items()) {
     if (key.empty() || !std::all_of(key.begin(), key.end(), ::isdigit))
       throw IoError(path, fmt::format("key '{}' is not an object id", key));
+    const int id = parse_int_field(key, path, fmt::format("key '{}'", key), 0);
     try {
-      out[std::stoi(key)] = parse_model_info(e);
+      out[id] = parse_model_info(e);
     } catch (const std::exception& ex) {
       throw IoError(path, fmt::format("object {}: {}", key, ex.what()));
     }

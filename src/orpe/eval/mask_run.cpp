@@ -1,4 +1,5 @@
 #include "orpe/eval/mask_run.h"
+#include "orpe/core/parse_number.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -44,11 +45,11 @@ MaskRunImage image_from_json(const nlohmann::json& j) {
   image.file = j.at("file").get<std::string>();
   if (image.file.empty()) throw std::invalid_argument("empty file name");
   for (const auto& [key, value] : j.at("classes").items()) {
-    std::size_t used = 0;
-    const int label = std::stoi(key, &used);
-    if (used != key.size() || label <= 0)
-      throw std::invalid_argument(fmt::format("label value '{}' is not a positive integer", key));
-    image.classes[label] = value.get<int>();
+    long long label = 0;
+    if (!parse_integer(key, 1, 65535, &label, nullptr))
+      throw std::invalid_argument(
+          fmt::format("label value '{}' is not an integer in 1..65535", key));
+    image.classes[static_cast<int>(label)] = value.get<int>();
   }
   return image;
 }

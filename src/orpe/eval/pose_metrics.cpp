@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "orpe/core/error.h"
+#include "orpe/core/parse_number.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/model_io.h"
 
@@ -324,8 +325,9 @@ FrameSet read_keyframe_list(const std::string& path) {
         !all_digits(slash + 1, end + 1) || end + 1 - (slash + 1) > 9 || slash - first > 9)
       throw IoError(path,
                     fmt::format("line {}: expected 'video/frame' such as 0048/000001", line_no));
-    frames.emplace(std::stoi(line.substr(first, slash - first)),
-                   std::stoi(line.substr(slash + 1, end - slash)));
+    const std::string where = fmt::format("line {}", line_no);
+    frames.emplace(parse_int_field(line.substr(first, slash - first), path, where, 0),
+                   parse_int_field(line.substr(slash + 1, end - slash), path, where, 0));
   }
   if (frames.empty()) throw IoError(path, "no keyframes listed");
   return frames;

@@ -8,6 +8,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/parse_number.h"
 
 namespace orpe {
 namespace {
@@ -21,14 +22,16 @@ std::vector<std::string> split(const std::string& s, char sep) {
   return out;
 }
 
-std::vector<double> numbers(const std::string& s, const std::string& path, int line_no, const char* what) {
+std::vector<double> numbers(const std::string& s, const std::string& path, int line_no,
+                            const char* what) {
   std::istringstream is(s);
   std::vector<double> v;
   double x;
   while (is >> x) v.push_back(x);
   if (!is.eof()) throw IoError(path, fmt::format("line {}: bad number in {}", line_no, what));
   for (double y : v)
-    if (!std::isfinite(y)) throw IoError(path, fmt::format("line {}: non-finite value in {}", line_no, what));
+    if (!std::isfinite(y))
+      throw IoError(path, fmt::format("line {}: non-finite value in {}", line_no, what));
   return v;
 }
 
@@ -61,21 +64,24 @@ std::vector<PoseResultRow> read_bop_results(const std::string& path) {
     const auto f = split(line, ',');
     if (f.size() != 7)
       throw IoError(path, fmt::format("line {}: expected 7 comma-separated fields "
-                                      "scene_id,im_id,obj_id,score,R,t,time, got {}", line_no, f.size()));
+                                      "scene_id,im_id,obj_id,score,R,t,time, got {}",
+                                      line_no, f.size()));
     PoseResultRow r;
-    try {
-      r.scene_id = std::stoi(f[0]);
-      r.im_id = std::stoi(f[1]);
-      r.obj_id = std::stoi(f[2]);
-      r.score = std::stod(f[3]);
-      r.time_s = std::stod(f[6]);
-    } catch (const std::exception&) {
-      throw IoError(path, fmt::format("line {}: bad integer/number field", line_no));
-    }
+    auto where = [&](const char* field) {
+      return fmt::format("line {}, field {}", line_no, field);
+    };
+    r.scene_id = parse_int_field(f[0], path, where("scene_id"), 0);
+    r.im_id = parse_int_field(f[1], path, where("im_id"), 0);
+    r.obj_id = parse_int_field(f[2], path, where("obj_id"), 0);
+    // A NaN score would sort anywhere and vote in any fusion: refused like any non-number.
+    r.score = parse_finite_field(f[3], path, where("score"));
+    r.time_s = parse_finite_field(f[6], path, where("time"));
     const auto R = numbers(f[4], path, line_no, "R");
     const auto t = numbers(f[5], path, line_no, "t");
-    if (R.size() != 9) throw IoError(path, fmt::format("line {}: R needs 9 values, got {}", line_no, R.size()));
-    if (t.size() != 3) throw IoError(path, fmt::format("line {}: t needs 3 values, got {}", line_no, t.size()));
+    if (R.size() != 9)
+      throw IoError(path, fmt::format("line {}: R needs 9 values, got {}", line_no, R.size()));
+    if (t.size() != 3)
+      throw IoError(path, fmt::format("line {}: t needs 3 values, got {}", line_no, t.size()));
     Mat3 Rm;
     for (int i = 0; i < 9; ++i) Rm(i / 3, i % 3) = R[i];
     if ((Rm * Rm.transpose() - Mat3::Identity()).norm() > 1e-3 || Rm.determinant() < 0)

@@ -1,7 +1,7 @@
 // One interface over the dataset layouts orpe reads: a random-access sequence of RGB-D frames plus
 // whatever ground truth the dataset has. Readers convert to library conventions at this edge:
-// depth in metres (per-dataset depth scale), colour RGB8, poses as T_world_cam / T_cam_obj in metres.
-// Layouts, presets, detection rules and depth scales: docs/DATASETS.md.
+// depth in metres (per-dataset depth scale), colour RGB8, poses as T_world_cam / T_cam_obj in
+// metres. Layouts, presets, detection rules and depth scales: docs/DATASETS.md.
 #pragma once
 
 #include <map>
@@ -21,10 +21,14 @@ struct DatasetParams {
   int first_frame = 0;          ///< index into the layout's frame list (after sorting), inclusive
   int last_frame = -1;          ///< inclusive; -1 = to the end
   int stride = 1;               ///< take every stride-th frame
-  double depth_units_per_m = 0;  ///< raw depth units per metre; 0 = preset (TUM 5000, 7-Scenes 1000, ...)
+  double depth_units_per_m =
+      0;  ///< raw depth units per metre; 0 = preset (TUM 5000, 7-Scenes 1000, ...)
   double fx = 0, fy = 0, cx = 0, cy = 0;  ///< intrinsics override, pixels; 0 = preset / from files
   double max_depth_m = 0;  ///< depth beyond this is marked invalid on read; 0 = keep all
-  std::string scene;       ///< YCB-Video video ("0001") or BOP scene ("000000"); empty = first found
+  std::string scene;  ///< YCB-Video video ("0001") or BOP scene ("000000"); empty = first found
+  /// BOP: accept a models/ folder without models_info.json, every object then asymmetric (ADD,
+  /// never ADD-S). Off: such a dataset is refused, since its symmetries would be lost silently.
+  bool bop_without_models_info = false;
 
   template <class V>
   void visit(V&& v) {
@@ -33,29 +37,36 @@ struct DatasetParams {
     v("last_frame", last_frame, "Last frame, inclusive; -1 = to the end");
     v("stride", stride, "Take every stride-th frame (>= 1)");
     v("depth_units_per_m", depth_units_per_m,
-      "Raw depth units per metre; 0 = the layout's preset (TUM 5000, 7-Scenes 1000, YCB meta.mat, BOP json)");
+      "Raw depth units per metre; 0 = the layout's preset (TUM 5000, 7-Scenes 1000, YCB meta.mat, "
+      "BOP json)");
     v("fx", fx, "Focal length x override (pixels); 0 = from the dataset / preset");
     v("fy", fy, "Focal length y override (pixels); 0 = from the dataset / preset");
     v("cx", cx, "Principal point x override (pixels); 0 = from the dataset / preset");
     v("cy", cy, "Principal point y override (pixels); 0 = from the dataset / preset");
     v("max_depth_m", max_depth_m, "Depth beyond this is marked invalid on read (m); 0 = keep all");
-    v("scene", scene, "YCB-Video video (e.g. 0001) or BOP scene (e.g. 000000); empty = first found");
+    v("scene", scene,
+      "YCB-Video video (e.g. 0001) or BOP scene (e.g. 000000); empty = first found");
+    v("bop_without_models_info", bop_without_models_info,
+      "BOP: accept models/ without models_info.json, treating every object as asymmetric (else "
+      "refused)");
   }
   bool IsValid(std::string* why) const;
 };
 
 /// Static facts about an opened dataset.
 struct DatasetInfo {
-  std::string format;  ///< tum | 7scenes | ycbv | bop
-  std::string root;    ///< the folder that was opened
-  int scene_id = 0;    ///< YCB video number / BOP scene id (for BOP result rows)
+  std::string format;            ///< tum | 7scenes | ycbv | bop
+  std::string root;              ///< the folder that was opened
+  int scene_id = 0;              ///< YCB video number / BOP scene id (for BOP result rows)
   PinholeIntrinsics intrinsics;  ///< of the first frame (frames may carry their own)
-  double depth_units_per_m = 0;  ///< the scale used (of the first selected frame; 0 if none was found)
+  double depth_units_per_m =
+      0;  ///< the scale used (of the first selected frame; 0 if none was found)
   std::map<int, std::string> class_names;  ///< class id -> name (YCB: classes.txt; BOP: obj_XXXXXX)
-  std::map<int, std::string> model_points_paths;  ///< class id -> points file (YCB points.xyz, BOP ply)
-  std::map<int, std::string> model_mesh_paths;    ///< class id -> mesh (OBJ/PLY), when present
-  std::vector<int> symmetric_classes;             ///< classes scored with ADD-S in ADD(-S)
-  double model_units_per_m = 1.0;                 ///< model files' units (BOP: 1000 = mm)
+  std::map<int, std::string>
+      model_points_paths;  ///< class id -> points file (YCB points.xyz, BOP ply)
+  std::map<int, std::string> model_mesh_paths;  ///< class id -> mesh (OBJ/PLY), when present
+  std::vector<int> symmetric_classes;           ///< classes scored with ADD-S in ADD(-S)
+  double model_units_per_m = 1.0;               ///< model files' units (BOP: 1000 = mm)
 };
 
 /// A timestamped camera pose, T_world_cam.
@@ -87,8 +98,8 @@ class DatasetReader {
   virtual std::vector<StampedPose> ground_truth_trajectory() const { return {}; }
 };
 
-/// Detects the layout of `path` ("tum", "7scenes", "ycbv", "bop"), or throws IoError explaining what
-/// was looked for.
+/// Detects the layout of `path` ("tum", "7scenes", "ycbv", "bop"), or throws IoError explaining
+/// what was looked for.
 std::string detect_dataset_format(const std::string& path);
 
 /// Opens a dataset folder. Throws IoError / ConfigError with a message naming the path and problem.

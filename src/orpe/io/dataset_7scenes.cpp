@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "orpe/core/error.h"
+#include "orpe/core/parse_number.h"
 #include "orpe/io/dataset_common.h"
 
 namespace orpe::detail {
@@ -27,9 +28,8 @@ int frame_number(const std::string& name, const std::string& suffix) {
   if (name.size() <= 6 + suffix.size() || name.rfind("frame-", 0) != 0) return -1;
   if (name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) return -1;
   const std::string digits = name.substr(6, name.size() - 6 - suffix.size());
-  if (digits.empty() || digits.size() > 9 || !std::all_of(digits.begin(), digits.end(), ::isdigit))
-    return -1;
-  return std::stoi(digits);
+  if (digits.empty() || !std::all_of(digits.begin(), digits.end(), ::isdigit)) return -1;
+  return parse_int_field(digits, name, "frame number", 0);
 }
 
 std::vector<SevenScenesFrame> scan_frames(const fs::path& root) {

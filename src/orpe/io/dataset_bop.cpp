@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "orpe/core/error.h"
+#include "orpe/core/parse_number.h"
 #include "orpe/io/dataset_common.h"
 #include "orpe/io/image_io.h"
 
@@ -155,7 +156,9 @@ class BopReader final : public SelectedFramesReader {
     const std::string scene_name = scene_dir_.filename().string();
     info_.format = "bop";
     info_.root = path;
-    info_.scene_id = is_digits(scene_name) ? std::stoi(scene_name) : 0;
+    info_.scene_id = is_digits(scene_name) ? parse_int_field(scene_name, scene_dir_.string(),
+                                                             "scene folder name (the scene id)", 0)
+                                           : 0;
 
     load_cameras();
     load_ground_truth();
@@ -229,7 +232,10 @@ class BopReader final : public SelectedFramesReader {
  private:
   static bool same_scene(const std::string& wanted, const std::string& folder) {
     if (wanted == folder) return true;
-    return is_digits(wanted) && is_digits(folder) && std::stol(wanted) == std::stol(folder);
+    long long a = 0, b = 0;
+    return is_digits(wanted) && is_digits(folder) &&
+           parse_integer(wanted, 0, LLONG_MAX, &a, nullptr) &&
+           parse_integer(folder, 0, LLONG_MAX, &b, nullptr) && a == b;
   }
 
   std::string color_path(int im_id) const {
@@ -246,7 +252,7 @@ class BopReader final : public SelectedFramesReader {
     for (const auto& [key, cam] : cams.items()) {
       if (!is_digits(key)) throw IoError(file, fmt::format("key '{}' is not an image id", key));
       BopImage im;
-      im.im_id = std::stoi(key);
+      im.im_id = parse_int_field(key, file, fmt::format("key '{}'", key), 0);
       try {
         const auto K = numbers(cam, "cam_K", 9);
         if (!(K[0] > 0) || !(K[4] > 0))
@@ -339,21 +345,29 @@ class BopReader final : public SelectedFramesReader {
         continue;
       const std::string digits = name.substr(4, 6);
       if (!is_digits(digits)) continue;
-      const int id = std::stoi(digits);
+      const int id = parse_int_field(digits, e.path().string(), "object id in the file name", 0);
       info_.class_names[id] = name.substr(0, 10);
       info_.model_mesh_paths[id] = e.path().string();
       info_.model_points_paths[id] =
           fs::exists(eval_dir / name) ? (eval_dir / name).string() : e.path().string();
     }
     const fs::path info_file = models / "models_info.json";
-    if (!fs::exists(info_file)) return;
+    if (!fs::exists(info_file)) {
+      // Without it every symmetry is lost (ADD instead of ADD-S for the symmetric objects): refused
+      // unless asked for (issue 12).
+      if (info_.class_names.empty() || params_.bop_without_models_info) return;
+      throw IoError(
+          info_file.string(),
+          "missing: the objects' symmetries are unknown without it (BOP layout); add it, or set "
+          "dataset.bop_without_models_info=true to treat every object as asymmetric");
+    }
     const json models_info = parse_json_file(info_file.string());
     if (!models_info.is_object())
       throw IoError(info_file.string(), "expected an object {\"obj_id\": {...}}");
     for (const auto& [key, m] : models_info.items()) {
       if (!is_digits(key))
         throw IoError(info_file.string(), fmt::format("key '{}' is not an object id", key));
-      const int id = std::stoi(key);
+      const int id = parse_int_field(key, info_file.string(), fmt::format("key '{}'", key), 0);
       if (!info_.class_names.count(id)) info_.class_names[id] = fmt::format("obj_{:06d}", id);
       auto non_empty = [&](const char* field) {
         return m.is_object() && m.contains(field) && m.at(field).is_array() && !m.at(field).empty();

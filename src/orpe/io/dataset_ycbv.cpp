@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "orpe/core/error.h"
+#include "orpe/core/parse_number.h"
 #include "orpe/io/dataset_common.h"
 #include "orpe/io/image_io.h"
 
@@ -234,8 +235,8 @@ int frame_number(const std::string& name, const std::string& suffix) {
   if (name.size() <= suffix.size() + 1) return -1;
   if (name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) return -1;
   const std::string digits = name.substr(0, name.size() - suffix.size() - 1);
-  if (name[digits.size()] != '-' || !is_digits(digits) || digits.size() > 9) return -1;
-  return std::stoi(digits);
+  if (name[digits.size()] != '-' || !is_digits(digits)) return -1;
+  return parse_int_field(digits, name, "frame number", 0);
 }
 
 bool has_ycb_frames(const fs::path& dir) {
@@ -294,7 +295,9 @@ class YcbReader final : public SelectedFramesReader {
     info_.format = "ycbv";
     info_.root = path;
     const std::string video_name = video_dir.filename().string();
-    info_.scene_id = is_digits(video_name) ? std::stoi(video_name) : 0;
+    info_.scene_id = is_digits(video_name) ? parse_int_field(video_name, video_dir.string(),
+                                                             "video folder name (the scene id)", 0)
+                                           : 0;
     if (!root.empty()) load_classes_and_models(root);
 
     // Intrinsics / depth scale of the first selected frame whose meta.mat reads.
@@ -383,6 +386,11 @@ class YcbReader final : public SelectedFramesReader {
     f.intrinsics.height = info_.intrinsics.height;
     if (meta.T_cam_world) f.T_world_cam_gt = meta.T_cam_world->inverse();
     for (size_t k = 0; k < meta.class_ids.size(); ++k) {
+      // With a class list, an index past it names no class (and no model): refused, not skipped.
+      if (!info_.class_names.empty() && !info_.class_names.count(meta.class_ids[k]))
+        throw IoError(fr.meta,
+                      fmt::format("cls_indexes[{}] = {} is beyond the {} classes of classes.txt", k,
+                                  meta.class_ids[k], info_.class_names.size()));
       ObjectGroundTruth o;
       o.class_id = meta.class_ids[k];
       o.instance_id = o.class_id;  // one instance per class in YCB-Video

@@ -139,8 +139,8 @@ struct ObjectRpePipeline::VariantState {
   PoseVariant config;
   std::map<int, Track> tracks;  // by instance id
   std::vector<PoseResultRow> rows;
-  /// Per reported object of each evaluated frame: (frame index, T_world_cam, instance, class, score,
-  /// time), for final_pose_rows().
+  /// Per reported object of each evaluated frame: (frame index, T_world_cam, instance, class,
+  /// score, time), for final_pose_rows().
   struct Seen {
     int frame_index;
     SE3 T_world_cam;
@@ -160,7 +160,7 @@ struct ObjectRpePipeline::Candidate {
   double class_probability = 0;
   const MaskImage* mask = nullptr;
   int mask_px = 0;
-  int object_key = 0;  // detection index (raw masks) or instance id (projected masks)
+  int object_key = 0;        // detection index (raw masks) or instance id (projected masks)
   bool report_only = false;  // too small for a single-view estimate: EKF variants report the state
 };
 
@@ -205,15 +205,19 @@ std::unique_ptr<Segmenter> ObjectRpePipeline::make_model_recognizer() {
                                            params_.recognition_geometry, std::move(models));
 }
 
-void ObjectRpePipeline::set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator,
-                                                  bool uses_color) {
+void ObjectRpePipeline::set_single_view_estimator(
+    std::unique_ptr<SingleViewPoseEstimator> estimator, bool uses_color) {
   if (!estimator) throw ConfigError("pipeline: null single-view estimator");
   estimator_ = std::move(estimator);
   estimator_uses_color_ = uses_color;
 }
 
-size_t ObjectRpePipeline::num_variants() const { return variants_.size(); }
-const PoseVariant& ObjectRpePipeline::variant(size_t v) const { return variants_.at(v).config; }
+size_t ObjectRpePipeline::num_variants() const {
+  return variants_.size();
+}
+const PoseVariant& ObjectRpePipeline::variant(size_t v) const {
+  return variants_.at(v).config;
+}
 const std::vector<ObjectRpePipeline::SingleViewRecord>& ObjectRpePipeline::single_view_records(
     size_t v) const {
   return variants_.at(v).records;
@@ -305,15 +309,16 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   K.height = frame.depth.height();
   const PipelineParams& pp = params_.pipeline;
 
-  // The map at the tracked pose. PM / PD / PC of the instances rendered as the semantic stage renders
-  // them (label-aware: young unlabelled surfels do not punch holes into the masks) -- of every
-  // instance, not only the semantic stage's confirmed ones, so that an object gets a projected mask
-  // from its first keyframe on (pipeline.min_instance_detections filters); around them, depth and
-  // colour of a plain render of every surfel.
+  // The map at the tracked pose. PM / PD / PC of the instances rendered as the semantic stage
+  // renders them (label-aware: young unlabelled surfels do not punch holes into the masks) -- of
+  // every instance, not only the semantic stage's confirmed ones, so that an object gets a
+  // projected mask from its first keyframe on (pipeline.min_instance_detections filters); around
+  // them, depth and colour of a plain render of every surfel.
   auto t0 = Clock::now();
   bool need_projected = false;
   for (const auto& v : variants_)
-    need_projected |= v.config.projected_mask || v.config.projected_depth || v.config.projected_color;
+    need_projected |=
+        v.config.projected_mask || v.config.projected_depth || v.config.projected_color;
   std::vector<InstanceView> views;
   slam::RenderedView view;
   if (need_projected) {
@@ -363,8 +368,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
     }
     from_map.push_back(c);
   }
-  // Candidates from this keyframe's detections (raw masks); the instance each joined is the majority
-  // label of the fused detection labels under its mask.
+  // Candidates from this keyframe's detections (raw masks); the instance each joined is the
+  // majority label of the fused detection labels under its mask.
   std::vector<MaskImage> detection_masks;
   std::vector<Candidate> from_detections;
   bool need_raw = false;
@@ -374,7 +379,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
     const LabelImage& fused_labels = semantic_->fusion().last_detection_labels();
     const float threshold = static_cast<float>(params_.segmentation.mask_threshold);
     detection_masks.reserve(detections.size());
-    for (const auto& d : detections) detection_masks.push_back(binary_mask(d.probability, threshold));
+    for (const auto& d : detections)
+      detection_masks.push_back(binary_mask(d.probability, threshold));
     for (size_t i = 0; i < detections.size(); ++i) {
       const MaskImage& mask = detection_masks[i];
       std::map<int, int> votes;
@@ -425,6 +431,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
       est.class_probability = c.class_probability;
       est.mask_px = c.mask_px;
       if (!models_.has(c.class_id)) {
+        if (model_errors_.emplace(c.class_id, "no model").second)
+          spdlog::warn("class {} has no model in the dataset: its objects get no pose", c.class_id);
         est.single_view.reason = "no model for the class";
         out.push_back(est);
         continue;
@@ -453,13 +461,14 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
           t.class_id = c.class_id;
           if (cfg.ekf) {
             t.ekf = std::make_unique<ObjectPoseFusion>(
-                params_.pose_ekf, models_.ekf_symmetry(c.class_id, pp.ekf_symmetry), pp.ekf_init_views);
+                params_.pose_ekf, models_.ekf_symmetry(c.class_id, pp.ekf_symmetry),
+                pp.ekf_init_views);
           }
         }
         track = &t;
       }
-      const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
-                             track->ekf->has_estimate();
+      const bool use_prior =
+          cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf && track->ekf->has_estimate();
       const bool learned = track && track->colour && track->colour->model();
       const auto key =
           std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,
@@ -476,7 +485,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         est.single_view.reason = "mask too small for a single-view estimate";
       } else if (skip) {
         est.single_view = SingleViewPose{};
-        est.single_view.reason = "skipped: fused pose confident and view unchanged (pipeline.skip_*)";
+        est.single_view.reason =
+            "skipped: fused pose confident and view unchanged (pipeline.skip_*)";
         ++track->skip.skipped_in_a_row;
         ++stats_.single_view_skipped;
       } else if (cached != cache.end()) {
@@ -500,8 +510,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         cache.emplace(key, est.single_view);
       }
       const SingleViewPose& sv = est.single_view;
-      vs.records.push_back(
-          {frame.index, c.instance_id, c.class_id, c.class_probability, sv, T_world_cam, c.mask_px});
+      vs.records.push_back({frame.index, c.instance_id, c.class_id, c.class_probability, sv,
+                            T_world_cam, c.mask_px});
       const double sv_score = std::clamp(sv.score, 0.01, 1.0);
       if (cfg.ekf) {
         if (track && track->ekf) {
@@ -557,7 +567,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         row.T_cam_obj = est.T_cam_obj;
         vs.rows.push_back(row);
         if (cfg.ekf && est.instance_id > 0)
-          vs.seen.push_back({frame.index, T_world_cam, est.instance_id, est.class_id, est.score, -1});
+          vs.seen.push_back(
+              {frame.index, T_world_cam, est.instance_id, est.class_id, est.score, -1});
       }
       out.push_back(std::move(est));
     }
@@ -569,7 +580,8 @@ void ObjectRpePipeline::hand_over_merged_tracks() {
   // Views fused so far: what a track has to lose.
   auto views = [](const Track& t) { return t.ekf ? t.ekf->accepted() : t.valid_views; };
   for (auto& v : variants_)
-    hand_over_merged(v.tracks, [&](int id) { return fusion.resolve_instance(id); }, views);
+    hand_over_merged(
+        v.tracks, [&](int id) { return fusion.resolve_instance(id); }, views);
 }
 
 void ObjectRpePipeline::finalize() {

@@ -405,6 +405,7 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
     return std::tie(a.class_id, a.object_id) < std::tie(b.class_id, b.object_id);
   });
   ev.mean_m = n ? sum / n : 0;
+  ev.objects_measured = n;
   ev.mean_registered_m = n_registered ? sum_registered / n_registered : -1;
   ev.mean_completeness = n_completeness ? sum_completeness / n_completeness : -1;
   return ev;
@@ -433,8 +434,9 @@ std::string ReconstructionEvaluation::report() const {
                                               : std::string("-"));
   }
   s += fmt::format(
-      "{:<24} {:>6} {:>9} {:>10.2f} {:>8} {:>7} {:>7.2f} {:>9} {:>11}\n", "MEAN (objects)", "", "",
-      mean_m * 1000, "", "", max_far_fraction * 100, percent(mean_completeness),
+      "{:<24} {:>6} {:>9} {:>10} {:>8} {:>7} {:>7.2f} {:>9} {:>11}\n", "MEAN (objects)", "", "",
+      objects_measured > 0 ? fmt::format("{:.2f}", mean_m * 1000) : std::string("-"), "", "",
+      max_far_fraction * 100, percent(mean_completeness),
       mean_registered_m >= 0 ? fmt::format("{:.2f}", mean_registered_m * 1000) : std::string("-"));
   s += "(>2cm column of the MEAN row: the largest share of an object)\n";
   if (objects_without_surfels)
@@ -461,7 +463,8 @@ std::string ReconstructionEvaluation::markdown() const {
                                ? fmt::format("{:.1f}", o.mean_registered_m * 1000)
                                : std::string("-"));
   s += fmt::format(
-      "| **mean** | | | {:.1f} | | | max {:.2f} | {} | {} |\n", mean_m * 1000,
+      "| **mean** | | | {} | | | max {:.2f} | {} | {} |\n",
+      objects_measured > 0 ? fmt::format("{:.1f}", mean_m * 1000) : std::string("-"),
       max_far_fraction * 100, percent(mean_completeness),
       mean_registered_m >= 0 ? fmt::format("{:.1f}", mean_registered_m * 1000) : std::string("-"));
   return s;
@@ -469,7 +472,8 @@ std::string ReconstructionEvaluation::markdown() const {
 
 std::string ReconstructionEvaluation::to_json() const {
   nlohmann::json j;
-  j["mean_mm"] = mean_m * 1000;
+  j["mean_mm"] = objects_measured > 0 ? nlohmann::json(mean_m * 1000) : nlohmann::json(nullptr);
+  j["objects_measured"] = objects_measured;
   j["mean_registered_mm"] =
       mean_registered_m >= 0 ? nlohmann::json(mean_registered_m * 1000) : nlohmann::json(nullptr);
   j["mean_completeness"] =

@@ -116,6 +116,8 @@ struct ObjectReconstructionError {
 struct ReconstructionEvaluation {
   std::vector<ObjectReconstructionError> objects;  ///< sorted by class, then object id
   double mean_m = 0;                               ///< mean over objects that have surfels
+  int objects_measured =
+      0;  ///< objects with surfels (mean_m is meaningless when 0: printed "-", JSON null)
   double mean_registered_m = -1;
   double mean_completeness = -1;  ///< over objects with a seen surface (-1: none)
   double max_far_fraction = 0;    ///< the largest far_fraction (2 cm) of an object

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
+#include <cmath>
 
 #include <chrono>
 #include <filesystem>
@@ -207,6 +208,12 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
                   "the dataset has no object models (full mode estimates object poses)");
   // Every output place and name is checked before the first frame; outputs go to a staging folder.
   check_render_view(options.render_view);
+  // NaN passes every "> 0" test and used to render a blank picture.
+  for (const auto& [flag, v] :
+       {std::pair{"--view-back-m", options.view_back_m}, {"--view-up-m", options.view_up_m}})
+    if (!(std::isfinite(v) && v >= 0))
+      throw ConfigError(fmt::format(
+          "{} {}: must be a finite distance >= 0 (m; 0 = frame automatically)", flag, v));
   StagedDir staged(options.out_dir, options.overwrite, "summary.json");
 
   ObjectRpePipeline pipeline(params, info);

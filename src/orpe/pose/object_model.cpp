@@ -1,8 +1,10 @@
 #include "orpe/pose/object_model.h"
+#include "orpe/core/parse_number.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
+#include <climits>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -63,17 +65,18 @@ MeshVerticesNormals read_obj_vertices_normals(const std::string& path) {
       corner.clear();
       std::string tok;
       while (ls >> tok) {
-        int v = 0, n = 0;
+        long long v64 = 0, n64 = 0;
         const auto s1 = tok.find('/');
-        try {
-          v = std::stoi(tok.substr(0, s1));
-          if (s1 != std::string::npos) {
-            const auto s2 = tok.find('/', s1 + 1);
-            if (s2 != std::string::npos && s2 + 1 < tok.size()) n = std::stoi(tok.substr(s2 + 1));
-          }
-        } catch (const std::exception&) {
-          bad("malformed face index '" + tok + "'");
+        bool ok =
+            parse_integer(std::string_view(tok).substr(0, s1), INT_MIN, INT_MAX, &v64, nullptr);
+        if (ok && s1 != std::string::npos) {
+          const auto s2 = tok.find('/', s1 + 1);
+          if (s2 != std::string::npos && s2 + 1 < tok.size())
+            ok = parse_integer(std::string_view(tok).substr(s2 + 1), INT_MIN, INT_MAX, &n64,
+                               nullptr);
         }
+        if (!ok) bad("malformed face index '" + tok + "'");
+        int v = static_cast<int>(v64), n = static_cast<int>(n64);
         const int nv = static_cast<int>(mesh.vertices.size());
         const int nn = static_cast<int>(vn.size());
         v = v < 0 ? nv + v : v - 1;  // OBJ indices are 1-based; negative = relative

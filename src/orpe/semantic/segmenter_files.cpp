@@ -10,6 +10,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/parse_number.h"
 #include "orpe/io/image_io.h"
 #include "orpe/semantic/segmenter.h"
 
@@ -98,7 +99,7 @@ std::vector<Detection> FileSegmenter::read(const std::string& dir, int frame_ind
       }
       if (jd.contains("class_probabilities")) {
         for (const auto& [key, value] : jd.at("class_probabilities").items()) {
-          const int c = std::stoi(key);
+          const int c = parse_int_field(key, path, where + "class_probabilities key", 1);
           const float p = value.get<float>();
           if (c <= 0 || !(p >= 0 && p <= 1))
             throw IoError(path, where + "class_probabilities: ids > 0, values in [0, 1]");

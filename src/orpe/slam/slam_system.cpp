@@ -17,9 +17,12 @@ double ms_since(std::chrono::steady_clock::time_point t) {
 
 const char* to_string(TrackingStatus s) {
   switch (s) {
-    case TrackingStatus::kOk: return "OK";
-    case TrackingStatus::kDegraded: return "DEGRADED";
-    case TrackingStatus::kLost: return "LOST";
+    case TrackingStatus::kOk:
+      return "OK";
+    case TrackingStatus::kDegraded:
+      return "DEGRADED";
+    case TrackingStatus::kLost:
+      return "LOST";
   }
   return "?";
 }
@@ -68,12 +71,13 @@ bool SlamParams::IsValid(std::string* why) const {
 std::string SlamFrameResult::report() const {
   return fmt::format(
       "frame {:5d} {:<8} inliers {:6d} ({:4.2f}) icp_rms {:6.4f} m rgb_rms {:5.2f} it {:2d} "
-      "overlap {:4.2f} agree {:4.2f} step {:.1e} | +{} ~{} -{} "
+      "overlap {:4.2f} agree {:4.2f} front {:5.3f} behind {:5.3f} step {:.1e} | +{} ~{} -{} "
       "merged {} surfels {} | {:5.1f} ms (pre {:4.1f} pred {:4.1f} track {:5.1f} fuse {:5.1f}){}{}",
       frame_index, to_string(status), icp_inliers, inlier_fraction, icp_rms_m, rgb_rms, iterations,
-      overlap_fraction, consistent_fraction, final_step, fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space, fusion.merged,
-      fusion.surfels, total_ms, preprocess_ms, predict_ms, track_ms, fuse_ms, reason.empty() ? "" : " | ",
-      reason);
+      overlap_fraction, consistent_fraction, in_front_fraction, behind_fraction, final_step,
+      fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space,
+      fusion.merged, fusion.surfels, total_ms, preprocess_ms, predict_ms, track_ms, fuse_ms,
+      reason.empty() ? "" : " | ", reason);
 }
 
 SlamSystem::SlamSystem(const SlamParams& params)
@@ -86,7 +90,9 @@ SlamSystem::SlamSystem(const SlamParams& params)
   map_.reserve(static_cast<size_t>(params_.options.reserve_surfels));
 }
 
-SlamFrameResult SlamSystem::process(const RgbdFrame& frame) { return process_impl(frame, nullptr); }
+SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
+  return process_impl(frame, nullptr);
+}
 
 SlamFrameResult SlamSystem::process_at_known_pose(const RgbdFrame& frame, const SE3& T_world_cam) {
   return process_impl(frame, &T_world_cam);
@@ -101,7 +107,8 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     if (!frame.intrinsics.IsValid(&why)) throw ConfigError("frame '" + frame.name + "': " + why);
     intrinsics_ = frame.intrinsics;
   } else if (!(frame.intrinsics == intrinsics_)) {
-    throw ConfigError("frame '" + frame.name + "': intrinsics or image size changed within the sequence");
+    throw ConfigError("frame '" + frame.name +
+                      "': intrinsics or image size changed within the sequence");
   }
   const std::int32_t now = frame_count_;
   const SE3 T_world_cam_before = T_world_cam_;
@@ -114,13 +121,15 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
   const DepthImage& depth0 = pyramid_.levels[0].depth;
   for (const float z : depth0) res.valid_depth_px += z > 0.0f;
   res.no_depth = res.valid_depth_px < params_.options.min_valid_depth_px ||
-                 res.valid_depth_px < params_.options.min_valid_depth_fraction * static_cast<double>(depth0.size());
+                 res.valid_depth_px <
+                     params_.options.min_valid_depth_fraction * static_cast<double>(depth0.size());
   bool accept = true;
   if (res.no_depth) {
-    // Nothing to align or fuse: hold the pose; the next frame with depth has to re-acquire (or, before
-    // there is a map, starts it).
-    res.reason = fmt::format("too little valid depth: {} of {} px in [{}, {}] m", res.valid_depth_px,
-                             depth0.size(), params_.preprocess.min_depth_m, params_.preprocess.max_depth_m);
+    // Nothing to align or fuse: hold the pose; the next frame with depth has to re-acquire (or,
+    // before there is a map, starts it).
+    res.reason =
+        fmt::format("too little valid depth: {} of {} px in [{}, {}] m", res.valid_depth_px,
+                    depth0.size(), params_.preprocess.min_depth_m, params_.preprocess.max_depth_m);
     if (!map_.empty()) status_ = TrackingStatus::kLost;
     ++bad_frames_;
     accept = false;
@@ -139,11 +148,13 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
     opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
     opt.want_surfel_centre = true;
-    const int pl = std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
+    const int pl =
+        std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
     const PinholeIntrinsics K_pred = intrinsics_.scaled(pl);
     predict_renderer_.render(map_, T_world_cam_, K_pred, opt, &prediction_);
     build_model_pyramid(prediction_, K_pred, params_.preprocess.pyramid_levels - pl,
-                        static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_, pl);
+                        static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_,
+                        pl);
     if (params_.options.rgb_against_previous_frame && prev_frame_at_pose_) {
       // The previous frame was taken at the reference pose: its intensities and vertices are the
       // photometric reference, in the same (reference camera) frame as the rendered model.
@@ -156,7 +167,9 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     res.predict_ms = ms_since(t);
 
     t = std::chrono::steady_clock::now();
-    const SE3 init = (params_.tracker.constant_velocity && status_ != TrackingStatus::kLost) ? last_motion_ : SE3();
+    const SE3 init = (params_.tracker.constant_velocity && status_ != TrackingStatus::kLost)
+                         ? last_motion_
+                         : SE3();
     const AlignmentResult a = tracker_.align(pyramid_, model_, init);
     res.track_ms = ms_since(t);
     res.icp_inliers = a.icp_inliers;
@@ -166,6 +179,8 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     res.iterations = a.iterations;
     res.overlap_fraction = a.overlap_fraction;
     res.consistent_fraction = a.consistent_fraction;
+    res.in_front_fraction = a.in_front_fraction;
+    res.behind_fraction = a.behind_fraction;
     res.final_step = a.final_step;
     res.reason = a.reason;
     if (a.failed) {
@@ -190,7 +205,8 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     }
     res.tracked_T_world_cam = T_world_cam_ * a.T_ref_cam;
     if (known_T_world_cam) {
-      // Mapping with known poses: the alignment is only reported; the frame is fused at the given pose.
+      // Mapping with known poses: the alignment is only reported; the frame is fused at the given
+      // pose.
       accept = true;
       if (status_ == TrackingStatus::kLost) status_ = TrackingStatus::kDegraded;
     }
@@ -214,8 +230,9 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
   res.T_world_cam = T_world_cam_;
 
   prev_frame_at_pose_ = accept;
-  const bool fuse = accept && (status_ == TrackingStatus::kOk ||
-                               (status_ == TrackingStatus::kDegraded && params_.options.fuse_degraded));
+  const bool fuse =
+      accept && (status_ == TrackingStatus::kOk ||
+                 (status_ == TrackingStatus::kDegraded && params_.options.fuse_degraded));
   if (fuse) {
     t = std::chrono::steady_clock::now();
     res.fusion = fusion_.fuse(pyramid_, T_world_cam_, now, &map_, &pixel_surfel_);

@@ -3,16 +3,18 @@
 //
 // Tracking states:
 //  - OK: the alignment passed every quality gate; the pose is updated and the frame fused.
-//  - DEGRADED: usable but weak (low inlier fraction, high residual or degenerate geometry); the pose is
+//  - DEGRADED: usable but weak (low inlier fraction, high residual or degenerate geometry); the
+//  pose is
 //    updated and the frame fused. More than TrackerParams::max_bad_frames in a row -> LOST.
-//  - LOST: the alignment failed (or too many degraded frames), or the frame had too little valid depth
-//    (SlamFrameResult::no_depth; also on the first frames, before there is a map). The system holds its last good pose,
-//    does not fuse, and tries each following frame against the map rendered at that pose; the first
-//    frame that aligns well (OK) re-acquires tracking.
+//  - LOST: the alignment failed (or too many degraded frames), or the frame had too little valid
+//  depth
+//    (SlamFrameResult::no_depth; also on the first frames, before there is a map). The system holds
+//    its last good pose, does not fuse, and tries each following frame against the map rendered at
+//    that pose; the first frame that aligns well (OK) re-acquires tracking.
 //
-// Hook for later stages (semantic mapping): call process(), then read/write map() (indices valid until
-// the next process()), use renderer() to render the map at any pose, and last_pixel_surfel() for
-// which surfel each pixel of the frame updated or created.
+// Hook for later stages (semantic mapping): call process(), then read/write map() (indices valid
+// until the next process()), use renderer() to render the map at any pose, and last_pixel_surfel()
+// for which surfel each pixel of the frame updated or created.
 #pragma once
 
 #include <cstdint>
@@ -33,8 +35,8 @@ const char* to_string(TrackingStatus s);
 
 /// System-level options (the stage Params are separate config sections).
 struct SlamOptions {
-  /// Track unstable surfels that the previous frame created or updated, in addition to stable ones
-  /// (otherwise new parts of the scene are unusable for ~10 frames).
+  /// Track unstable surfels that the last fused frame created or updated, in addition to stable
+  /// ones (otherwise new parts of the scene are unusable for ~10 frames).
   bool track_recent_unstable = true;
   /// Initial surfel capacity reserved (surfels), to avoid reallocations.
   int reserve_surfels = 500000;
@@ -49,25 +51,29 @@ struct SlamOptions {
   /// RgbdOdometry) instead of the colours rendered from the map (ElasticFusion). Useful when colour
   /// and depth are not registered (7-Scenes), which blurs the map's colours.
   bool rgb_against_previous_frame = false;
-  /// A frame with fewer full-resolution pixels of valid depth in [min_depth_m, max_depth_m] than this
-  /// fraction of its pixels, or than min_valid_depth_px, is not tracked nor fused (SlamFrameResult::no_depth).
+  /// A frame with fewer full-resolution pixels of valid depth in [min_depth_m, max_depth_m] than
+  /// this fraction of its pixels, or than min_valid_depth_px, is not tracked nor fused
+  /// (SlamFrameResult::no_depth).
   double min_valid_depth_fraction = 0.02;
   int min_valid_depth_px = 100;
 
   template <class V>
   void visit(V&& v) {
     v("track_recent_unstable", track_recent_unstable,
-      "Track against unstable surfels seen by the previous frame too (else stable ones only)");
+      "Track against unstable surfels seen by the last fused frame too (else stable ones only)");
     v("reserve_surfels", reserve_surfels, "Surfel capacity reserved up front");
     v("fuse_degraded", fuse_degraded, "Fuse frames whose tracking is DEGRADED");
     v("prediction_radius_scale", prediction_radius_scale,
-      "Splat radius scale of the tracking prediction (1 = EF; < 1 trims disc overhang at depth edges)");
+      "Splat radius scale of the tracking prediction (1 = EF; < 1 trims disc overhang at depth "
+      "edges)");
     v("prediction_level", prediction_level,
       "Resolution level of the tracking prediction: 0 = full (EF), 1 = half (faster)");
     v("rgb_against_previous_frame", rgb_against_previous_frame,
-      "Photometric term against the previous frame (intensity + depth) instead of the map's colours (EF)");
+      "Photometric term against the previous frame (intensity + depth) instead of the map's "
+      "colours (EF)");
     v("min_valid_depth_fraction", min_valid_depth_fraction,
-      "Frames with less valid depth (in range) than this fraction of their pixels are not tracked (LOST)");
+      "Frames with less valid depth (in range) than this fraction of their pixels are not tracked "
+      "(LOST)");
     v("min_valid_depth_px", min_valid_depth_px, "... or than this many pixels");
   }
   bool IsValid(std::string* why) const;
@@ -85,12 +91,12 @@ struct SlamParams {
 struct SlamFrameResult {
   int frame_index = 0;  ///< RgbdFrame::index
   TrackingStatus status = TrackingStatus::kOk;
-  SE3 T_world_cam;      ///< the pose after this frame (held pose when LOST)
+  SE3 T_world_cam;  ///< the pose after this frame (held pose when LOST)
   /// What the alignment of this frame gave (also when it was not accepted); with
   /// process_at_known_pose() the tracking estimate to compare with the known pose.
   SE3 tracked_T_world_cam;
   bool fused = false;
-  std::string reason;   ///< why DEGRADED / LOST
+  std::string reason;  ///< why DEGRADED / LOST
   int icp_inliers = 0;
   double inlier_fraction = 0;
   double icp_rms_m = 0;
@@ -98,8 +104,11 @@ struct SlamFrameResult {
   int iterations = 0;
   double overlap_fraction = 0;     ///< self-check (AlignmentResult)
   double consistent_fraction = 0;  ///< self-check (AlignmentResult)
+  double in_front_fraction = 0;    ///< self-check (AlignmentResult): free-space violations
+  double behind_fraction = 0;      ///< self-check (AlignmentResult)
   double final_step = 0;
-  /// Too little valid depth in range (SlamOptions::min_valid_depth_fraction): not tracked, not fused.
+  /// Too little valid depth in range (SlamOptions::min_valid_depth_fraction): not tracked, not
+  /// fused.
   bool no_depth = false;
   int valid_depth_px = 0;  ///< level-0 pixels with depth in [min_depth_m, max_depth_m]
   FusionStats fusion;
@@ -118,8 +127,8 @@ class SlamSystem {
   SlamFrameResult process(const RgbdFrame& frame);
   /// Mapping with known poses (motion capture, a ground-truth trajectory): tracks the frame as
   /// process() does, from the previous pose, and reports that alignment in tracked_T_world_cam, but
-  /// fuses the frame at `T_world_cam` and continues from it. The status still reports the alignment's
-  /// quality (never LOST: the pose is known).
+  /// fuses the frame at `T_world_cam` and continues from it. The status still reports the
+  /// alignment's quality (never LOST: the pose is known).
   SlamFrameResult process_at_known_pose(const RgbdFrame& frame, const SE3& T_world_cam);
 
   const SE3& T_world_cam() const { return T_world_cam_; }

@@ -94,8 +94,8 @@ bool TrackerParams::IsValid(std::string* why) const {
     return false;
   };
   // Bounded so that no setting can make a frame run for ever (ElasticFusion: 10 / 5 / 4).
-  if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0 || iterations_level0 > 1000 ||
-      iterations_level1 > 1000 || iterations_level2 > 1000)
+  if (iterations_level0 < 0 || iterations_level1 < 0 || iterations_level2 < 0 ||
+      iterations_level0 > 1000 || iterations_level1 > 1000 || iterations_level2 > 1000)
     return fail("iterations_level* must be in 0..1000");
   if (!(convergence_step > 0 && convergence_step < 1))
     return fail("convergence_step must be in (0, 1)");
@@ -118,12 +118,19 @@ bool TrackerParams::IsValid(std::string* why) const {
   if (!(good_icp_rms_m > 0 && good_icp_rms_m <= max_icp_rms_m))
     return fail("need 0 < good_icp_rms_m <= max_icp_rms_m");
   if (max_bad_frames < 0) return fail("max_bad_frames must be >= 0");
-  if (!(consistency_tolerance_m > 0 && consistency_tolerance_per_m >= 0))
-    return fail("consistency_tolerance_m must be positive and consistency_tolerance_per_m >= 0");
+  if (!(consistency_tolerance_m > 0 && consistency_tolerance_per_m >= 0 &&
+        consistency_noise_sigmas >= 0))
+    return fail(
+        "consistency_tolerance_m must be positive, consistency_tolerance_per_m and "
+        "consistency_noise_sigmas >= 0");
+  if (!(good_in_front_fraction >= 0 && good_in_front_fraction <= max_in_front_fraction &&
+        max_in_front_fraction <= 1))
+    return fail("need 0 <= good_in_front_fraction <= max_in_front_fraction <= 1");
   if (!(min_consistent_fraction >= 0 && min_consistent_fraction <= good_consistent_fraction &&
         good_consistent_fraction <= 1))
     return fail("need 0 <= min_consistent_fraction <= good_consistent_fraction <= 1");
-  if (!(min_overlap_fraction >= 0 && min_overlap_fraction <= good_overlap_fraction && good_overlap_fraction <= 1))
+  if (!(min_overlap_fraction >= 0 && min_overlap_fraction <= good_overlap_fraction &&
+        good_overlap_fraction <= 1))
     return fail("need 0 <= min_overlap_fraction <= good_overlap_fraction <= 1");
   if (!(max_final_step > 0)) return fail("max_final_step must be positive");
   return true;
@@ -185,14 +192,16 @@ void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, i
   }
 }
 
-DepthConsistency depth_consistency(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
-                                   double tolerance_m, double tolerance_per_m, int pixel_step) {
+DepthConsistency depth_consistency(const FrameLevel& live, const ModelLevel& model,
+                                   const SE3& T_ref_cam, double tolerance_m, double tolerance_per_m,
+                                   int pixel_step, double noise_sigmas) {
   const RigidF T(T_ref_cam);
   const int W = live.depth.width(), H = live.depth.height();
   const int MW = model.depth.width(), MH = model.depth.height();
   const float fx = static_cast<float>(model.K.fx), fy = static_cast<float>(model.K.fy);
   const float cx = static_cast<float>(model.K.cx), cy = static_cast<float>(model.K.cy);
   const float tol0 = static_cast<float>(tolerance_m), tol1 = static_cast<float>(tolerance_per_m);
+  const float k_sigma = static_cast<float>(noise_sigmas);
   const int step = std::max(1, pixel_step);
   int n_live = 0, n_overlap = 0, n_consistent = 0, n_front = 0, n_behind = 0;
 #pragma omp parallel for schedule(static) reduction(+ : n_live, n_overlap, n_consistent, n_front, n_behind)
@@ -211,7 +220,9 @@ DepthConsistency depth_consistency(const FrameLevel& live, const ModelLevel& mod
       if (zm <= 0.0f) continue;
       ++n_overlap;
       const float dz = q.z() - zm;
-      const float tol = tol0 + tol1 * zm;
+      const float sigma =
+          0.0012f + 0.0019f * (zm - 0.4f) * (zm - 0.4f);  // Kinect axial noise (Nguyen 2012)
+      const float tol = std::max(tol0 + tol1 * zm, k_sigma * sigma);
       if (dz > tol)
         ++n_behind;
       else if (dz < -tol)
@@ -418,11 +429,13 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
 
   {
     const int step = std::max(2, params_.level0_pixel_step);
-    const DepthConsistency dc =
-        depth_consistency(live.levels[0], model.levels[0], T, params_.consistency_tolerance_m,
-                          params_.consistency_tolerance_per_m, step);
+    const DepthConsistency dc = depth_consistency(
+        live.levels[0], model.levels[0], T, params_.consistency_tolerance_m,
+        params_.consistency_tolerance_per_m, step, params_.consistency_noise_sigmas);
     res.overlap_fraction = dc.live > 0 ? double(dc.overlap) / dc.live : 0.0;
     res.consistent_fraction = dc.overlap > 0 ? double(dc.consistent) / dc.overlap : 0.0;
+    res.in_front_fraction = dc.overlap > 0 ? double(dc.in_front) / dc.overlap : 0.0;
+    res.behind_fraction = dc.overlap > 0 ? double(dc.behind) / dc.overlap : 0.0;
   }
 
   // Quality gates.
@@ -454,9 +467,15 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
   } else if (res.overlap_fraction < params_.min_overlap_fraction) {
     res.failed = true;
     res.reason = fmt::format("only {:.2f} of the frame overlaps the map", res.overlap_fraction);
+  } else if (res.in_front_fraction > params_.max_in_front_fraction) {
+    res.failed = true;
+    res.reason = fmt::format(
+        "{:.3f} of the overlap lies in front of the map's surfaces (seen as free space)",
+        res.in_front_fraction);
   } else if (res.consistent_fraction < params_.min_consistent_fraction) {
     res.failed = true;
-    res.reason = fmt::format("depth agrees with the map at only {:.2f} of the overlap", res.consistent_fraction);
+    res.reason = fmt::format("depth agrees with the map at only {:.2f} of the overlap",
+                             res.consistent_fraction);
   } else if (params_.use_icp && inlier_fraction < params_.good_inlier_fraction) {
     res.weak = true;
     res.reason = "low inlier fraction " + std::to_string(inlier_fraction);
@@ -469,9 +488,14 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
   } else if (res.overlap_fraction < params_.good_overlap_fraction) {
     res.weak = true;
     res.reason = fmt::format("low overlap with the map {:.2f}", res.overlap_fraction);
+  } else if (res.in_front_fraction > params_.good_in_front_fraction) {
+    res.weak = true;
+    res.reason = fmt::format("{:.3f} of the overlap lies in front of the map's surfaces",
+                             res.in_front_fraction);
   } else if (res.consistent_fraction < params_.good_consistent_fraction) {
     res.weak = true;
-    res.reason = fmt::format("depth agrees with the map at {:.2f} of the overlap", res.consistent_fraction);
+    res.reason =
+        fmt::format("depth agrees with the map at {:.2f} of the overlap", res.consistent_fraction);
   } else if (res.final_step > params_.max_final_step) {
     res.weak = true;
     res.reason = fmt::format("not converged (last step {:.2g})", res.final_step);

@@ -355,7 +355,7 @@ class BopReader final : public SelectedFramesReader {
         throw IoError(info_file.string(), fmt::format("key '{}' is not an object id", key));
       const int id = std::stoi(key);
       if (!info_.class_names.count(id)) info_.class_names[id] = fmt::format("obj_{:06d}", id);
-      auto non_empty = [&](const char* field) {
+      auto non_empty = [&m = m](const char* field) {  // clang 14 cannot capture a binding
         return m.is_object() && m.contains(field) && m.at(field).is_array() && !m.at(field).empty();
       };
       if (non_empty("symmetries_discrete") || non_empty("symmetries_continuous"))

@@ -1,6 +1,10 @@
 // Replays a fuzz target's corpus without libFuzzer (the normal g++ build; a ctest per target):
 // every file named on the command line, or found under a folder named there, is fed once to
-// LLVMFuzzerTestOneInput. A finding aborts (support/fuzz_support.h), which fails the test.
+// LLVMFuzzerTestOneInput. A finding aborts (support/fuzz_support.h), which fails the test. Without
+// AddressSanitizer the address space is limited to 3 GiB, like libFuzzer's malloc limit: a parser
+// that sizes an allocation from a header field (an out-of-memory finding) fails here too.
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -16,6 +20,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size);
 
 int main(int argc, char** argv) {
   namespace fs = std::filesystem;
+#if !defined(__SANITIZE_ADDRESS__)  // ASan reserves terabytes of shadow memory
+  const rlimit limit{3ul << 30, 3ul << 30};
+  setrlimit(RLIMIT_AS, &limit);
+#endif
   std::vector<fs::path> files;
   for (int i = 1; i < argc; ++i) {
     if (fs::is_directory(argv[i])) {

@@ -200,14 +200,14 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
     if (kw == "v") {
       if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7)
         fail("'v' needs 3 coordinates (or 3 + rgb)");
-      double x, y, z;
+      double x = 0, y = 0, z = 0;
       if (!parse_double(tok[1], x) || !parse_double(tok[2], y) || !parse_double(tok[3], z))
         fail("malformed vertex coordinate");
       pos.emplace_back(static_cast<float>(x) * scale, static_cast<float>(y) * scale,
                        static_cast<float>(z) * scale);
       Rgb8 c{255, 255, 255};
       if (tok.size() == 7) {
-        double r, g, b;
+        double r = 0, g = 0, b = 0;
         if (!parse_double(tok[4], r) || !parse_double(tok[5], g) || !parse_double(tok[6], b))
           fail("malformed vertex colour");
         auto q = [](double c01) {
@@ -219,13 +219,13 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
       vcol.push_back(c);
     } else if (kw == "vt") {
       if (tok.size() < 3) fail("'vt' needs 2 coordinates");
-      double u, v;
+      double u = 0, v = 0;
       if (!parse_double(tok[1], u) || !parse_double(tok[2], v))
         fail("malformed texture coordinate");
       tex.emplace_back(static_cast<float>(u), static_cast<float>(v));
     } else if (kw == "vn") {
       if (tok.size() != 4) fail("'vn' needs 3 coordinates");
-      double x, y, z;
+      double x = 0, y = 0, z = 0;
       if (!parse_double(tok[1], x) || !parse_double(tok[2], y) || !parse_double(tok[3], z))
         fail("malformed normal");
       nrm.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
@@ -563,7 +563,7 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
         texture_file = name;
       }
     } else if (tok[0] == "element") {
-      long count;
+      long count = 0;
       if (tok.size() != 3 || !parse_int(tok[2], count) || count < 0) fail("malformed element line");
       elements.push_back({std::string(tok[1]), static_cast<size_t>(count), {}});
     } else if (tok[0] == "property") {

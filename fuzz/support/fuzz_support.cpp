@@ -120,8 +120,10 @@ void read_dataset_annotations(const std::string& path, const std::string& format
   for (size_t i = 0; i < reader->size(); ++i) {
     try {
       (void)reader->read_annotations(i);
-    } catch (const IoError&) {
+    } catch (const IoError& e) {
       // One bad frame is skipped by the pipeline (FrameStream); the other frames still parse.
+      ++g_count.calls;
+      refused(e.what());
     }
   }
   (void)reader->ground_truth_trajectory();

@@ -13,14 +13,18 @@ export TMPDIR=${TMPDIR:-/dev/shm}  # the targets' scratch files (tmpfs: no disk 
 if [ "${1:-}" = --merge ]; then
   name=$2
   max_files=${3:-30}
-  rm -rf "$WORK/$name/min"
-  mkdir -p "$WORK/$name/min"
-  # The inputs that add coverage over the committed corpus, smallest first, at most max_files.
-  nice -n 10 "$BIN_DIR/orpe_fuzz_$name" -merge=1 "$WORK/$name/min" "fuzz/corpus/$name" \
-    "$WORK/$name/corpus" 2>&1 | grep -E "MERGE-OUTER: [0-9]+ new files" || true
-  for f in $(ls -Sr "$WORK/$name/min" | head -n "$max_files"); do
-    size=$(stat -c %s "$WORK/$name/min/$f")
-    if [ "$size" -le 1024 ]; then cp "$WORK/$name/min/$f" "fuzz/corpus/$name/min-$f"; fi
+  min="$WORK/$name/min"
+  rm -rf "$min"
+  mkdir -p "$min"
+  cp "fuzz/corpus/$name"/* "$min/"
+  # The work corpus's inputs that add coverage over the committed corpus; the smallest (at most
+  # max_files, each <= 1 KiB) are committed as min-<sha1>.
+  nice -n 10 "$BIN_DIR/orpe_fuzz_$name" -merge=1 "$min" "$WORK/$name/corpus" 2>&1 |
+    grep -E "MERGE-OUTER: [0-9]+ new files" || true
+  for f in $(ls -Sr "$min"); do
+    if [ -e "fuzz/corpus/$name/$f" ] || [ "$(stat -c %s "$min/$f")" -gt 1024 ]; then continue; fi
+    ((max_files-- > 0)) || break
+    cp "$min/$f" "fuzz/corpus/$name/min-$f"
   done
   ls "fuzz/corpus/$name" | wc -l | xargs echo "fuzz/corpus/$name: files:"
   exit 0

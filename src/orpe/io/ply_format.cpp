@@ -227,8 +227,8 @@ PlyColumns read_ply_element(const std::string& path, const std::string& element)
     // is a truncated or corrupt header (and must not size the allocations below).
     const size_t body_bytes = data.size() - pos;
     if (!e.properties.empty() && e.count > body_bytes)
-      throw IoError(path, fmt::format("PLY element '{}' has {} records but the body only {} bytes "
-                                      "(truncated file?)",
+      throw IoError(path, fmt::format("PLY body ends early: element '{}' has {} records but "
+                                      "the body only {} bytes (truncated file?)",
                                       e.name, e.count, body_bytes));
     PlyColumns out;
     if (wanted) {

@@ -616,9 +616,9 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
     // Each record takes at least one byte: a count beyond the body is a corrupt header and must not
     // size the allocations below (as in io/ply_format.cpp, found by the ply_points fuzz target).
     if (!el.props.empty() && el.count > data.size() - pos)
-      throw IoError(path, "PLY element '" + el.name + "' has " + std::to_string(el.count) +
-                              " records but the body only " + std::to_string(data.size() - pos) +
-                              " bytes (truncated file?)");
+      throw IoError(path, "unexpected end of file: PLY element '" + el.name + "' has " +
+                              std::to_string(el.count) + " records but the body only " +
+                              std::to_string(data.size() - pos) + " bytes (truncated file?)");
     if (el.name == "vertex") {
       have_vertex_element = true;
       int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, ir = -1, ig = -1, ib = -1,

@@ -244,7 +244,8 @@ class BopReader final : public SelectedFramesReader {
     const json cams = parse_json_file(file);
     if (!cams.is_object()) throw IoError(file, "expected an object {\"im_id\": {...}}");
     for (const auto& [key, cam] : cams.items()) {
-      if (!is_digits(key)) throw IoError(file, fmt::format("key '{}' is not an image id", key));
+      if (!is_digits(key) || key.size() > 9)  // (stoi would overflow)
+        throw IoError(file, fmt::format("key '{}' is not an image id (0 to 999999999)", key));
       BopImage im;
       im.im_id = std::stoi(key);
       try {
@@ -351,8 +352,9 @@ class BopReader final : public SelectedFramesReader {
     if (!models_info.is_object())
       throw IoError(info_file.string(), "expected an object {\"obj_id\": {...}}");
     for (const auto& [key, m] : models_info.items()) {
-      if (!is_digits(key))
-        throw IoError(info_file.string(), fmt::format("key '{}' is not an object id", key));
+      if (!is_digits(key) || key.size() > 9)  // (stoi would overflow)
+        throw IoError(info_file.string(),
+                      fmt::format("key '{}' is not an object id (0 to 999999999)", key));
       const int id = std::stoi(key);
       if (!info_.class_names.count(id)) info_.class_names[id] = fmt::format("obj_{:06d}", id);
       auto non_empty = [&m = m](const char* field) {  // clang 14 cannot capture a binding

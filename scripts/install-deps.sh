@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs every build and run dependency of orpe from Debian's archive. Idempotent: a machine that
 # already has everything is left alone (one dpkg query, no network).
+# --fuzz: also clang 14, its sanitizer/libFuzzer runtimes and OpenMP runtime, for the fuzz targets
+# (cmake --preset fuzz; docs/FUZZING.md). The CI does not need them.
 set -euo pipefail
 PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config git
@@ -8,6 +10,9 @@ PACKAGES=(
   libmatio-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libtbb-dev libgtest-dev libgmock-dev libbenchmark-dev
 )
+if [ "${1:-}" = --fuzz ]; then
+  PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)
+fi
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -285,5 +285,22 @@ TEST(YcbReader, LabelSizeMismatchAndMissingMeta) {
   test::expect_io_error_naming([&] { reader->read(2); }, "000003-meta.mat");
 }
 
+TEST(YcbReader, MetaMatWithATagBeyondTheFileIsRefusedBeforeMatioAllocatesIt) {
+  // fuzz/corpus/ycbv_meta/crash-oom-name-tag-4gb.mat (found by the ycbv_meta fuzz target): 411
+  // bytes whose variable-name tag claims 4 GB; libmatio allocated and cleared 4 GB for it.
+  const std::string dir = test::scratch_dir("ycb_fuzz") + "/data/0000";
+  write_ycb_frame(dir, 1, YcbFrameSpec{});
+  std::filesystem::copy_file(
+      std::string(ORPE_SOURCE_DIR) + "/fuzz/corpus/ycbv_meta/crash-oom-name-tag-4gb.mat",
+      dir + "/000001-meta.mat", std::filesystem::copy_options::overwrite_existing);
+  auto reader = open_dataset(dir, DatasetParams{});
+  test::expect_io_error_naming([&] { reader->read_annotations(0); }, "000001-meta.mat");
+  try {
+    reader->read_annotations(0);
+  } catch (const IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("corrupt MATLAB file"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace orpe

@@ -226,7 +226,8 @@ BopPoseEvaluation evaluate_bop_pose_results(const std::vector<const DatasetReade
   ev.estimates = estimates.size();
   ev.all = bop_recalls(targets, estimates, diameters, widths);
   for (const auto& t : targets) ev.targets += t.valid, ev.targets_per_object[t.obj_id] += t.valid;
-  for (const auto& [obj, n] : ev.targets_per_object) {
+  for (const auto& entry : ev.targets_per_object) {
+    const int obj = entry.first;  // not a structured binding: clang 14 cannot capture one
     std::vector<BopTarget> t;
     std::vector<BopEstimate> e;
     std::copy_if(targets.begin(), targets.end(), std::back_inserter(t),

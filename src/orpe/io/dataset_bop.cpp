@@ -250,7 +250,8 @@ class BopReader final : public SelectedFramesReader {
     const json cams = parse_json_file(file);
     if (!cams.is_object()) throw IoError(file, "expected an object {\"im_id\": {...}}");
     for (const auto& [key, cam] : cams.items()) {
-      if (!is_digits(key)) throw IoError(file, fmt::format("key '{}' is not an image id", key));
+      if (!is_digits(key) || key.size() > 9)  // (stoi would overflow)
+        throw IoError(file, fmt::format("key '{}' is not an image id (0 to 999999999)", key));
       BopImage im;
       im.im_id = parse_int_field(key, file, fmt::format("key '{}'", key), 0);
       try {
@@ -369,7 +370,7 @@ class BopReader final : public SelectedFramesReader {
         throw IoError(info_file.string(), fmt::format("key '{}' is not an object id", key));
       const int id = parse_int_field(key, info_file.string(), fmt::format("key '{}'", key), 0);
       if (!info_.class_names.count(id)) info_.class_names[id] = fmt::format("obj_{:06d}", id);
-      auto non_empty = [&](const char* field) {
+      auto non_empty = [&m = m](const char* field) {  // clang 14 cannot capture a binding
         return m.is_object() && m.contains(field) && m.at(field).is_array() && !m.at(field).empty();
       };
       if (non_empty("symmetries_discrete") || non_empty("symmetries_continuous"))

@@ -3,6 +3,7 @@
 // with libmatio (kept inside this file).
 #include <algorithm>
 #include <cctype>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -151,9 +152,79 @@ struct YcbMeta {
   std::vector<SE3> T_cam_obj;  // same order as class_ids
 };
 
+// libmatio sizes its allocations from the file's tags and dimensions before checking them against
+// the file (fuzz ycbv_meta: a 411-byte meta.mat with a name tag of 4 GB made it allocate and clear
+// 4 GB). check_mat5_sizes refuses such a file first. Compressed variables are inflated by matio and
+// their contents are not checked here.
+struct Mat5Reader {
+  const std::string& path;
+  const std::string& bytes;
+  bool swap = false;
+
+  uint32_t u32(size_t at) const {
+    uint32_t v;
+    std::memcpy(&v, bytes.data() + at, 4);
+    return swap ? __builtin_bswap32(v) : v;
+  }
+  [[noreturn]] void corrupt(size_t at, const std::string& what) const {
+    throw IoError(path, fmt::format("corrupt MATLAB file: {} (byte {})", what, at));
+  }
+  /// Walks the data elements in [begin, end); a matrix's elements are walked too (depth-limited).
+  void elements(size_t begin, size_t end, int depth) const {
+    if (depth > 16) corrupt(begin, "arrays nested too deep");
+    for (size_t at = begin, index = 0; at + 8 <= end; ++index) {
+      const uint32_t tag = u32(at);
+      if (tag >> 16) {  // small element: type and size in one word, data in the next
+        at += 8;
+        continue;
+      }
+      const size_t n = u32(at + 4);
+      if (n > end - at - 8)
+        corrupt(at, fmt::format("an element of {} bytes where {} remain", n, end - at - 8));
+      if (tag == 14) matrix(at + 8, at + 8 + n, depth + 1);  // miMATRIX
+      // Elements inside a matrix are padded to 8 bytes; top-level ones (miCOMPRESSED) are not.
+      at += 8 + (depth > 0 ? (n + 7) / 8 * 8 : n);
+    }
+  }
+  /// A matrix: array flags, dimensions, name, data. Each stored value takes at least one byte, so
+  /// the element count (but for sparse arrays) cannot exceed the matrix's size.
+  void matrix(size_t begin, size_t end, int depth) const {
+    elements(begin, end, depth);
+    if (end - begin < 24 || (u32(begin) >> 16) || u32(begin) != 6) return;  // matio decides
+    const uint32_t array_class = u32(begin + 8) & 0xff;
+    const size_t dims_at = begin + 16;
+    const uint32_t dims_tag = u32(dims_at);
+    if (array_class == 5 || dims_tag != 5) return;  // sparse, or small-format dimensions
+    const size_t dims_bytes = u32(dims_at + 4);
+    double elements_count = 1;
+    for (size_t k = 0; k + 4 <= dims_bytes; k += 4) elements_count *= u32(dims_at + 8 + k);
+    if (elements_count > static_cast<double>(end - begin))
+      corrupt(begin,
+              fmt::format("an array of {:.0f} elements in {} bytes", elements_count, end - begin));
+  }
+};
+
+void check_mat5_sizes(const std::string& path) {
+  std::ifstream is(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+  if (bytes.size() < 128) return;  // matio reports it
+  Mat5Reader r{path, bytes};
+  if (bytes[126] == 'M' && bytes[127] == 'I')
+    r.swap = true;
+  else if (bytes[126] != 'I' || bytes[127] != 'M')
+    throw IoError(path, "not a MATLAB 5 or 7.3 file (no 'MI'/'IM' endian mark at byte 126)");
+  const uint32_t version = static_cast<uint8_t>(bytes[r.swap ? 125 : 124]) |
+                           (static_cast<uint8_t>(bytes[r.swap ? 124 : 125]) << 8);
+  if (version == 0x0200) return;  // v7.3: an HDF5 file, read by libhdf5
+  if (version != 0x0100)
+    throw IoError(path, fmt::format("unknown MATLAB file version 0x{:04x}", version));
+  r.elements(128, bytes.size(), 0);
+}
+
 MatFilePtr open_mat(const std::string& path) {
   init_matio_logging();
   if (!fs::exists(path)) throw IoError(path, "file not found");
+  check_mat5_sizes(path);
   MatFilePtr mat(Mat_Open(path.c_str(), MAT_ACC_RDONLY));
   if (!mat) throw IoError(path, "cannot open as a MATLAB file (truncated or corrupt?)");
   return mat;

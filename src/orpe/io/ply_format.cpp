@@ -223,13 +223,20 @@ PlyColumns read_ply_element(const std::string& path, const std::string& element)
   BodyReader body(path, data, pos, format);
   for (const Element& e : elements) {
     const bool wanted = e.name == element;
+    // Each record of an element with properties takes at least one byte: a count beyond the body
+    // is a truncated or corrupt header (and must not size the allocations below).
+    const size_t body_bytes = data.size() - pos;
+    if (!e.properties.empty() && e.count > body_bytes)
+      throw IoError(path, fmt::format("PLY body ends early: element '{}' has {} records but "
+                                      "the body only {} bytes (truncated file?)",
+                                      e.name, e.count, body_bytes));
     PlyColumns out;
     if (wanted) {
       out.count = e.count;
       for (const Property& p : e.properties)
         if (!p.is_list) out.columns[p.name].reserve(e.count);
     }
-    for (size_t r = 0; r < e.count; ++r) {
+    for (size_t r = 0; r < (e.properties.empty() ? 0 : e.count); ++r) {
       for (const Property& p : e.properties) {
         if (p.is_list) {
           const double n = body.next(p.count_type);

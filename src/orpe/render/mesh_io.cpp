@@ -200,14 +200,14 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
     if (kw == "v") {
       if (tok.size() != 4 && tok.size() != 5 && tok.size() != 7)
         fail("'v' needs 3 coordinates (or 3 + rgb)");
-      double x, y, z;
+      double x = 0, y = 0, z = 0;
       if (!parse_double(tok[1], x) || !parse_double(tok[2], y) || !parse_double(tok[3], z))
         fail("malformed vertex coordinate");
       pos.emplace_back(static_cast<float>(x) * scale, static_cast<float>(y) * scale,
                        static_cast<float>(z) * scale);
       Rgb8 c{255, 255, 255};
       if (tok.size() == 7) {
-        double r, g, b;
+        double r = 0, g = 0, b = 0;
         if (!parse_double(tok[4], r) || !parse_double(tok[5], g) || !parse_double(tok[6], b))
           fail("malformed vertex colour");
         auto q = [](double c01) {
@@ -219,13 +219,13 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
       vcol.push_back(c);
     } else if (kw == "vt") {
       if (tok.size() < 3) fail("'vt' needs 2 coordinates");
-      double u, v;
+      double u = 0, v = 0;
       if (!parse_double(tok[1], u) || !parse_double(tok[2], v))
         fail("malformed texture coordinate");
       tex.emplace_back(static_cast<float>(u), static_cast<float>(v));
     } else if (kw == "vn") {
       if (tok.size() != 4) fail("'vn' needs 3 coordinates");
-      double x, y, z;
+      double x = 0, y = 0, z = 0;
       if (!parse_double(tok[1], x) || !parse_double(tok[2], y) || !parse_double(tok[3], z))
         fail("malformed normal");
       nrm.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
@@ -256,7 +256,7 @@ TriangleMesh load_obj(const std::string& path, const MeshLoadOptions& options) {
             return i - 1;
           }
           if (i < 0) {
-            if (static_cast<size_t>(-i) > n)
+            if (i < -static_cast<long>(n))  // (not -i: overflows for LONG_MIN)
               fail(std::string(what) + " index " + std::to_string(i) + " out of range");
             return static_cast<long>(n) + i;
           }
@@ -518,6 +518,14 @@ class PlyBodyReader {
   int line_ = 0;
 };
 
+/// Reads past one list property value: its count, then its items. A count that is negative, NaN
+/// or over 1e6 is refused (a float count beyond int would overflow the loop's cast).
+void skip_ply_list(PlyBodyReader& body, const PlyProperty& p, const std::string& path) {
+  const double n = body.read(p.count_type);
+  if (!(n >= 0) || n > 1e6) throw IoError(path, "PLY list '" + p.name + "': bad list length");
+  for (int j = 0; j < static_cast<int>(n); ++j) body.read(p.type);
+}
+
 }  // namespace
 
 TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
@@ -563,7 +571,7 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
         texture_file = name;
       }
     } else if (tok[0] == "element") {
-      long count;
+      long count = 0;
       if (tok.size() != 3 || !parse_int(tok[2], count) || count < 0) fail("malformed element line");
       elements.push_back({std::string(tok[1]), static_cast<size_t>(count), {}});
     } else if (tok[0] == "property") {
@@ -605,6 +613,12 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
   body.set_line(line_no + 1);
   std::vector<double> listv;
   for (const auto& el : elements) {
+    // Each record takes at least one byte: a count beyond the body is a corrupt header and must not
+    // size the allocations below (as in io/ply_format.cpp, found by the ply_points fuzz target).
+    if (!el.props.empty() && el.count > data.size() - pos)
+      throw IoError(path, "unexpected end of file: PLY element '" + el.name + "' has " +
+                              std::to_string(el.count) + " records but the body only " +
+                              std::to_string(data.size() - pos) + " bytes (truncated file?)");
     if (el.name == "vertex") {
       have_vertex_element = true;
       int ix = -1, iy = -1, iz = -1, inx = -1, iny = -1, inz = -1, ir = -1, ig = -1, ib = -1,
@@ -650,8 +664,7 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
         for (size_t k = 0; k < el.props.size(); ++k) {
           const auto& p = el.props[k];
           if (p.is_list) {
-            const double n = body.read(p.count_type);
-            for (int j = 0; j < static_cast<int>(n); ++j) body.read(p.type);
+            skip_ply_list(body, p, path);
             rec[k] = 0;
           } else {
             rec[k] = body.read(p.type);
@@ -725,12 +738,11 @@ TriangleMesh load_ply(const std::string& path, const MeshLoadOptions& options) {
         }
       }
     } else {
-      // Skip unknown elements record by record.
-      for (size_t i = 0; i < el.count; ++i) {
+      // Skip unknown elements record by record (an element without properties has nothing to skip).
+      for (size_t i = 0; i < (el.props.empty() ? 0 : el.count); ++i) {
         for (const auto& p : el.props) {
           if (p.is_list) {
-            const double n = body.read(p.count_type);
-            for (int j = 0; j < static_cast<int>(n); ++j) body.read(p.type);
+            skip_ply_list(body, p, path);
           } else {
             body.read(p.type);
           }

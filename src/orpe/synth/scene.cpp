@@ -253,10 +253,8 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
       throw std::invalid_argument("build_scene: bad type index");
   const std::uint64_t env_seed = rng();
   add_floor_and_walls(s, env_seed);
-  bool any_pallet = false;
   double total_area = 0, max_len = 0;
   for (int t : instance_types) {
-    any_pallet |= s.types[t].is_pallet;
     total_area += max_footprint_area(s.types[t]);
     for (const auto& r : s.types[t].resting_poses)
       for (const auto& q : r.footprint) max_len = std::max(max_len, q.norm());

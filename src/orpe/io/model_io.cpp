@@ -8,7 +8,7 @@
 #include <fmt/format.h>
 
 #include "orpe/core/error.h"
-#include "orpe/io/ply_format.h"
+#include "orpe/core/ply_format.h"
 
 namespace orpe {
 

@@ -7,7 +7,7 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev
   libmatio-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libtbb-dev libgtest-dev libgmock-dev libbenchmark-dev
-  libassimp-dev
+  libassimp-dev libyaml-cpp-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -1,9 +1,10 @@
 // One interface over the dataset layouts orpe reads: a random-access sequence of RGB-D frames plus
 // whatever ground truth the dataset has. Readers convert to library conventions at this edge:
-// depth in metres (per-dataset depth scale), colour RGB8, poses as T_world_cam / T_cam_obj in metres.
-// Layouts, presets, detection rules and depth scales: docs/DATASETS.md.
+// depth in metres (per-dataset depth scale), colour RGB8, poses as T_world_cam / T_cam_obj in
+// metres. Layouts, presets, detection rules and depth scales: docs/DATASETS.md.
 #pragma once
 
+#include <array>
 #include <map>
 #include <memory>
 #include <optional>
@@ -21,10 +22,15 @@ struct DatasetParams {
   int first_frame = 0;          ///< index into the layout's frame list (after sorting), inclusive
   int last_frame = -1;          ///< inclusive; -1 = to the end
   int stride = 1;               ///< take every stride-th frame
-  double depth_units_per_m = 0;  ///< raw depth units per metre; 0 = preset (TUM 5000, 7-Scenes 1000, ...)
+  double depth_units_per_m =
+      0;  ///< raw depth units per metre; 0 = preset (TUM 5000, 7-Scenes 1000, ...)
   double fx = 0, fy = 0, cx = 0, cy = 0;  ///< intrinsics override, pixels; 0 = preset / from files
   double max_depth_m = 0;  ///< depth beyond this is marked invalid on read; 0 = keep all
-  std::string scene;       ///< YCB-Video video ("0001") or BOP scene ("000000"); empty = first found
+  std::string scene;  ///< YCB-Video video ("0001") or BOP scene ("000000"); empty = first found
+  std::string models_dir;  ///< folder of object meshes replacing the dataset's models; empty = none
+  std::string
+      models_unit;  ///< unit of models_dir's files: m | mm; empty = detect (error if unclear)
+  std::string camera_file;  ///< camera YAML (ORB-SLAM2/3 or OpenCV style) overriding the layout's
 
   template <class V>
   void visit(V&& v) {
@@ -33,29 +39,69 @@ struct DatasetParams {
     v("last_frame", last_frame, "Last frame, inclusive; -1 = to the end");
     v("stride", stride, "Take every stride-th frame (>= 1)");
     v("depth_units_per_m", depth_units_per_m,
-      "Raw depth units per metre; 0 = the layout's preset (TUM 5000, 7-Scenes 1000, YCB meta.mat, BOP json)");
+      "Raw depth units per metre; 0 = the layout's preset (TUM 5000, 7-Scenes 1000, YCB meta.mat, "
+      "BOP json)");
     v("fx", fx, "Focal length x override (pixels); 0 = from the dataset / preset");
     v("fy", fy, "Focal length y override (pixels); 0 = from the dataset / preset");
     v("cx", cx, "Principal point x override (pixels); 0 = from the dataset / preset");
     v("cy", cy, "Principal point y override (pixels); 0 = from the dataset / preset");
     v("max_depth_m", max_depth_m, "Depth beyond this is marked invalid on read (m); 0 = keep all");
-    v("scene", scene, "YCB-Video video (e.g. 0001) or BOP scene (e.g. 000000); empty = first found");
+    v("scene", scene,
+      "YCB-Video video (e.g. 0001) or BOP scene (e.g. 000000); empty = first found");
+    v("models_dir", models_dir,
+      "Folder of object meshes (one file or one folder per object) replacing the dataset's models; "
+      "empty = the dataset's own (docs/DATASETS.md)");
+    v("models_unit", models_unit,
+      "Unit of the models_dir files: m | mm; empty = detect from their sizes (an error when "
+      "unclear)");
+    v("camera_file", camera_file,
+      "Camera YAML (ORB-SLAM2/ORB-SLAM3 settings or OpenCV FileStorage style): intrinsics, "
+      "distortion, depth scale, depth-to-colour extrinsics; overrides the layout's "
+      "(docs/DATASETS.md)");
   }
   bool IsValid(std::string* why) const;
 };
 
+/// A symmetry stated for one model in a models folder's symmetry.yaml (docs/DATASETS.md).
+struct ModelSymmetrySpec {
+  std::string text;         ///< as written, for messages and summaries
+  bool none = false;        ///< "none": no symmetry, scored with ADD
+  bool continuous = false;  ///< "continuous x|y|z": about that object axis
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  std::vector<Eigen::Vector3d> flip_axes;  ///< "flip x y ...": 180-degree turns about these axes
+};
+
+/// The camera a run used when a camera file was given (every value, for summary.json).
+struct CameraFileInfo {
+  std::string path;
+  std::string style;         ///< orbslam2 | orbslam3 | opencv
+  PinholeIntrinsics colour;  ///< colour camera (after undistortion: same K, no distortion)
+  std::array<double, 5> colour_distortion{};  ///< k1 k2 p1 p2 k3 of the colour images
+  bool has_depth_camera = false;  ///< depth in its own camera, registered into colour at load
+  PinholeIntrinsics depth;
+  std::array<double, 5> depth_distortion{};
+  SE3 T_colour_depth;            ///< depth-camera points into the colour camera frame, metres
+  double depth_units_per_m = 0;  ///< 0 = the layout's
+  double min_depth_m = 0, max_depth_m = 0;  ///< 0 = no limit
+};
+
 /// Static facts about an opened dataset.
 struct DatasetInfo {
-  std::string format;  ///< tum | 7scenes | ycbv | bop
-  std::string root;    ///< the folder that was opened
-  int scene_id = 0;    ///< YCB video number / BOP scene id (for BOP result rows)
+  std::string format;            ///< tum | 7scenes | ycbv | bop
+  std::string root;              ///< the folder that was opened
+  int scene_id = 0;              ///< YCB video number / BOP scene id (for BOP result rows)
   PinholeIntrinsics intrinsics;  ///< of the first frame (frames may carry their own)
-  double depth_units_per_m = 0;  ///< the scale used (of the first selected frame; 0 if none was found)
+  double depth_units_per_m =
+      0;  ///< the scale used (of the first selected frame; 0 if none was found)
   std::map<int, std::string> class_names;  ///< class id -> name (YCB: classes.txt; BOP: obj_XXXXXX)
-  std::map<int, std::string> model_points_paths;  ///< class id -> points file (YCB points.xyz, BOP ply)
-  std::map<int, std::string> model_mesh_paths;    ///< class id -> mesh (OBJ/PLY), when present
-  std::vector<int> symmetric_classes;             ///< classes scored with ADD-S in ADD(-S)
-  double model_units_per_m = 1.0;                 ///< model files' units (BOP: 1000 = mm)
+  std::map<int, std::string>
+      model_points_paths;  ///< class id -> points file (YCB points.xyz, BOP ply)
+  std::map<int, std::string> model_mesh_paths;  ///< class id -> mesh (OBJ/PLY), when present
+  std::vector<int> symmetric_classes;           ///< classes scored with ADD-S in ADD(-S)
+  double model_units_per_m = 1.0;               ///< model files' units (BOP: 1000 = mm)
+  std::string models_dir;  ///< dataset.models_dir when the models came from there
+  std::map<int, ModelSymmetrySpec> model_symmetry;  ///< symmetry.yaml of models_dir, per class
+  std::optional<CameraFileInfo> camera;             ///< dataset.camera_file, when given
 };
 
 /// A timestamped camera pose, T_world_cam.
@@ -87,8 +133,8 @@ class DatasetReader {
   virtual std::vector<StampedPose> ground_truth_trajectory() const { return {}; }
 };
 
-/// Detects the layout of `path` ("tum", "7scenes", "ycbv", "bop"), or throws IoError explaining what
-/// was looked for.
+/// Detects the layout of `path` ("tum", "7scenes", "ycbv", "bop"), or throws IoError explaining
+/// what was looked for.
 std::string detect_dataset_format(const std::string& path);
 
 /// Opens a dataset folder. Throws IoError / ConfigError with a message naming the path and problem.

@@ -1,7 +1,7 @@
 // Load time of the 21 YCB-Video meshes (models/<class>/textured_simple.obj, textures included)
 // through load_mesh(). Prints per model: vertices, triangles, textured, and the median over
 // `--repeat` passes of the whole set. Compare two builds in the same run (the machine is shared).
-// Run: build/bin/orpe_bench_mesh_load [--repeat 5]   (data: $ORPE_DATA_DIR or ../shared/data)
+// Run: build/bin/orpe_bench_mesh_load [--repeat 5] [--no-textures]   (data: $ORPE_DATA_DIR or ../shared/data)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -15,8 +15,11 @@
 int main(int argc, char** argv) {
   namespace fs = std::filesystem;
   int repeat = 5;
-  for (int i = 1; i + 1 < argc; ++i)
-    if (std::string(argv[i]) == "--repeat") repeat = std::max(1, std::atoi(argv[i + 1]));
+  bool textures = true;
+  for (int i = 1; i < argc; ++i) {
+    if (std::string(argv[i]) == "--repeat" && i + 1 < argc) repeat = std::max(1, std::atoi(argv[i + 1]));
+    if (std::string(argv[i]) == "--no-textures") textures = false;
+  }
   const char* env = std::getenv("ORPE_DATA_DIR");
   const fs::path models = fs::path(env && *env ? env : "../shared/data") / "ycbv" / "models";
   std::vector<fs::path> files;
@@ -31,6 +34,7 @@ int main(int argc, char** argv) {
   std::vector<double> pass_s;
   orpe::MeshLoadOptions opt;
   opt.warn_missing_texture = false;
+  opt.load_texture = textures;
   for (int r = 0; r < repeat; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
     for (const auto& f : files) {

@@ -357,6 +357,9 @@ TEST(ModelsFolder, NamesUnitsIdsAndSymmetrySidecar) {
   EXPECT_TRUE(sym.model_symmetry.at(2).continuous);
   EXPECT_EQ(sym.model_symmetry.at(1).flip_axes.size(), 2u);
   EXPECT_EQ(sym.symmetric_classes.size(), 2u);
+  EXPECT_TRUE(parse_symmetry_spec("symmetric")->detected);
+  EXPECT_FALSE(parse_symmetry_spec("auto").has_value());
+  EXPECT_THROW(parse_symmetry_spec("flip w"), std::invalid_argument);
   test::write_text(dir + "/mm/symmetry.yaml", "box: none\nmug: spin z\n");
   test::expect_io_error_naming([&] { apply_models_folder(sym, dir + "/mm", "mm"); }, "line 2");
   test::write_text(dir + "/mm/symmetry.yaml", "bowl: none\n");

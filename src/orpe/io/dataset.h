@@ -66,6 +66,7 @@ struct DatasetParams {
 struct ModelSymmetrySpec {
   std::string text;         ///< as written, for messages and summaries
   bool none = false;        ///< "none": no symmetry, scored with ADD
+  bool detected = false;  ///< "symmetric": the detected group, scored with ADD-S
   bool continuous = false;  ///< "continuous x|y|z": about that object axis
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
   std::vector<Eigen::Vector3d> flip_axes;  ///< "flip x y ...": 180-degree turns about these axes

@@ -185,13 +185,15 @@ std::optional<ModelSymmetrySpec> parse_symmetry_spec(const std::string& text) {
   std::vector<std::string> words;
   for (std::string w; is >> w;) words.push_back(lower(w));
   const std::string expected =
-      "expected none | auto | continuous x|y|z | flip x [y] [z], got '" + text + "'";
+      "expected none | auto | symmetric | continuous x|y|z | flip x [y] [z], got '" + text + "'";
   if (words.empty()) throw std::invalid_argument(expected);
   ModelSymmetrySpec spec;
   spec.text = text;
   if (words[0] == "auto" && words.size() == 1) return std::nullopt;
   if (words[0] == "none" && words.size() == 1) {
     spec.none = true;
+  } else if (words[0] == "symmetric" && words.size() == 1) {
+    spec.detected = true;
   } else if (words[0] == "continuous" && words.size() == 2) {
     spec.continuous = true;
     spec.axis = axis_of(words[1]);

@@ -10,7 +10,8 @@
 //    within 0.01-5 -> m, all within 10-5000 -> mm; anything else is an error asking for the unit);
 //  - symmetry is detected from the model (pose stage) unless DIR/symmetry.yaml states it per
 //  object:
-//    `name: none | auto | continuous x|y|z | flip x [y] [z]`.
+//    `name: none | auto | symmetric | continuous x|y|z | flip x [y] [z]` (symmetric: the detected
+//    group, scored with ADD-S, as YCB-Video's symmetric classes).
 #pragma once
 
 #include <string>
@@ -24,7 +25,7 @@ namespace orpe {
 /// meshes, a folder with several candidate meshes, an unclear unit, or a bad symmetry.yaml.
 void apply_models_folder(DatasetInfo& info, const std::string& dir, const std::string& unit);
 
-/// Parses one symmetry statement (`none`, `auto`, `continuous z`, `flip x y`); nullopt for `auto`.
+/// Parses one symmetry statement (`none`, `auto`, `symmetric`, `continuous z`, `flip x y`); nullopt for `auto`.
 /// Throws std::invalid_argument explaining what is expected.
 std::optional<ModelSymmetrySpec> parse_symmetry_spec(const std::string& text);
 

@@ -158,7 +158,8 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
   }
   model.symmetric_for_metric = std::count(info.symmetric_classes.begin(),
                                           info.symmetric_classes.end(), class_id) > 0;
-  if (const auto spec = info.model_symmetry.find(class_id); spec != info.model_symmetry.end())
+  if (const auto spec = info.model_symmetry.find(class_id);
+      spec != info.model_symmetry.end() && !spec->second.detected)
     model.symmetry = symmetry_from_spec(spec->second);
   return model;
 }

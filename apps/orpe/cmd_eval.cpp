@@ -179,6 +179,7 @@ CommandRegistrar reg(70, [](CLI::App& root) {
       "Also the BOP 2019-2023 average recall: VSD, MSSD, MSPD and their mean AR (BOP layout: "
       "models_info.json; bop_toolkit's thresholds; --json adds them under \"bop\")");
   add_config_options(*p, poses->options);
+  add_dataset_options(*p, poses->options);
   p->callback([poses] { run_poses(*poses); });
 });
 

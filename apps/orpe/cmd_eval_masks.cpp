@@ -94,6 +94,7 @@ CommandRegistrar reg(72, [](CLI::App& root) {
   m->add_option("--json", c->json_path,
                 "Also write the figures as JSON to this file ('-' = stdout)");
   add_config_options(*m, c->options);
+  add_dataset_options(*m, c->options);
   m->footer(
       "Each run's scene and format come from RUN/masks/index.json (unless --set "
       "dataset.scene=...);\n"

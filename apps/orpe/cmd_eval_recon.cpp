@@ -99,6 +99,7 @@ CommandRegistrar reg(71, [](CLI::App& root) {
   r->add_option("--json", c->json_path, "Also write the figures as JSON to this file");
   r->add_flag("--markdown", c->markdown, "Print the table as Markdown");
   add_config_options(*r, c->options);
+  add_dataset_options(*r, c->options);
   r->callback([c] { run_recon(*c); });
 });
 

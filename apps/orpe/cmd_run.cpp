@@ -88,6 +88,7 @@ CommandRegistrar reg(30, [](CLI::App& root) {
       "--overwrite", s->overwrite,
       "Replace --out when it holds a previous run (else a folder that is not empty is refused)");
   add_config_options(*app, s->options);
+  add_dataset_options(*app, s->options);
   app->footer(
       "Outputs: OUT/trajectory.txt (TUM), map.ply, summary.json; semantic/full: semantic_map.ply,\n"
       "semantic_map_instances.ply, instances.json; full: poses.csv (BOP results, camera-frame "

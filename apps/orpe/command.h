@@ -24,9 +24,15 @@ struct ConfigOptions {
   std::string preset;
   std::string config_file;
   std::vector<std::string> overrides;
+  std::string models_dir;   ///< --models: dataset.models_dir
+  std::string camera_file;  ///< --camera: dataset.camera_file
 };
 void add_config_options(CLI::App& app, ConfigOptions& options);
-/// Defaults, then the preset, then the file, then the overrides; validated. Throws ConfigError / IoError.
+/// --models DIR and --camera FILE (dataset.models_dir / dataset.camera_file), for the commands that
+/// read a dataset.
+void add_dataset_options(CLI::App& app, ConfigOptions& options);
+/// Defaults, then the preset, then the file, then the overrides; validated. Throws ConfigError /
+/// IoError.
 OrpeConfig resolve_config(const ConfigOptions& options);
 
 /// Writes `text` and a newline to `path` atomically (the commands' --json outputs).

@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <mutex>
 #include <exception>
 #include <iostream>
+#include <mutex>
 
 #include "command.h"
 #include "orpe/core/atomic_file.h"
@@ -30,10 +30,21 @@ void add_config_options(CLI::App& app, ConfigOptions& options) {
                  "docs/SLAM.md)")
       ->check(CLI::IsMember(config_preset_names()));
   app.add_option("--config", options.config_file,
-                 "JSON config file ({\"section\": {\"key\": value}})")
+                 "Config file: JSON ({\"section\": {\"key\": value}}) or YAML (.yaml / .yml, "
+                 "section: then key: value lines)")
       ->check(CLI::ExistingFile);
   app.add_option("--set", options.overrides,
                  "Override one parameter, section.key=value (repeatable); see `orpe config`");
+}
+
+void add_dataset_options(CLI::App& app, ConfigOptions& options) {
+  app.add_option("--models", options.models_dir,
+                 "Folder of object meshes (one file or folder per object) replacing the dataset's "
+                 "models (dataset.models_dir; docs/DATASETS.md)");
+  app.add_option(
+      "--camera", options.camera_file,
+      "Camera YAML (ORB-SLAM2/3 settings or OpenCV style): intrinsics, distortion, depth "
+      "scale, depth-to-colour extrinsics (dataset.camera_file; docs/DATASETS.md)");
 }
 
 OrpeConfig resolve_config(const ConfigOptions& options) {
@@ -41,6 +52,8 @@ OrpeConfig resolve_config(const ConfigOptions& options) {
   if (!options.preset.empty()) apply_config_preset(config, options.preset);
   if (!options.config_file.empty()) load_config_file(config, options.config_file);
   for (const auto& o : options.overrides) apply_config_override(config, o);
+  if (!options.models_dir.empty()) config.dataset.models_dir = options.models_dir;
+  if (!options.camera_file.empty()) config.dataset.camera_file = options.camera_file;
   std::string why;
   if (!config.IsValid(&why)) throw ConfigError("invalid configuration: " + why);
   return config;
@@ -81,9 +94,10 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("orpe ") + orpe::kVersion);
   app.require_subcommand(1);
   route_log_streams();
-  app.add_flag_callback("-v,--verbose", [] { spdlog::set_level(spdlog::level::debug); }, "Debug logging");
-  app.add_flag_callback("-q,--quiet", [] { spdlog::set_level(spdlog::level::warn); },
-                        "Warnings and errors only");
+  app.add_flag_callback(
+      "-v,--verbose", [] { spdlog::set_level(spdlog::level::debug); }, "Debug logging");
+  app.add_flag_callback(
+      "-q,--quiet", [] { spdlog::set_level(spdlog::level::warn); }, "Warnings and errors only");
   auto& registry = command_registry();
   std::stable_sort(registry.begin(), registry.end(),
                    [](const auto& a, const auto& b) { return a.first < b.first; });

@@ -109,13 +109,14 @@ TEST(TumReader, AssociationsFileAndDepthScaleOverride) {
   EXPECT_EQ(reader->read(0).color.at(1, 1), test::tiny_color(0).at(1, 1));
 }
 
-TEST(TumReader, SevenScenesOriginMeansMillimetresAndItsIntrinsics) {
-  const std::string dir = make_tum(test::scratch_dir("tum"), 1000);
+TEST(TumReader, CameraIntrinsicsFileGivesIntrinsicsNotTheDepthScale) {
+  // Issue #17: a camera-intrinsics.txt dropped into a TUM folder used to switch depth to 1000/m.
+  const std::string dir = make_tum(test::scratch_dir("tum"));  // depth written at 5000 per metre
   test::write_text(dir + "/camera-intrinsics.txt", "585 0 320\n0 586 240\n0 0 1\n");
   auto reader = open_dataset(dir, DatasetParams{});
-  EXPECT_DOUBLE_EQ(reader->info().depth_units_per_m, 1000.0);
+  EXPECT_DOUBLE_EQ(reader->info().depth_units_per_m, 5000.0);
   EXPECT_DOUBLE_EQ(reader->info().intrinsics.fy, 586.0);
-  EXPECT_NEAR(reader->read(0).depth.at(4, 4), 1.004 + 0.0, 1e-6);
+  EXPECT_NEAR(reader->read(0).depth.at(4, 4), 1.004, 1e-6);
 }
 
 /// A 7-Scenes folder of `n` frames (colour png or jpg), 4x4 poses, depth in mm.

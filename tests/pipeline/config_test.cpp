@@ -56,6 +56,46 @@ TEST(Config, FileRoundTripAndUnknownKeys) {
   }
 }
 
+// Issue 17: YAML config files, with the same strict checks as JSON (and the line of the problem).
+TEST(Config, YamlConfigFilesAreReadWithTheSameChecks) {
+  const std::string dir = test::scratch_dir("yaml");
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir + "/" + name) << text;
+    return dir + "/" + name;
+  };
+  OrpeConfig c;
+  load_config_file(c, write("c.yaml",
+                            "# my camera\ndataset:\n  stride: 3\n  scene: 0001\n  max_depth_m: 4.5\n"
+                            "slam:\n  fuse_degraded: false\n"));
+  EXPECT_EQ(c.dataset.stride, 3);
+  EXPECT_EQ(c.dataset.scene, "0001");  // a string key keeps the text as written
+  EXPECT_DOUBLE_EQ(c.dataset.max_depth_m, 4.5);
+  EXPECT_FALSE(c.slam.fuse_degraded);
+  struct Case {
+    std::string text, needle;
+  };
+  const std::vector<Case> bad = {
+      {"dataset:\n  strid: 2\n", "line 2: unknown config key 'dataset.strid'"},
+      {"dataset:\n  stride: 1.5\n", "line 2"},
+      {"dataset:\n  stride: [1, 2]\n", "must be a single value"},
+      {"datasets:\n  stride: 2\n", "line 1: unknown config section 'datasets'"},
+      {"dataset: 3\n", "must be a mapping"},
+      {"dataset:\n  stride: 2\n bad indent: [\n", "invalid YAML"},
+      {"slam:\n  fuse_degraded: maybe\n", "expected a boolean"},
+  };
+  for (size_t i = 0; i < bad.size(); ++i) {
+    OrpeConfig d;
+    const std::string path = write("bad" + std::to_string(i) + ".yml", bad[i].text);
+    try {
+      load_config_file(d, path);
+      ADD_FAILURE() << bad[i].text;
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(bad[i].needle), std::string::npos) << e.what();
+    }
+  }
+}
+
 // Issue 12: 1.5 for an integer was truncated to 1; 1e8 iterations with convergence_step 0 ran for ever.
 TEST(Config, IntegersAreNotTruncatedAndRunawayParametersAreRefused) {
   const std::string dir = test::scratch_dir("cfg_int");

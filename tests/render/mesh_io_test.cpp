@@ -159,6 +159,57 @@ TEST(MeshIo, PlyTextureReferenceAndBigEndian) {
   EXPECT_NEAR(t.surface_area(), 1.0, 1e-9);
 }
 
+TEST(MeshIo, PlyWithoutColoursAndObjWithVertexColours) {
+  const std::string dir = test::scratch_dir("plain");
+  const TriangleMesh box = make_box(Eigen::Vector3f(0.1f, 0.1f, 0.1f), 0.05f);
+  PlyWriteOptions w;
+  w.write_colors = false;
+  write_ply(dir + "/plain.ply", box, w);
+  const TriangleMesh p = load_mesh(dir + "/plain.ply", {0.001, true});
+  EXPECT_FALSE(p.has_colors());
+  EXPECT_EQ(p.base_color, (Rgb8{255, 255, 255}));
+  EXPECT_EQ(p.num_triangles(), box.num_triangles());
+  write_text(dir + "/c.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n");
+  const TriangleMesh o = load_mesh(dir + "/c.obj");
+  ASSERT_TRUE(o.has_colors());
+  for (size_t i = 0; i < o.num_vertices(); ++i) {
+    const Eigen::Vector3f v = o.vertices[i];
+    const Rgb8 want = v.x() > 0.5f   ? Rgb8{0, 255, 0}
+                      : v.y() > 0.5f ? Rgb8{0, 0, 255}
+                                     : Rgb8{255, 0, 0};
+    EXPECT_EQ(o.colors[i], want) << i;
+  }
+}
+
+TEST(MeshIo, StlAndGltfWithANodeTransform) {
+  const std::string dir = test::scratch_dir("stlgltf");
+  write_text(dir + "/t.stl",
+             "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 2 0 0\nvertex 0 1 0\n"
+             "endloop\nendfacet\nendsolid t\n");
+  const TriangleMesh stl = load_mesh(dir + "/t.stl", {0.5, true});
+  ASSERT_EQ(stl.num_triangles(), 1u);
+  EXPECT_NEAR(stl.surface_area(), 0.25, 1e-9);  // 1 m^2 in file units x 0.5^2
+  // glTF: one triangle in a .bin buffer, placed by its node 10 units along +x.
+  const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const std::uint16_t idx[4] = {0, 1, 2, 0};
+  std::string bin(reinterpret_cast<const char*>(xyz), sizeof(xyz));
+  bin.append(reinterpret_cast<const char*>(idx), sizeof(idx));
+  write_text(dir + "/tri.bin", bin);
+  write_text(dir + "/tri.gltf", R"({"asset": {"version": "2.0"}, "scene": 0,
+    "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0, "translation": [10, 0, 0]}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+    "buffers": [{"uri": "tri.bin", "byteLength": 44}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                    {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]},
+                  {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]})");
+  const TriangleMesh g = load_mesh(dir + "/tri.gltf");
+  ASSERT_EQ(g.num_triangles(), 1u);
+  EXPECT_NEAR(g.bounds().min().x(), 10.0, 1e-6);
+  EXPECT_NEAR(g.surface_area(), 0.5, 1e-9);
+}
+
 TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
   const std::string dir = test::scratch_dir("bad");
   struct Case {
@@ -166,23 +217,23 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
   };
   const std::vector<Case> cases = {
       {"missing.obj", "", "not found"},
-      {"badnum.obj", "v 0 0 zero\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "line 1"},
+      {"badnum.obj", "v 0 0 zero\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "cannot read mesh"},
       {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"},
       {"noface.obj", "v 0 0 0\nv 1 0 0\n", "no faces"},
-      {"shortface.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "at least 3"},
+      {"shortface.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "cannot read mesh"},
       {"nomagic.ply", "hello\n", "magic"},
       {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header"},
       {"trunc.ply",
        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
        "float z\n"
        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n",
-       "unexpected end"},
+       "truncated"},
       {"short.ply",
        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
        "float z\n"
        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0 0\n0 1 0\n3 0 "
        "1 2\n",
-       "too few values"},
+       "more values than its header"},
       {"badidx.ply",
        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
        "float z\n"
@@ -193,8 +244,14 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
        "y\n"
        "property float z\nend_header\n\x01\x02",
-       "unexpected end"},
-      {"cube.stl", "solid x\n", "unsupported"},
+       "truncated"},
+      // assimp would allocate for two billion vertices: refused from the header alone.
+      {"huge.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 2000000000\nproperty float x\n"
+       "property float y\nproperty float z\nend_header\n\x01\x02",
+       "more than the"},
+      {"cube.stl", "solid x\n", "no vertices"},
+      {"cube.xyz3", "1 2 3\n", "unsupported"},
   };
   for (const auto& c : cases) {
     const std::string path = dir + "/" + c.name;

@@ -4,6 +4,7 @@
 // metres. Layouts, presets, detection rules and depth scales: docs/DATASETS.md.
 #pragma once
 
+#include <array>
 #include <map>
 #include <memory>
 #include <optional>
@@ -29,6 +30,10 @@ struct DatasetParams {
   /// BOP: accept a models/ folder without models_info.json, every object then asymmetric (ADD,
   /// never ADD-S). Off: such a dataset is refused, since its symmetries would be lost silently.
   bool bop_without_models_info = false;
+  std::string models_dir;  ///< folder of object meshes replacing the dataset's models; empty = none
+  std::string
+      models_unit;  ///< unit of models_dir's files: m | mm; empty = detect (error if unclear)
+  std::string camera_file;  ///< camera YAML (ORB-SLAM2/3 or OpenCV style) overriding the layout's
 
   template <class V>
   void visit(V&& v) {
@@ -49,8 +54,42 @@ struct DatasetParams {
     v("bop_without_models_info", bop_without_models_info,
       "BOP: accept models/ without models_info.json, treating every object as asymmetric (else "
       "refused)");
+    v("models_dir", models_dir,
+      "Folder of object meshes (one file or one folder per object) replacing the dataset's models; "
+      "empty = the dataset's own (docs/DATASETS.md)");
+    v("models_unit", models_unit,
+      "Unit of the models_dir files: m | mm; empty = detect from their sizes (an error when "
+      "unclear)");
+    v("camera_file", camera_file,
+      "Camera YAML (ORB-SLAM2/ORB-SLAM3 settings or OpenCV FileStorage style): intrinsics, "
+      "distortion, depth scale, depth-to-colour extrinsics; overrides the layout's "
+      "(docs/DATASETS.md)");
   }
   bool IsValid(std::string* why) const;
+};
+
+/// A symmetry stated for one model in a models folder's symmetry.yaml (docs/DATASETS.md).
+struct ModelSymmetrySpec {
+  std::string text;         ///< as written, for messages and summaries
+  bool none = false;        ///< "none": no symmetry, scored with ADD
+  bool detected = false;  ///< "symmetric": the detected group, scored with ADD-S
+  bool continuous = false;  ///< "continuous x|y|z": about that object axis
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  std::vector<Eigen::Vector3d> flip_axes;  ///< "flip x y ...": 180-degree turns about these axes
+};
+
+/// The camera a run used when a camera file was given (every value, for summary.json).
+struct CameraFileInfo {
+  std::string path;
+  std::string style;         ///< orbslam2 | orbslam3 | opencv
+  PinholeIntrinsics colour;  ///< colour camera (after undistortion: same K, no distortion)
+  std::array<double, 5> colour_distortion{};  ///< k1 k2 p1 p2 k3 of the colour images
+  bool has_depth_camera = false;  ///< depth in its own camera, registered into colour at load
+  PinholeIntrinsics depth;
+  std::array<double, 5> depth_distortion{};
+  SE3 T_colour_depth;            ///< depth-camera points into the colour camera frame, metres
+  double depth_units_per_m = 0;  ///< 0 = the layout's
+  double min_depth_m = 0, max_depth_m = 0;  ///< 0 = no limit
 };
 
 /// Static facts about an opened dataset.
@@ -67,6 +106,9 @@ struct DatasetInfo {
   std::map<int, std::string> model_mesh_paths;  ///< class id -> mesh (OBJ/PLY), when present
   std::vector<int> symmetric_classes;           ///< classes scored with ADD-S in ADD(-S)
   double model_units_per_m = 1.0;               ///< model files' units (BOP: 1000 = mm)
+  std::string models_dir;  ///< dataset.models_dir when the models came from there
+  std::map<int, ModelSymmetrySpec> model_symmetry;  ///< symmetry.yaml of models_dir, per class
+  std::optional<CameraFileInfo> camera;             ///< dataset.camera_file, when given
 };
 
 /// A timestamped camera pose, T_world_cam.

@@ -64,16 +64,18 @@ class SelectedFramesReader : public DatasetReader {
   std::vector<size_t> selected_;
 };
 
-// Factories of the four readers (one .cpp each).
+// Factories of the five readers (one .cpp each).
 std::unique_ptr<DatasetReader> open_tum(const std::string& path, const DatasetParams& params);
 std::unique_ptr<DatasetReader> open_7scenes(const std::string& path, const DatasetParams& params);
 std::unique_ptr<DatasetReader> open_ycbv(const std::string& path, const DatasetParams& params);
 std::unique_ptr<DatasetReader> open_bop(const std::string& path, const DatasetParams& params);
+std::unique_ptr<DatasetReader> open_plain(const std::string& path, const DatasetParams& params);
 
 // Layout probes used by detect_dataset_format (true when `path` looks like that layout).
 bool looks_like_tum(const std::string& path);
 bool looks_like_7scenes(const std::string& path);
 bool looks_like_ycbv(const std::string& path);
 bool looks_like_bop(const std::string& path);
+bool looks_like_plain(const std::string& path);
 
 }  // namespace orpe::detail

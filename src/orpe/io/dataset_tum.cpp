@@ -134,10 +134,9 @@ std::vector<FramePair> associate(const std::vector<StampedFile>& rgb,
 }
 
 /// The TUM-indexed copy of 7-Scenes stores depth in millimetres: recognise it by 7-Scenes' own
-/// files next to the index (camera-intrinsics.txt, or a frame-NNNNNN.pose.txt beside the first
-/// colour file).
+/// frame files (the first colour file named frame-NNNNNN.color.* with its frame-NNNNNN.pose.txt).
+/// A camera-intrinsics.txt alone does not count: it gives intrinsics, never the depth scale.
 bool is_seven_scenes_origin(const fs::path& root, const std::vector<FramePair>& pairs) {
-  if (fs::exists(root / "camera-intrinsics.txt")) return true;
   if (pairs.empty()) return false;
   const std::string name = fs::path(pairs.front().rgb.path).filename().string();
   const auto dot = name.find(".color.");

@@ -8,7 +8,8 @@
 #include <fmt/format.h>
 
 #include "orpe/core/error.h"
-#include "orpe/io/ply_format.h"
+#include "orpe/core/ply_format.h"
+#include "orpe/render/mesh_io.h"
 
 namespace orpe {
 
@@ -57,7 +58,17 @@ std::vector<Vec3> read_ply_points(const std::string& path, double units_per_m) {
 std::vector<Vec3> read_model_points(const std::string& path, double units_per_m) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".ply" ? read_ply_points(path, units_per_m) : read_xyz_points(path, units_per_m);
+  if (ext == ".ply") return read_ply_points(path, units_per_m);
+  if (ext == ".xyz" || ext == ".txt") return read_xyz_points(path, units_per_m);
+  // Any other mesh (a models folder's OBJ, STL, glTF ...): its vertices.
+  MeshLoadOptions opt;
+  opt.metres_per_unit = 1.0 / units_per_m;
+  opt.load_texture = false;
+  const TriangleMesh mesh = load_mesh(path, opt);
+  std::vector<Vec3> pts;
+  pts.reserve(mesh.vertices.size());
+  for (const auto& v : mesh.vertices) pts.push_back(v.cast<double>());
+  return pts;
 }
 
 }  // namespace orpe

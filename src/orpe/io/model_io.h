@@ -19,7 +19,8 @@ std::vector<Vec3> read_xyz_points(const std::string& path, double units_per_m = 
 /// shorter than its header, missing x/y/z, a non-finite coordinate, or no vertices.
 std::vector<Vec3> read_ply_points(const std::string& path, double units_per_m = 1.0);
 
-/// read_xyz_points or read_ply_points by extension (.ply, anything else = xyz text).
+/// By extension: .ply read_ply_points, .xyz / .txt read_xyz_points, any other mesh format (.obj,
+/// .stl, .gltf, ...) the vertices of load_mesh (render/mesh_io.h).
 std::vector<Vec3> read_model_points(const std::string& path, double units_per_m = 1.0);
 
 }  // namespace orpe

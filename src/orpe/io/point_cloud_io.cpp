@@ -10,7 +10,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
-#include "orpe/io/ply_format.h"
+#include "orpe/core/ply_format.h"
 
 namespace orpe {
 namespace {

@@ -1,5 +1,10 @@
 #include "orpe/pipeline/config.h"
 
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
 
 #include "orpe/core/error.h"
@@ -20,7 +25,61 @@ bool OrpeConfig::IsValid(std::string* why) const {
   return ok;
 }
 
+namespace {
+
+/// A YAML config: the same sections and keys as JSON, every value a scalar parsed by the key's type
+/// exactly as `--set` parses it (so `scene: 0001` stays the string "0001"). Errors name the line.
+void load_yaml_config(OrpeConfig& config, const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw IoError(path, "cannot open config file");
+  } catch (const YAML::Exception& e) {
+    throw IoError(path, fmt::format("line {}: invalid YAML: {}", e.mark.line + 1, e.msg));
+  }
+  if (root.IsNull()) return;
+  if (!root.IsMap()) throw IoError(path, "config must be a YAML mapping of sections");
+  for (const auto& section : root) {
+    const std::string name = section.first.as<std::string>();
+    const int line = section.first.Mark().line + 1;
+    bool found = false;
+    config.visit_sections([&](const char* section_name, auto& params) {
+      if (name != section_name) return;
+      found = true;
+      if (!section.second.IsMap())
+        throw IoError(path,
+                      fmt::format("line {}: section '{}' must be a mapping of keys", line, name));
+      for (const auto& kv : section.second) {
+        const std::string key = kv.first.as<std::string>();
+        const int key_line = kv.first.Mark().line + 1;
+        if (!kv.second.IsScalar())
+          throw IoError(
+              path, fmt::format("line {}: '{}.{}' must be a single value", key_line, name, key));
+        try {
+          if (!params_set(params, key, kv.second.Scalar(), name))
+            throw ConfigError("unknown config key '" + name + "." + key + "'");
+        } catch (const ConfigError& e) {
+          throw IoError(path, fmt::format("line {}: {}", key_line, e.what()));
+        }
+      }
+    });
+    if (!found)
+      throw IoError(path, fmt::format("line {}: unknown config section '{}'", line, name));
+  }
+}
+
+bool is_yaml_path(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return ext == ".yaml" || ext == ".yml";
+}
+
+}  // namespace
+
 void load_config_file(OrpeConfig& config, const std::string& path) {
+  if (is_yaml_path(path)) return load_yaml_config(config, path);
   std::ifstream is(path);
   if (!is) throw IoError(path, "cannot open config file");
   nlohmann::json j;
@@ -59,7 +118,8 @@ void apply_config_override(OrpeConfig& config, const std::string& assignment) {
     section_found = true;
     key_found = params_set(params, key, value, section);
   });
-  if (!section_found) throw ConfigError("unknown config section '" + section + "' in '" + assignment + "'");
+  if (!section_found)
+    throw ConfigError("unknown config section '" + section + "' in '" + assignment + "'");
   if (!key_found) throw ConfigError("unknown config key '" + section + "." + key + "'");
 }
 
@@ -81,7 +141,9 @@ std::string config_to_json(const OrpeConfig& config) {
 
 namespace orpe {
 
-std::vector<std::string> config_preset_names() { return {"default", "realtime"}; }
+std::vector<std::string> config_preset_names() {
+  return {"default", "realtime"};
+}
 
 void apply_config_preset(OrpeConfig& config, const std::string& name) {
   if (name == "default") {

@@ -72,7 +72,9 @@ struct OrpeConfig {
   bool IsValid(std::string* why) const;
 };
 
-/// Applies a JSON config file ({"section": {"key": value}}). Throws IoError / ConfigError.
+/// Applies a config file: JSON ({"section": {"key": value}}), or YAML (.yaml / .yml: `section:` then
+/// indented `key: value` lines, each value parsed by the key's type as `--set` does). Unknown
+/// sections / keys and wrong types are IoErrors naming the file (and, for YAML, the line).
 void load_config_file(OrpeConfig& config, const std::string& path);
 /// Applies one "section.key=value" override. Throws ConfigError for unknown keys or bad values.
 void apply_config_override(OrpeConfig& config, const std::string& assignment);

@@ -104,6 +104,21 @@ std::optional<ObjectSymmetry> read_bop_symmetry(const std::string& path, int cla
   return sym;
 }
 
+/// A models folder's stated symmetry (symmetry.yaml) as the pose stage's group: axes through the
+/// object frame's origin.
+ObjectSymmetry symmetry_from_spec(const ModelSymmetrySpec& spec) {
+  ObjectSymmetry sym;
+  if (spec.none) return sym;
+  if (spec.continuous) {
+    sym.continuous = true;
+    sym.axis_obj = spec.axis;
+    return sym;
+  }
+  for (const Eigen::Vector3d& axis : spec.flip_axes)
+    sym.discrete.emplace_back(Eigen::AngleAxisd(M_PI, axis).toRotationMatrix(), Vec3::Zero());
+  return sym;
+}
+
 }  // namespace
 
 ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int surface_points) {
@@ -115,7 +130,7 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
   const std::string name =
       name_it != info.class_names.end() ? name_it->second : fmt::format("class {}", class_id);
   ObjectModel model;
-  if (lower_extension(points->second) == ".ply") {
+  if (lower_extension(points->second) != ".xyz") {  // a mesh: BOP / orpe synth PLY, a models folder
     MeshLoadOptions mo;
     mo.metres_per_unit = 1.0 / info.model_units_per_m;
     mo.warn_missing_texture = false;
@@ -137,12 +152,15 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
   } else {
     ModelLoadOptions mo;
     mo.units_per_m = info.model_units_per_m;
-    if (mesh != info.model_mesh_paths.end() && lower_extension(mesh->second) == ".obj")
+    if (mesh != info.model_mesh_paths.end() && lower_extension(mesh->second) != ".xyz")
       mo.mesh_path = mesh->second;
     model = load_object_model(points->second, mo, class_id, name);
   }
   model.symmetric_for_metric = std::count(info.symmetric_classes.begin(),
                                           info.symmetric_classes.end(), class_id) > 0;
+  if (const auto spec = info.model_symmetry.find(class_id);
+      spec != info.model_symmetry.end() && !spec->second.detected)
+    model.symmetry = symmetry_from_spec(spec->second);
   return model;
 }
 

@@ -13,7 +13,7 @@
 
 #include "orpe/core/error.h"
 #include "orpe/io/model_io.h"
-#include "orpe/io/ply_format.h"
+#include "orpe/core/ply_format.h"
 #include "orpe/pose/model_search.h"
 #include "orpe/render/mesh.h"
 #include "orpe/render/mesh_io.h"

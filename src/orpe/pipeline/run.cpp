@@ -32,6 +32,45 @@ double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
+/// Every value of the camera file and the models folder the run used (issue #17).
+void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
+  js.set("dataset.depth_units_per_m", info.depth_units_per_m);
+  js.set("dataset.intrinsics", std::vector<double>{info.intrinsics.fx, info.intrinsics.fy,
+                                                   info.intrinsics.cx, info.intrinsics.cy});
+  js.set("dataset.image_size", std::vector<double>{static_cast<double>(info.intrinsics.width),
+                                                   static_cast<double>(info.intrinsics.height)});
+  if (info.camera) {
+    const CameraFileInfo& c = *info.camera;
+    js.set("camera.file", c.path);
+    js.set("camera.style", c.style);
+    js.set("camera.colour_fx_fy_cx_cy", std::vector<double>{c.colour.fx, c.colour.fy, c.colour.cx, c.colour.cy});
+    js.set("camera.colour_size", std::vector<double>{static_cast<double>(c.colour.width),
+                                                     static_cast<double>(c.colour.height)});
+    js.set("camera.colour_distortion_k1_k2_p1_p2_k3",
+           std::vector<double>(c.colour_distortion.begin(), c.colour_distortion.end()));
+    js.set("camera.depth_units_per_m", c.depth_units_per_m);
+    js.set("camera.min_depth_m", c.min_depth_m);
+    js.set("camera.max_depth_m", c.max_depth_m);
+    js.set("camera.registered_depth_camera", c.has_depth_camera);
+    if (c.has_depth_camera) {
+      js.set("camera.depth_fx_fy_cx_cy", std::vector<double>{c.depth.fx, c.depth.fy, c.depth.cx, c.depth.cy});
+      js.set("camera.depth_distortion_k1_k2_p1_p2_k3",
+             std::vector<double>(c.depth_distortion.begin(), c.depth_distortion.end()));
+      const Eigen::Matrix4d T = c.T_colour_depth.matrix();
+      js.set("camera.T_colour_depth", std::vector<double>(T.data(), T.data() + 16));  // column-major
+    }
+  }
+  if (!info.models_dir.empty()) {
+    js.set("models.dir", info.models_dir);
+    js.set("models.units_per_m", info.model_units_per_m);
+    std::vector<std::string> classes;
+    for (const auto& [id, path] : info.model_mesh_paths)
+      classes.push_back(std::to_string(id) + " " + info.class_names.at(id) + " " + path +
+                        (info.model_symmetry.count(id) ? " symmetry: " + info.model_symmetry.at(id).text : ""));
+    js.set("models.classes", classes);
+  }
+}
+
 nlohmann::json pose_json(const SE3& T) {
   nlohmann::json j;
   const Mat4 M = T.matrix();
@@ -396,6 +435,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   skipped.insert(skipped.end(), wrong_size.begin(), wrong_size.end());
   js.set("dataset.skipped_messages", skipped);
   js.set("dataset.frames_wrong_size", summary.wrong_size_frames);
+  write_camera_and_models(info, js);
   js.set("single_view_estimator",
          pipeline.single_view_estimator() ? pipeline.single_view_estimator()->name() : "none");
   js.set("variants", summary.variants);

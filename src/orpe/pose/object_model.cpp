@@ -14,6 +14,7 @@
 #include "orpe/io/model_io.h"
 #include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
+#include "orpe/render/mesh_io.h"
 
 namespace orpe {
 
@@ -37,82 +38,10 @@ std::string ObjectSymmetry::describe() const {
 }
 
 MeshVerticesNormals read_obj_vertices_normals(const std::string& path) {
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open OBJ mesh");
-  MeshVerticesNormals mesh;
-  std::vector<Eigen::Vector3f> vn;
-  std::vector<Eigen::Vector3f> from_vn, from_faces;
-  std::vector<std::array<int, 2>> corner;  // (vertex, normal) of each face corner, scratch
-  std::string line, tag;
-  int line_no = 0;
-  auto bad = [&](const std::string& what) {
-    throw IoError(path, "line " + std::to_string(line_no) + ": " + what);
-  };
-  while (std::getline(is, line)) {
-    ++line_no;
-    if (line.size() < 2) continue;
-    std::istringstream ls(line);
-    ls >> tag;
-    if (tag == "v") {
-      float x, y, z;
-      if (!(ls >> x >> y >> z)) bad("malformed vertex");
-      mesh.vertices.emplace_back(x, y, z);
-    } else if (tag == "vn") {
-      float x, y, z;
-      if (!(ls >> x >> y >> z)) bad("malformed normal");
-      vn.emplace_back(x, y, z);
-    } else if (tag == "f") {
-      corner.clear();
-      std::string tok;
-      while (ls >> tok) {
-        long long v64 = 0, n64 = 0;
-        const auto s1 = tok.find('/');
-        bool ok =
-            parse_integer(std::string_view(tok).substr(0, s1), INT_MIN, INT_MAX, &v64, nullptr);
-        if (ok && s1 != std::string::npos) {
-          const auto s2 = tok.find('/', s1 + 1);
-          if (s2 != std::string::npos && s2 + 1 < tok.size())
-            ok = parse_integer(std::string_view(tok).substr(s2 + 1), INT_MIN, INT_MAX, &n64,
-                               nullptr);
-        }
-        if (!ok) bad("malformed face index '" + tok + "'");
-        int v = static_cast<int>(v64), n = static_cast<int>(n64);
-        const int nv = static_cast<int>(mesh.vertices.size());
-        const int nn = static_cast<int>(vn.size());
-        v = v < 0 ? nv + v : v - 1;  // OBJ indices are 1-based; negative = relative
-        n = n < 0 ? nn + n : n - 1;
-        if (v < 0 || v >= nv) bad("face references a missing vertex");
-        if (n >= nn) bad("face references a missing normal");
-        corner.push_back({v, n});
-      }
-      if (corner.size() < 3) bad("face with fewer than 3 vertices");
-      if (from_vn.size() < mesh.vertices.size()) {
-        from_vn.resize(mesh.vertices.size(), Eigen::Vector3f::Zero());
-        from_faces.resize(mesh.vertices.size(), Eigen::Vector3f::Zero());
-      }
-      // Fan triangulation; the cross product's length is twice the area (area weighting).
-      for (size_t k = 1; k + 1 < corner.size(); ++k) {
-        const Eigen::Vector3f& a = mesh.vertices[corner[0][0]];
-        const Eigen::Vector3f& b = mesh.vertices[corner[k][0]];
-        const Eigen::Vector3f& c = mesh.vertices[corner[k + 1][0]];
-        const Eigen::Vector3f fn = (b - a).cross(c - a);
-        for (int i : {0, static_cast<int>(k), static_cast<int>(k + 1)})
-          from_faces[corner[i][0]] += fn;
-      }
-      for (const auto& [v, n] : corner)
-        if (n >= 0) from_vn[v] += vn[n];
-    }
-  }
-  if (mesh.vertices.empty()) throw IoError(path, "no vertices");
-  from_vn.resize(mesh.vertices.size(), Eigen::Vector3f::Zero());
-  from_faces.resize(mesh.vertices.size(), Eigen::Vector3f::Zero());
-  mesh.normals.resize(mesh.vertices.size(), Eigen::Vector3f::Zero());
-  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    Eigen::Vector3f n = from_vn[i].squaredNorm() > 0 ? from_vn[i] : from_faces[i];
-    if (n.squaredNorm() > 0) n.normalize();
-    mesh.normals[i] = n;  // zero for unreferenced vertices
-  }
-  return mesh;
+  MeshLoadOptions opt;  // file units: the caller scales
+  opt.load_texture = false;
+  const TriangleMesh mesh = load_mesh(path, opt);
+  return {mesh.vertices, mesh.normals};
 }
 
 double model_diameter_m(const std::vector<Eigen::Vector3f>& points) {

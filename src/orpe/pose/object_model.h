@@ -62,8 +62,9 @@ struct ObjectModel {
   bool prepared() const { return search_index != nullptr && diameter_m > 0; }
 };
 
-/// Vertex positions and per-vertex normals of a Wavefront OBJ mesh (normals from `vn` records via
-/// the faces when present, else area-weighted face normals; orientation follows the face winding).
+/// Vertex positions (file units) and unit per-vertex normals of a mesh read by load_mesh
+/// (render/mesh_io.h: any format assimp reads; normals from the file when present, else
+/// area-weighted face normals; orientation follows the face winding). Throws IoError.
 struct MeshVerticesNormals {
   std::vector<Eigen::Vector3f> vertices;
   std::vector<Eigen::Vector3f> normals;

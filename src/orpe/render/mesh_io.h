@@ -1,18 +1,16 @@
 // Mesh files <-> TriangleMesh. Units are converted at this edge: vertices come out in metres.
 //
-// OBJ: `v x y z [r g b]`, `vt`, `vn`, polygonal `f` (fan-triangulated; v, v/vt, v//vn, v/vt/vn,
-//      negative indices), `mtllib` + `usemtl` with `Kd` and `map_Kd` (one texture per mesh: the
-//      first textured material's). A missing texture file is a warning, not an error (the YCB
-//      models ship textures for only some objects). Vertex colours are kept only when no texture is
-//      loaded.
-// PLY: ascii, binary_little_endian and binary_big_endian; vertex x y z, optional nx ny nz,
-//      red green blue [alpha] (uchar, or float in [0, 1]), texture_u/texture_v (or u/v, s/t);
-//      faces as a list property (vertex_indices / vertex_index), polygons fan-triangulated;
-//      per-face `texcoord` lists are supported (vertices are then split per corner); `comment
-//      TextureFile X` loads the texture X next to the file (vertex colours are then dropped: they
-//      are usually the texture's bake and would darken it twice). Other elements are skipped.
-// Malformed input throws orpe::IoError naming the file and the problem (and line, for text
-// formats).
+// Reading goes through assimp (Debian's libassimp): OBJ with MTL (Kd, map_Kd) and vertex colours,
+// PLY (ascii / binary, vertex colours, texture_u/v, `comment TextureFile X`), STL, glTF/GLB, DAE
+// and the other formats assimp reads. Polygons are fan-triangulated, node transforms applied,
+// points and lines dropped. One texture per mesh: the first textured material's (a file next to the
+// mesh, or an image embedded in glTF/GLB); a missing texture file is a warning, not an error (the
+// YCB models ship textures for only some objects). With a texture, vertex colours are dropped (they
+// are usually the texture's bake and would darken it twice); without one, vertex colours when the
+// file has any, else the materials' diffuse colours per vertex when they differ, else one base
+// colour. A PLY file's header and body are checked by orpe's point-cloud PLY reader first
+// (core/ply_format.h). Malformed input throws orpe::IoError naming the file and the problem as
+// assimp reports it. assimp's headers stay in mesh_io.cpp.
 #pragma once
 
 #include <string>

@@ -1,4 +1,4 @@
-#include "orpe/io/ply_format.h"
+#include "orpe/core/ply_format.h"
 
 #include <bit>
 #include <cstdint>
@@ -120,6 +120,14 @@ class BodyReader {
     return v;
   }
 
+  /// True when only whitespace (ascii) is left; binary bodies may carry trailing bytes.
+  bool only_whitespace_left() const {
+    if (format_ != Format::kAscii) return true;
+    for (size_t i = pos_; i < data_.size(); ++i)
+      if (!std::isspace(static_cast<unsigned char>(data_[i]))) return false;
+    return true;
+  }
+
  private:
   double next_ascii() {
     while (pos_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
@@ -145,15 +153,36 @@ class BodyReader {
 
 }  // namespace
 
-PlyColumns read_ply_element(const std::string& path, const std::string& element) {
+namespace {
+
+struct PlyFile {
+  std::string data;  ///< the whole file
+  std::vector<Element> elements;
+  Format format = Format::kAscii;
+  size_t body_pos = 0;  ///< first byte after end_header
+};
+
+/// Smallest number of bytes one record of `e` takes (binary: scalar sizes + list counts; ascii:
+/// one character and one separator per value).
+size_t min_record_bytes(const Element& e, Format format) {
+  size_t n = 0;
+  for (const Property& p : e.properties)
+    n += format == Format::kAscii ? 2 : type_size(p.is_list ? p.count_type : p.type);
+  return n;
+}
+
+PlyFile read_ply_header(const std::string& path) {
+  PlyFile file;
   std::ifstream is(path, std::ios::binary);
   if (!is) throw IoError(path, "cannot open PLY file");
-  std::string data((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+  file.data.assign((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+  const std::string& data = file.data;
+  std::vector<Element>& elements = file.elements;
+  Format& format = file.format;
+
   if (data.compare(0, 3, "ply") != 0) throw IoError(path, "not a PLY file (no 'ply' magic)");
 
   // Header: lines up to "end_header".
-  std::vector<Element> elements;
-  Format format = Format::kAscii;
   bool have_format = false, have_end = false;
   size_t pos = 0;
   int line_no = 0;
@@ -220,16 +249,27 @@ PlyColumns read_ply_element(const std::string& path, const std::string& element)
   if (!have_end) throw IoError(path, "PLY header has no end_header (truncated file?)");
   if (!have_format) throw IoError(path, "PLY header has no format line");
 
-  BodyReader body(path, data, pos, format);
+  // Counts the body cannot hold (a corrupt or hostile header) fail before any allocation.
+  size_t remaining = data.size() - pos;
   for (const Element& e : elements) {
-    const bool wanted = e.name == element;
-    // Each record of an element with properties takes at least one byte: a count beyond the body
-    // is a truncated or corrupt header (and must not size the allocations below).
-    const size_t body_bytes = data.size() - pos;
-    if (!e.properties.empty() && e.count > body_bytes)
-      throw IoError(path, fmt::format("PLY body ends early: element '{}' has {} records but "
-                                      "the body only {} bytes (truncated file?)",
-                                      e.name, e.count, body_bytes));
+    const size_t per = min_record_bytes(e, format);
+    if (per > 0 && e.count > remaining / per)
+      throw IoError(path,
+                    fmt::format("PLY element '{}' declares {} records, more than the {} bytes "
+                                "of the body can hold (truncated file?)",
+                                e.name, e.count, remaining));
+    remaining -= per * e.count;
+  }
+  file.body_pos = pos;
+  return file;
+}
+
+/// Walks the body element by element; `wanted` (may be null) collects one element's scalars.
+void walk_ply_body(const std::string& path, const PlyFile& file, const std::string& element,
+                   PlyColumns* wanted_out) {
+  BodyReader body(path, file.data, file.body_pos, file.format);
+  for (const Element& e : file.elements) {
+    const bool wanted = wanted_out && e.name == element;
     PlyColumns out;
     if (wanted) {
       out.count = e.count;
@@ -249,9 +289,30 @@ PlyColumns read_ply_element(const std::string& path, const std::string& element)
         }
       }
     }
-    if (wanted) return out;
+    if (wanted) {
+      *wanted_out = std::move(out);
+      return;
+    }
   }
-  throw IoError(path, "PLY file has no '" + element + "' element");
+  if (wanted_out) throw IoError(path, "PLY file has no '" + element + "' element");
+  if (!body.only_whitespace_left())
+    throw IoError(path,
+                  "PLY body has more values than its header declares (a record with too "
+                  "few values?)");
+}
+
+}  // namespace
+
+PlyColumns read_ply_element(const std::string& path, const std::string& element) {
+  const PlyFile file = read_ply_header(path);
+  PlyColumns out;
+  walk_ply_body(path, file, element, &out);
+  return out;
+}
+
+void check_ply_structure(const std::string& path) {
+  const PlyFile file = read_ply_header(path);
+  walk_ply_body(path, file, "", nullptr);
 }
 
 }  // namespace orpe::detail

@@ -1,0 +1,265 @@
+#include "orpe/io/camera_file.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "orpe/core/error.h"
+
+namespace orpe {
+namespace {
+
+/// Named access to a FileStorage with the checks every key needs.
+class Keys {
+ public:
+  Keys(const cv::FileStorage& fs, std::string path) : fs_(fs), path_(std::move(path)) {}
+  bool has(const std::string& key) const { return !fs_[key].empty() && !fs_[key].isNone(); }
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw IoError(path_, key + ": " + what);
+  }
+  double number(const std::string& key) const {
+    const cv::FileNode n = fs_[key];
+    if (n.empty() || n.isNone()) fail(key, "missing");
+    if (!n.isInt() && !n.isReal()) fail(key, "expected a number");
+    const double v = n.real();
+    if (!std::isfinite(v)) fail(key, "not a finite number");
+    return v;
+  }
+  double number_or(const std::string& key, double fallback) const {
+    return has(key) ? number(key) : fallback;
+  }
+  double positive(const std::string& key) const {
+    const double v = number(key);
+    if (!(v > 0)) fail(key, fmt::format("must be > 0 (got {})", v));
+    return v;
+  }
+  int size_or(const std::string& key) const {
+    if (!has(key)) return 0;
+    const double v = positive(key);
+    if (v != std::floor(v) || v > 100000)
+      fail(key, fmt::format("must be a pixel count (got {})", v));
+    return static_cast<int>(v);
+  }
+  cv::Mat matrix(const std::string& key) const {
+    cv::Mat m;
+    try {
+      fs_[key] >> m;
+    } catch (const cv::Exception&) {
+      fail(key, "expected an !!opencv-matrix");
+    }
+    if (m.empty()) fail(key, "missing or not an !!opencv-matrix");
+    m.convertTo(m, CV_64F);
+    for (int i = 0; i < static_cast<int>(m.total()); ++i)
+      if (!std::isfinite(m.at<double>(i))) fail(key, "has a non-finite value");
+    return m;
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  const cv::FileStorage& fs_;
+  std::string path_;
+};
+
+PinholeIntrinsics intrinsics_from_matrix(const Keys& k, const std::string& key) {
+  const cv::Mat K = k.matrix(key);
+  if (K.rows != 3 || K.cols != 3) k.fail(key, "expected a 3x3 camera matrix");
+  PinholeIntrinsics in;
+  in.fx = K.at<double>(0, 0), in.fy = K.at<double>(1, 1);
+  in.cx = K.at<double>(0, 2), in.cy = K.at<double>(1, 2);
+  if (!(in.fx > 0) || !(in.fy > 0)) k.fail(key, "focal lengths must be > 0");
+  return in;
+}
+
+std::array<double, 5> distortion_from_matrix(const Keys& k, const std::string& key) {
+  std::array<double, 5> d{};
+  if (!k.has(key)) return d;
+  const cv::Mat D = k.matrix(key);
+  if (D.total() != 4 && D.total() != 5 && D.total() != 8)
+    k.fail(key, "expected 4 or 5 coefficients k1 k2 p1 p2 [k3]");
+  if (D.total() == 8)
+    for (int i = 5; i < 8; ++i)
+      if (D.at<double>(i) != 0) k.fail(key, "rational coefficients k4..k6 are not supported");
+  for (size_t i = 0; i < std::min<size_t>(5, D.total()); ++i)
+    d[i] = D.at<double>(static_cast<int>(i));
+  return d;
+}
+
+/// ORB-SLAM2 (prefix "Camera.") or ORB-SLAM3 (prefix "Camera1.") pinhole + radial-tangential.
+void read_orbslam(const Keys& k, const std::string& prefix, CameraFileInfo& c) {
+  c.colour.fx = k.positive(prefix + "fx");
+  c.colour.fy = k.positive(prefix + "fy");
+  c.colour.cx = k.number(prefix + "cx");
+  c.colour.cy = k.number(prefix + "cy");
+  const char* names[5] = {"k1", "k2", "p1", "p2", "k3"};
+  for (int i = 0; i < 5; ++i) c.colour_distortion[i] = k.number_or(prefix + names[i], 0.0);
+  c.colour.width = k.size_or("Camera.width");
+  c.colour.height = k.size_or("Camera.height");
+  for (const char* key : {"DepthMapFactor", "RGBD.DepthMapFactor"})
+    if (k.has(key)) c.depth_units_per_m = k.positive(key);
+}
+
+void read_opencv_style(const Keys& k, CameraFileInfo& c) {
+  const PinholeIntrinsics K = intrinsics_from_matrix(k, "camera_matrix");
+  c.colour.fx = K.fx, c.colour.fy = K.fy, c.colour.cx = K.cx, c.colour.cy = K.cy;
+  c.colour_distortion = distortion_from_matrix(k, "distortion_coefficients");
+  c.colour.width = k.size_or("image_width");
+  c.colour.height = k.size_or("image_height");
+  if (k.has("depth_units_per_m")) c.depth_units_per_m = k.positive("depth_units_per_m");
+}
+
+/// The optional extras of every shape: a separate depth camera and the depth range.
+void read_depth_camera(const Keys& k, CameraFileInfo& c) {
+  const bool has_K = k.has("depth_camera_matrix"), has_T = k.has("T_colour_depth");
+  if (has_K != has_T)
+    k.fail(
+        has_K ? "T_colour_depth" : "depth_camera_matrix",
+        "missing: an unregistered depth camera needs both depth_camera_matrix and T_colour_depth");
+  if (has_K) {
+    c.has_depth_camera = true;
+    c.depth = intrinsics_from_matrix(k, "depth_camera_matrix");
+    c.depth.width = k.size_or("depth_image_width");
+    c.depth.height = k.size_or("depth_image_height");
+    c.depth_distortion = distortion_from_matrix(k, "depth_distortion_coefficients");
+    const cv::Mat T = k.matrix("T_colour_depth");
+    if (T.rows != 4 || T.cols != 4) k.fail("T_colour_depth", "expected a 4x4 matrix");
+    Mat3 R;
+    Vec3 t;
+    for (int r = 0; r < 3; ++r) {
+      for (int col = 0; col < 3; ++col) R(r, col) = T.at<double>(r, col);
+      t[r] = T.at<double>(r, 3);
+    }
+    if ((R * R.transpose() - Mat3::Identity()).norm() > 1e-3 || R.determinant() < 0 ||
+        std::abs(T.at<double>(3, 3) - 1) > 1e-9)
+      k.fail("T_colour_depth",
+             "the rotation part is not a rotation (or the last row is not 0 0 0 1)");
+    if (t.norm() > 1.0) k.fail("T_colour_depth", "translation over 1 m: metres expected");
+    c.T_colour_depth = SE3(orthonormalize(R), t);
+  }
+  c.min_depth_m = k.number_or("min_depth_m", 0.0);
+  c.max_depth_m = k.number_or("max_depth_m", 0.0);
+  if (c.min_depth_m < 0 || c.max_depth_m < 0) k.fail("min_depth_m", "depth limits must be >= 0");
+  if (c.max_depth_m > 0 && c.min_depth_m >= c.max_depth_m)
+    k.fail("max_depth_m", "must be greater than min_depth_m");
+}
+
+cv::Mat K_of(const PinholeIntrinsics& k) {
+  return (cv::Mat_<double>(3, 3) << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+}
+cv::Mat D_of(const std::array<double, 5>& d) {
+  return cv::Mat(1, 5, CV_64F, const_cast<double*>(d.data())).clone();
+}
+bool distorted(const std::array<double, 5>& d) {
+  return std::any_of(d.begin(), d.end(), [](double x) { return x != 0; });
+}
+
+/// Undistorts an image into the same K (remap with `interp`).
+template <class T>
+void undistort_in_place(Image<T>& img, const PinholeIntrinsics& K, const std::array<double, 5>& d,
+                        int cv_type, int interp) {
+  if (img.empty() || !distorted(d)) return;
+  cv::Mat map1, map2;
+  cv::initUndistortRectifyMap(K_of(K), D_of(d), cv::Mat(), K_of(K), {img.width(), img.height()},
+                              CV_32FC1, map1, map2);
+  const cv::Mat src(img.height(), img.width(), cv_type, img.data());
+  cv::Mat dst;
+  cv::remap(src, dst, map1, map2, interp, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  std::memcpy(img.data(), dst.data, img.size() * sizeof(T));
+}
+
+void check_size(const PinholeIntrinsics& k, int w, int h, const std::string& what,
+                const CameraFileInfo& c, const std::string& frame) {
+  if ((k.width > 0 && k.width != w) || (k.height > 0 && k.height != h))
+    throw IoError(frame, fmt::format("{} image is {}x{} but the camera file {} says {}x{}", what, w,
+                                     h, c.path, k.width, k.height));
+}
+
+}  // namespace
+
+CameraFileInfo read_camera_file(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) throw IoError(path, "camera file not found");
+  cv::FileStorage fs;
+  try {
+    fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception& e) {
+    throw IoError(path, std::string("not a readable YAML camera file: ") + e.what());
+  }
+  if (!fs.isOpened()) throw IoError(path, "not a readable YAML camera file");
+  const Keys k(fs, path);
+  CameraFileInfo c;
+  c.path = path;
+  if (k.has("Camera1.fx")) {
+    c.style = "orbslam3";
+    read_orbslam(k, "Camera1.", c);
+  } else if (k.has("Camera.fx")) {
+    c.style = "orbslam2";
+    read_orbslam(k, "Camera.", c);
+  } else if (k.has("camera_matrix")) {
+    c.style = "opencv";
+    read_opencv_style(k, c);
+  } else {
+    throw IoError(path,
+                  "unknown camera file: expected Camera.fx (ORB-SLAM2), Camera1.fx "
+                  "(ORB-SLAM3) or camera_matrix (OpenCV calibration style)");
+  }
+  if (k.has("Camera.type") && fs["Camera.type"].isString() &&
+      std::string(fs["Camera.type"]) != "PinHole")
+    k.fail("Camera.type",
+           "only PinHole cameras are supported (got " + std::string(fs["Camera.type"]) + ")");
+  read_depth_camera(k, c);
+  return c;
+}
+
+DepthImage register_depth_to_colour(const DepthImage& depth, const CameraFileInfo& c) {
+  const int w = c.colour.width > 0 ? c.colour.width : depth.width();
+  const int h = c.colour.height > 0 ? c.colour.height : depth.height();
+  // Undistorted normalised coordinates of every depth pixel centre.
+  std::vector<cv::Point2f> px;
+  px.reserve(depth.size());
+  for (int v = 0; v < depth.height(); ++v)
+    for (int u = 0; u < depth.width(); ++u)
+      px.emplace_back(static_cast<float>(u), static_cast<float>(v));
+  std::vector<cv::Point2f> xn;
+  cv::undistortPoints(px, xn, K_of(c.depth), D_of(c.depth_distortion));
+  DepthImage out(w, h, 0.0f);
+  const Mat3 R = c.T_colour_depth.rotation();
+  const Vec3 t = c.T_colour_depth.translation();
+  for (int v = 0; v < depth.height(); ++v)
+    for (int u = 0; u < depth.width(); ++u) {
+      const float z = depth.at(u, v);
+      if (!(z > 0)) continue;
+      const cv::Point2f& n = xn[static_cast<size_t>(v) * depth.width() + u];
+      const Vec3 p = R * Vec3(n.x * z, n.y * z, z) + t;
+      if (!(p.z() > 0)) continue;
+      const int uc = static_cast<int>(std::lround(c.colour.fx * p.x() / p.z() + c.colour.cx));
+      const int vc = static_cast<int>(std::lround(c.colour.fy * p.y() / p.z() + c.colour.cy));
+      if (!out.in_bounds(uc, vc)) continue;
+      float& d = out.at(uc, vc);
+      if (d == 0 || p.z() < d) d = static_cast<float>(p.z());
+    }
+  return out;
+}
+
+void apply_camera_file(const CameraFileInfo& c, const std::string& frame_name, RgbdFrame& f) {
+  check_size(c.colour, f.color.width(), f.color.height(), "colour", c, frame_name);
+  PinholeIntrinsics K = c.colour;
+  K.width = f.color.width(), K.height = f.color.height();
+  undistort_in_place(f.color, K, c.colour_distortion, CV_8UC3, cv::INTER_LINEAR);
+  undistort_in_place(f.labels_gt, K, c.colour_distortion, CV_32SC1, cv::INTER_NEAREST);
+  if (c.has_depth_camera) {
+    check_size(c.depth, f.depth.width(), f.depth.height(), "depth", c, frame_name);
+    CameraFileInfo sized = c;
+    sized.colour = K;
+    f.depth = register_depth_to_colour(f.depth, sized);
+  } else {
+    undistort_in_place(f.depth, K, c.colour_distortion, CV_32FC1, cv::INTER_NEAREST);
+  }
+  for (float& d : f.depth)
+    if ((c.min_depth_m > 0 && d < c.min_depth_m) || (c.max_depth_m > 0 && d > c.max_depth_m)) d = 0;
+  f.intrinsics = K;
+}
+
+}  // namespace orpe

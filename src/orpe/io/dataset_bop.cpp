@@ -250,8 +250,7 @@ class BopReader final : public SelectedFramesReader {
     const json cams = parse_json_file(file);
     if (!cams.is_object()) throw IoError(file, "expected an object {\"im_id\": {...}}");
     for (const auto& [key, cam] : cams.items()) {
-      if (!is_digits(key) || key.size() > 9)  // (stoi would overflow)
-        throw IoError(file, fmt::format("key '{}' is not an image id (0 to 999999999)", key));
+      if (!is_digits(key)) throw IoError(file, fmt::format("key '{}' is not an image id", key));
       BopImage im;
       im.im_id = parse_int_field(key, file, fmt::format("key '{}'", key), 0);
       try {

@@ -13,15 +13,14 @@
 #include "orpe/io/dataset.h"
 #include "orpe/pose/colour_score.h"
 #include "pipeline/pipeline_test_util.h"
+#include "support/cli_run.h"
 
 namespace orpe {
 namespace {
 
+/// `orpe -q ARGS`, output discarded; 0 on success.
 int orpe_cli(const std::string& args) {
-  const std::string cmd =
-      std::string("OMP_WAIT_POLICY=passive ") + ORPE_CLI_PATH + " -q " + args + " > /dev/null 2>&1";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return test::run_cli(args + " > /dev/null 2>&1");
 }
 
 TEST(ColourCli, ColoursEveryAnnotatedClassAndARunUsesTheFiles) {
@@ -63,8 +62,7 @@ TEST(ColourCli, ColoursEveryAnnotatedClassAndARunUsesTheFiles) {
                      " --set pipeline.model_colour_dir=" +
                      out),
             0);
-  std::ifstream is(run + "/objects.json");
-  const auto objects = nlohmann::json::parse(is)["objects"];
+  const auto objects = test::read_json(run + "/objects.json")["objects"];
   ASSERT_FALSE(objects.empty());
   for (const auto& o : objects)
     EXPECT_EQ(o["model_colour"].get<std::string>().rfind("annotated: ", 0), 0u) << o.dump();

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <map>
+#include <memory>
 #include <set>
 
 #include "orpe/io/dataset.h"
@@ -23,6 +24,18 @@ ObjectRpeParams exact_mask_params() {
   p.pipeline.min_pose_mask_px = 40;
   p.variants = {PoseVariant::named("Object-RPE")};
   return p;
+}
+
+/// The 12-frame, 3-object synthetic scene most tests here share.
+std::unique_ptr<DatasetReader> small_scene_reader() {
+  return open_dataset(test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5)),
+                      DatasetParams{});
+}
+
+/// Gives `pipeline` a recording estimator (exact answers, no image copies); returns its state.
+std::shared_ptr<test::RecordingEstimator::Shared> attach_recorder(ObjectRpePipeline& pipeline) {
+  const auto shared = attach_recorder(pipeline);
+  return shared;
 }
 
 /// Estimator double whose answer for every other call of a class is the truth turned by a symmetry
@@ -197,16 +210,12 @@ TEST(DocumentedBehaviour, AMergedInstancesPoseTrackMovesToTheSurvivor) {
 TEST(DocumentedBehaviour, OnlyKeyframesAreSegmentedAndEveryNthKeyframeEvaluated) {
   // docs/SEMANTIC.md / PIPELINE.md: segmentation.keyframe_every_n_frames picks the frames that are
   // segmented and fused; pipeline.pose_every_n_keyframes the keyframes whose objects get poses.
-  const std::string dir =
-      test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
-  const auto reader = open_dataset(dir, DatasetParams{});
+  const auto reader = small_scene_reader();
   ObjectRpeParams params = exact_mask_params();
   params.segmentation.keyframe_every_n_frames = 3;
   params.pipeline.pose_every_n_keyframes = 2;
   ObjectRpePipeline pipeline(params, reader->info());
-  auto shared = std::make_shared<test::RecordingEstimator::Shared>();
-  shared->record_images = false;
-  pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
+  const auto shared = attach_recorder(pipeline);
   std::vector<int> keyframes, evaluated, segmented;
   for (size_t i = 0; i < reader->size(); ++i) {
     const RgbdFrame f = reader->read(i);
@@ -229,16 +238,12 @@ TEST(DocumentedBehaviour, OnlyKeyframesAreSegmentedAndEveryNthKeyframeEvaluated)
 TEST(DocumentedBehaviour, LostFramesAreNeitherSegmentedNorEvaluated) {
   // docs/PIPELINE.md: a frame whose tracking is LOST (here: no depth) has no camera pose to place
   // detections or poses with; it is not segmented, fused or evaluated, and has no pose rows.
-  const std::string dir =
-      test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
-  const auto reader = open_dataset(dir, DatasetParams{});
+  const auto reader = small_scene_reader();
   ObjectRpeParams params = exact_mask_params();
   params.segmentation.keyframe_every_n_frames = 1;  // every tracked frame is a keyframe
   params.pipeline.pose_every_n_keyframes = 1;
   ObjectRpePipeline pipeline(params, reader->info());
-  auto shared = std::make_shared<test::RecordingEstimator::Shared>();
-  shared->record_images = false;
-  pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
+  const auto shared = attach_recorder(pipeline);
   const std::set<int> no_depth = {5, 6};
   std::set<int> lost, segmented;
   for (size_t i = 0; i < reader->size(); ++i) {
@@ -263,17 +268,13 @@ TEST(DocumentedBehaviour, FinalizeDropsTheTrackOfAnInstanceWhoseClassChanged) {
   // differs from the filter's class is dropped: its pose came from another class's model. Here one
   // object is detected as class A on frames 0-3 and as class B on frames 4-11, and only frame 0 is
   // evaluated, so the only filter is A's while the instance ends as B.
-  const std::string dir =
-      test::synthetic_scene("flip", test::small_scene_params(160, 120, 12, 3, 5));
-  const auto reader = open_dataset(dir, DatasetParams{});
+  const auto reader = small_scene_reader();
   ObjectRpeParams params = exact_mask_params();
   params.segmentation.keyframe_every_n_frames = 1;
   params.pipeline.pose_every_n_keyframes = 100;  // frame 0 only
   params.pipeline.ekf_init_views = 1;
   ObjectRpePipeline pipeline(params, reader->info());
-  auto shared = std::make_shared<test::RecordingEstimator::Shared>();
-  shared->record_images = false;
-  pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
+  const auto shared = attach_recorder(pipeline);
   const RgbdFrame first = reader->read(0);
   ASSERT_GE(first.objects_gt.size(), 2u);
   const int class_a = first.objects_gt[0].class_id, class_b = first.objects_gt[1].class_id;

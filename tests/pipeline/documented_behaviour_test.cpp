@@ -34,7 +34,9 @@ std::unique_ptr<DatasetReader> small_scene_reader() {
 
 /// Gives `pipeline` a recording estimator (exact answers, no image copies); returns its state.
 std::shared_ptr<test::RecordingEstimator::Shared> attach_recorder(ObjectRpePipeline& pipeline) {
-  const auto shared = attach_recorder(pipeline);
+  auto shared = std::make_shared<test::RecordingEstimator::Shared>();
+  shared->record_images = false;
+  pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
   return shared;
 }
 

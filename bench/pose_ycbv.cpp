@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "bench_args.h"
+#include "orpe/core/frame_masks.h"
 #include "orpe/core/error.h"
 #include "orpe/core/params_io.h"
 #include "orpe/eval/pose_metrics.h"
@@ -213,9 +214,7 @@ int main(int argc, char** argv) {
           for (size_t k = 0; k < frame.objects_gt.size(); ++k) {
             const auto& gt = frame.objects_gt[k];
             ensure_model(reader->info(), gt.class_id);
-            orpe::MaskImage mask(frame.labels_gt.width(), frame.labels_gt.height(), 0);
-            for (size_t i = 0; i < mask.size(); ++i)
-              mask[i] = frame.labels_gt[i] == static_cast<int>(k) + 1 ? 1 : 0;
+            const orpe::MaskImage mask = orpe::ground_truth_mask(frame, k);
             auto it = learned.try_emplace({video, gt.class_id}, models.at(gt.class_id)).first;
             it->second.add_view(gt.T_cam_obj, frame.color, frame.depth, mask, frame.intrinsics);
           }
@@ -259,9 +258,7 @@ int main(int argc, char** argv) {
             ensure_model(info, gt.class_id);
             video_models = models_for(video);
           }
-          orpe::MaskImage mask(frame.labels_gt.width(), frame.labels_gt.height(), 0);
-          const int label = static_cast<int>(k) + 1;
-          for (size_t i = 0; i < mask.size(); ++i) mask[i] = frame.labels_gt[i] == label ? 1 : 0;
+          orpe::MaskImage mask = orpe::ground_truth_mask(frame, k);
           orpe::DepthImage occluded_depth;
           if (cut_fraction > 0 || occlude_fraction > 0) {
             const double fraction = cut_fraction > 0 ? cut_fraction : occlude_fraction;

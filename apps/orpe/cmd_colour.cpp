@@ -6,7 +6,6 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include <filesystem>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -14,7 +13,10 @@
 #include <vector>
 
 #include "command.h"
+#include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/frame_masks.h"
+#include "orpe/core/staged_dir.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pipeline/object_models.h"
 #include "orpe/pose/colour_score.h"
@@ -22,6 +24,8 @@
 
 namespace orpe::cli {
 namespace {
+
+constexpr const char* kIndexFile = "colours.txt";  ///< marks a folder `orpe colour` wrote
 
 struct ColourCommand {
   ConfigOptions options;
@@ -32,28 +36,9 @@ struct ColourCommand {
   bool overwrite = false;
 };
 
-/// The object's pixels in the frame (labels_gt == k + 1), empty when the frame has no labels.
-MaskImage object_mask(const RgbdFrame& f, size_t k) {
-  if (f.labels_gt.empty()) return {};
-  MaskImage m(f.labels_gt.width(), f.labels_gt.height(), 0);
-  for (int v = 0; v < m.height(); ++v)
-    for (int u = 0; u < m.width(); ++u)
-      m.at(u, v) = f.labels_gt.at(u, v) == static_cast<std::int32_t>(k + 1) ? 1 : 0;
-  return m;
-}
-
-void check_out_dir(const ColourCommand& c) {
-  namespace fs = std::filesystem;
-  if (fs::exists(c.out) && !fs::is_directory(c.out))
-    throw IoError(c.out, "--out exists and is not a folder");
-  if (fs::is_directory(c.out) && !fs::is_empty(c.out) && !c.overwrite)
-    throw IoError(c.out, "--out is not empty (give --overwrite to replace its colour files)");
-  fs::create_directories(c.out);
-}
-
 /// Per class name: the views of one dataset added to `acc` (models from that dataset).
-int accumulate(const std::string& dataset, const ColourCommand& c, const OrpeConfig& config,
-               std::map<std::string, std::unique_ptr<ModelColourAccumulator>>& acc) {
+void accumulate(const std::string& dataset, const ColourCommand& c, const OrpeConfig& config,
+                std::map<std::string, std::unique_ptr<ModelColourAccumulator>>& acc) {
   const auto reader = open_dataset(dataset, config.dataset);
   ObjectModelLibrary models(reader->info());
   int annotated_frames = 0;
@@ -66,23 +51,27 @@ int accumulate(const std::string& dataset, const ColourCommand& c, const OrpeCon
       if (!models.has(g.class_id)) continue;
       auto& a = acc[models.class_name(g.class_id)];
       if (!a) a = std::make_unique<ModelColourAccumulator>(models.get(g.class_id));
-      a->add_view(g.T_cam_obj, f.color, f.depth, object_mask(f, k), f.intrinsics);
+      a->add_view(g.T_cam_obj, f.color, f.depth, ground_truth_mask(f, k), f.intrinsics);
     }
   }
   if (annotated_frames == 0)
     throw IoError(dataset, "no frame has object poses: `orpe colour` needs an annotated recording");
-  return annotated_frames;
 }
 
 void run_colour(const ColourCommand& c) {
   const OrpeConfig config = resolve_config(c.options);
-  check_out_dir(c);
+  // Whole or nothing, as a run's outputs (core/staged_dir.h): an existing --out is replaced only
+  // with
+  // --overwrite, and only when it holds an earlier `orpe colour` output (its index file).
+  StagedDir staged(c.out, c.overwrite, kIndexFile);
   std::map<std::string, std::unique_ptr<ModelColourAccumulator>> acc;  // by class name
   std::string sources;
   for (const std::string& d : c.datasets) {
     accumulate(d, c, config, acc);
     sources += (sources.empty() ? "" : ", ") + d;
   }
+  std::string index =
+      "# orpe colour: class views samples known_fraction (sources: " + sources + ")\n";
   std::cout << fmt::format("{:<28} {:>6} {:>9} {:>8}\n", "class", "views", "samples", "known %");
   for (const auto& [name, a] : acc) {
     const auto colour = a->result(fmt::format("annotated: {} ({} views)", sources, a->views()));
@@ -93,8 +82,11 @@ void run_colour(const ColourCommand& c) {
       spdlog::warn("{}: no sample was seen; no colour file written", name);
       continue;
     }
-    write_model_colour(c.out + "/" + name + ".colour", *colour);
+    write_model_colour(staged.dir() + "/" + name + ".colour", *colour);
+    index += fmt::format("{} {} {} {:.4f}\n", name, a->views(), colour->size(), known / 100.0);
   }
+  write_file_atomic(staged.dir() + "/" + kIndexFile, [&](std::ostream& os) { os << index; });
+  staged.commit();
   std::cout << "colour models in " << c.out << " (use: --set pipeline.model_colour_dir=" << c.out
             << ")\n";
 }
@@ -104,8 +96,7 @@ CommandRegistrar reg(45, [](CLI::App& root) {
   CLI::App* app = root.add_subcommand(
       "colour",
       "Colour the object models from an annotated recording (frames with ground-truth object "
-      "poses), "
-      "for pipeline.model_colour_dir on other recordings. See docs/POSE.md, \"Colour\".");
+      "poses), for pipeline.model_colour_dir on other recordings. See docs/POSE.md, \"Colour\".");
   app->add_option("--dataset", c->datasets,
                   "Annotated dataset (any layout orpe reads); repeat to pool several recordings "
                   "(classes matched by name)")

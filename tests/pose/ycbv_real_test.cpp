@@ -2,6 +2,7 @@
 // without the shared data). The full figures are in docs/RESULTS.md (bench/pose_ycbv.cpp).
 #include <gtest/gtest.h>
 
+#include "orpe/core/frame_masks.h"
 #include "orpe/eval/pose_metrics.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pose/model_registration.h"
@@ -35,9 +36,7 @@ TEST(YcbvRealPose, EveryObjectOfOneFramePerVideoWithinOneCentimetreAdds) {
       std::vector<Vec3> pts;
       for (const auto& p : model.points) pts.push_back(p.cast<double>());
       const ModelPoints eval(pts);
-      MaskImage mask(frame.labels_gt.width(), frame.labels_gt.height(), 0);
-      for (size_t i = 0; i < mask.size(); ++i)
-        mask[i] = frame.labels_gt[i] == static_cast<int>(k) + 1;
+      const MaskImage mask = ground_truth_mask(frame, k);
       SingleViewInput in;
       in.mask = &mask;
       in.depth = &frame.depth;

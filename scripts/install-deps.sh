@@ -9,7 +9,7 @@ PACKAGES=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev
   libmatio-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libtbb-dev libgtest-dev libgmock-dev libbenchmark-dev
-  libassimp-dev libyaml-cpp-dev
+  libassimp-dev libyaml-cpp-dev parallel
 )
 if [ "${1:-}" = --fuzz ]; then
   PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)

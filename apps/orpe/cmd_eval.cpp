@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -74,18 +75,41 @@ void run_traj(const TrajCommand& c) {
 
 struct PosesCommand {
   ConfigOptions options;
-  std::string dataset_path, result_path, json_path, keyframes_path;
+  std::string dataset_path, json_path, keyframes_path;
+  std::vector<std::string> result_paths;  ///< one run's CSV, or several runs' (merged)
   std::vector<std::string> scenes;
   bool markdown = false;
   bool bop = false;
 };
 
+/// The rows of every results file (the runs of a scale-out, docs/SCALING.md). An image may come
+/// from one file only: two files with rows for the same scene and image are runs that overlap, an
+/// error naming both.
+std::vector<PoseResultRow> read_result_files(const std::vector<std::string>& paths) {
+  std::vector<PoseResultRow> rows;
+  std::map<std::pair<int, int>, size_t> image_file;  // (scene_id, im_id) -> index in paths
+  for (size_t f = 0; f < paths.size(); ++f) {
+    require_file(paths[f], "results CSV");
+    for (auto& r : read_bop_results(paths[f])) {
+      const auto [it, fresh] = image_file.emplace(std::pair{r.scene_id, r.im_id}, f);
+      if (!fresh && it->second != f)
+        throw IoError(paths[f], fmt::format("scene {} image {} also has rows in {}: the results "
+                                            "files overlap (the same frames run twice?)",
+                                            r.scene_id, r.im_id, paths[it->second]));
+      rows.push_back(std::move(r));
+    }
+  }
+  return rows;
+}
+
 void run_poses(const PosesCommand& c) {
   OrpeConfig config = resolve_config(c.options);
   std::string why;
   if (!config.eval_pose.IsValid(&why)) throw ConfigError("eval poses: " + why);
-  require_file(c.result_path, "results CSV");
-  const auto rows = read_bop_results(c.result_path);
+  const auto rows = read_result_files(c.result_paths);
+  const std::string result_name =
+      c.result_paths.size() == 1 ? c.result_paths[0]
+                                 : fmt::format("{} results files", c.result_paths.size());
   std::optional<FrameSet> keyframes;
   if (!c.keyframes_path.empty()) {
     require_file(c.keyframes_path, "keyframe list");
@@ -119,10 +143,10 @@ void run_poses(const PosesCommand& c) {
                                               "the selected scenes"
                                             : "no object ground truth in the selected frames");
   if (rows.empty())
-    spdlog::warn("{}: no result rows; every instance counts as a miss", c.result_path);
+    spdlog::warn("{}: no result rows; every instance counts as a miss", result_name);
   if (ev.unmatched_rows + ev.other_scene_rows > 0)
     spdlog::info("{}: {} rows without a ground-truth instance, {} rows of other scenes (ignored)",
-                 c.result_path, ev.unmatched_rows, ev.other_scene_rows);
+                 result_name, ev.unmatched_rows, ev.other_scene_rows);
   std::cout << (c.markdown ? ev.markdown() : ev.report());
   std::string json = ev.to_json();
   if (c.bop) {
@@ -163,8 +187,9 @@ CommandRegistrar reg(70, [](CLI::App& root) {
       "poses", "ADD-S and ADD(-S) AUC (YCB-Video toolbox) of a BOP results CSV against a dataset");
   p->add_option("--dataset", poses->dataset_path, "Dataset folder with object ground truth")
       ->required();
-  p->add_option("--result", poses->result_path,
-                "Results CSV (BOP: scene_id,im_id,obj_id,score,R,t,time; t in mm)")
+  p->add_option("--result", poses->result_paths,
+                "Results CSV (BOP: scene_id,im_id,obj_id,score,R,t,time; t in mm); repeat to merge "
+                "the runs of several scenes into one table (docs/SCALING.md)")
       ->required();
   p->add_option(
       "--scene", poses->scenes,

@@ -302,5 +302,25 @@ TEST(YcbReader, MetaMatWithATagBeyondTheFileIsRefusedBeforeMatioAllocatesIt) {
   }
 }
 
+TEST(YcbReader, MetaMatWithDimensionsOfTheWrongTypeIsRefusedBeforeMatioAllocatesIt) {
+  // fuzz/corpus/ycbv_meta/crash-oom-dims-type-0-1gb.mat (found by the ycbv_meta fuzz target): 365
+  // bytes; a matrix's dimensions have type 0 instead of miINT32, and libmatio, which reads them
+  // anyway, allocated 1 GB for [1 x 1095565313] doubles.
+  const std::string dir = test::scratch_dir("ycb_fuzz_dims") + "/data/0000";
+  write_ycb_frame(dir, 1, YcbFrameSpec{});
+  std::filesystem::copy_file(
+      std::string(ORPE_SOURCE_DIR) + "/fuzz/corpus/ycbv_meta/crash-oom-dims-type-0-1gb.mat",
+      dir + "/000001-meta.mat", std::filesystem::copy_options::overwrite_existing);
+  auto reader = open_dataset(dir, DatasetParams{});
+  try {
+    reader->read_annotations(0);
+    ADD_FAILURE() << "no error";
+  } catch (const IoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("000001-meta.mat"), std::string::npos) << what;
+    EXPECT_NE(what.find("array dimensions of type 0"), std::string::npos) << what;
+  }
+}
+
 }  // namespace
 }  // namespace orpe

@@ -3,6 +3,9 @@
 // that are continuous in depth and objects split in two keep theirs.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
+
 #include "orpe/semantic/segment_guard.h"
 #include "orpe/semantic/semantic_fusion.h"
 #include "planar_setup.h"
@@ -50,10 +53,11 @@ struct DepthSetup {
   }
 };
 
-SemanticParams guards(bool edge, bool connectivity) {
+SemanticParams guards(bool edge, bool connectivity, bool support = false) {
   SemanticParams p;
   p.edge_depth_guard = edge;
   p.segment_connectivity_guard = connectivity;
+  p.support_plane_guard = support;
   return p;
 }
 
@@ -83,7 +87,7 @@ TEST(SegmentGuard, ASmallObjectSeenThroughDilatedMasksKeepsNoWallSurfels) {
   const int object_px = 20 * 20;
   {
     WallScene scene;
-    const auto [wall, object] = scene.labelled_after_fusion(guards(true, true));
+    const auto [wall, object] = scene.labelled_after_fusion(guards(true, true, true));
     EXPECT_EQ(wall, 0);
     EXPECT_EQ(object, object_px);
   }
@@ -95,7 +99,8 @@ TEST(SegmentGuard, ASmallObjectSeenThroughDilatedMasksKeepsNoWallSurfels) {
     EXPECT_EQ(wall, 0) << "edge guard " << edge << ", connectivity guard " << connectivity;
     EXPECT_EQ(object, object_px);
   }
-  // Without the guards the dilated ring of wall surfels (28^2 - 20^2 px) carries the label.
+  // Without the guards the dilated ring of wall surfels (28^2 - 20^2 px) carries the label (the
+  // support-plane guard alone would release it too: the wall is a large plane).
   WallScene scene;
   const auto [wall, object] = scene.labelled_after_fusion(guards(false, false));
   EXPECT_EQ(wall, 28 * 28 - 20 * 20);
@@ -106,7 +111,7 @@ TEST(SegmentGuard, ContinuousSurfacesAndSplitObjectsKeepTheirSurfels) {
   // A plane sloping away at 2 mm per pixel (a steep face): no depth jump, nothing is dropped.
   {
     DepthSetup s(120, 90, 300.0, [](int u, int) { return 0.5 + 0.002 * u; });
-    SemanticFusion fusion(guards(true, true));
+    SemanticFusion fusion(guards(true, true, true));
     const Detection d = test::rect_detection(120, 90, 3, 0.95f, 30, 20, 89, 69, 0.9f, 0.02f);
     for (int k = 0; k < 3; ++k) fusion.integrate(s.frame(k), {d}, SE3(), s.map, &s.pixel_surfel);
     fusion.finalize(s.map);
@@ -122,7 +127,7 @@ TEST(SegmentGuard, ContinuousSurfacesAndSplitObjectsKeepTheirSurfels) {
       if (on_strip(u)) return 0.3;
       return (u >= 30 && u <= 89 && v >= 20 && v <= 69) ? 0.6 : 1.5;
     });
-    SemanticFusion fusion(guards(true, true));
+    SemanticFusion fusion(guards(true, true, true));
     const Detection d = test::make_detection(120, 90, 3, 0.95f, [&](int u, int v) {
       return (u >= 30 && u <= 89 && v >= 20 && v <= 69 && !on_strip(u)) ? 0.9f : 0.02f;
     });
@@ -135,6 +140,107 @@ TEST(SegmentGuard, ContinuousSurfacesAndSplitObjectsKeepTheirSurfels) {
     EXPECT_EQ(left, 25 * 50);
     EXPECT_EQ(right, 25 * 50);
   }
+}
+
+/// A 1.2 x 1.2 m table (plane y = 0, normal +y, 1 mm of deterministic noise) with a 6 cm box
+/// standing on it and a flat 10 x 10 cm sheet lying on it. The box's instance also holds the table
+/// surfels of a 3 cm ring around its footprint (what a mask overhanging the silhouette labels: the
+/// table there is continuous in depth with the box's base, so the edge and connectivity guards
+/// keep it).
+struct TableScene {
+  static constexpr int kBox = 1, kSheet = 2;
+  slam::SurfelMap map;
+  std::vector<char> is_ring, is_box, is_sheet;
+
+  TableScene() {
+    auto add = [&](const Eigen::Vector3f& p, const Eigen::Vector3f& n, int id, char ring, char box,
+                   char sheet) {
+      slam::Surfel s;
+      s.position_world = p;
+      s.normal_world = n;
+      s.radius_m = 0.003f;
+      s.confidence = 20;
+      s.instance_id = id;
+      map.push_back(s);
+      is_ring.push_back(ring);
+      is_box.push_back(box);
+      is_sheet.push_back(sheet);
+    };
+    const float h = 0.06f, step = 0.005f;
+    for (int i = 0; i <= 240; ++i)
+      for (int k = 0; k <= 240; ++k) {
+        const float x = -0.6f + step * i, z = 0.4f + step * k;
+        const float noise = 0.001f * static_cast<float>(((i * 7 + k * 13) % 5) - 2) / 2;
+        const bool under_box = std::abs(x) < h / 2 && std::abs(z - 1.0f) < h / 2;
+        if (under_box) continue;
+        const bool ring = std::abs(x) < h / 2 + 0.03f && std::abs(z - 1.0f) < h / 2 + 0.03f;
+        const bool sheet = x > 0.3f && x < 0.4f && z > 0.6f && z < 0.7f;
+        add({x, noise, z}, Eigen::Vector3f::UnitY(),
+            ring    ? kBox
+            : sheet ? kSheet
+                    : 0,
+            ring, 0, sheet);
+      }
+    // The box: its top and its four sides, down to 2 mm above the table.
+    for (float a = -h / 2; a <= h / 2 + 1e-6f; a += step)
+      for (float b = -h / 2; b <= h / 2 + 1e-6f; b += step) {
+        add({a, h, 1.0f + b}, Eigen::Vector3f::UnitY(), kBox, 0, 1, 0);
+        const float y = 0.002f + (b + h / 2) * (h - 0.002f) / h;
+        add({a, y, 1.0f - h / 2}, -Eigen::Vector3f::UnitZ(), kBox, 0, 1, 0);
+        add({a, y, 1.0f + h / 2}, Eigen::Vector3f::UnitZ(), kBox, 0, 1, 0);
+        add({-h / 2, y, 1.0f + a}, -Eigen::Vector3f::UnitX(), kBox, 0, 1, 0);
+        add({h / 2, y, 1.0f + a}, Eigen::Vector3f::UnitX(), kBox, 0, 1, 0);
+      }
+  }
+  /// (ring, box, sheet) surfels that still carry their instance.
+  std::array<int, 3> labelled() const {
+    std::array<int, 3> n{0, 0, 0};
+    for (size_t i = 0; i < map.size(); ++i) {
+      if (map.instance_id[i] <= 0) continue;
+      n[0] += is_ring[i];
+      n[1] += is_box[i];
+      n[2] += is_sheet[i];
+    }
+    return n;
+  }
+  std::array<int, 3> all() const {
+    std::array<int, 3> n{0, 0, 0};
+    for (size_t i = 0; i < map.size(); ++i) {
+      n[0] += is_ring[i];
+      n[1] += is_box[i];
+      n[2] += is_sheet[i];
+    }
+    return n;
+  }
+};
+
+TEST(SegmentGuard, AnObjectOnATableKeepsNoTableSurfels) {
+  TableScene scene;
+  const auto planes = find_support_planes(scene.map, 3, 0.15, 0.35, 0.01);
+  ASSERT_EQ(planes.size(), 1u);  // the table; the box's faces are far too small
+  EXPECT_GT(std::abs(planes[0].plane.normal.y()), 0.999f);
+  EXPECT_NEAR(planes[0].tolerance_m, 0.003f, 1e-4f);  // 1 mm noise: the 3 mm floor
+  const auto all = scene.all();
+  const int released = release_support_plane_surfels(scene.map, planes, 30.0, true);
+  const auto kept = scene.labelled();
+  EXPECT_EQ(released, all[0]);
+  EXPECT_EQ(kept[0], 0) << "table ring";
+  EXPECT_EQ(kept[1], all[1]) << "the box keeps its sides down to 2 mm above the table";
+  EXPECT_EQ(kept[2], all[2]) << "a sheet lying flat is itself on the plane: left to the class "
+                                "average";
+}
+
+TEST(SegmentGuard, FinalizeAppliesTheSupportPlaneGuardOnlyWhenOn) {
+  for (const bool on : {true, false}) {
+    TableScene scene;
+    SemanticFusion fusion(guards(true, true, on));
+    fusion.finalize(scene.map);
+    const auto kept = scene.labelled();
+    EXPECT_EQ(kept[0], on ? 0 : scene.all()[0]) << "guard " << on;
+    EXPECT_EQ(kept[1], scene.all()[1]);
+  }
+  // On by default.
+  EXPECT_TRUE(SemanticParams().support_plane_guard);
 }
 
 TEST(SegmentGuard, PixelsBehindTheMaskEdgeAreDropped) {

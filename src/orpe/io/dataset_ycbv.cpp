@@ -186,18 +186,41 @@ struct Mat5Reader {
       at += 8 + (depth > 0 ? (n + 7) / 8 * 8 : n);
     }
   }
-  /// A matrix: array flags, dimensions, name, data. Each stored value takes at least one byte, so
-  /// the element count (but for sparse arrays) cannot exceed the matrix's size.
+  /// A data element's type, data offset and size, in either format (small: type and size in one
+  /// word, at most 4 bytes of data in the next).
+  struct Element {
+    uint32_t type;
+    size_t data, size;
+  };
+  Element element_at(size_t at) const {
+    const uint32_t tag = u32(at);
+    if (tag >> 16) return {tag & 0xffff, at + 4, tag >> 16};
+    return {tag, at + 8, u32(at + 4)};
+  }
+  /// A matrix: array flags (miUINT32), dimensions (miINT32), name, data. Each stored value takes at
+  /// least one byte, so the element count (but for sparse arrays) cannot exceed the matrix's size.
+  /// The types of the flags and dimensions are checked too: libmatio reads the dimensions whatever
+  /// their declared type (fuzz/corpus/ycbv_meta/crash-oom-dims-type-0-1gb.mat: type 0, 1 GB).
   void matrix(size_t begin, size_t end, int depth) const {
     elements(begin, end, depth);
-    if (end - begin < 24 || (u32(begin) >> 16) || u32(begin) != 6) return;  // matio decides
-    const uint32_t array_class = u32(begin + 8) & 0xff;
-    const size_t dims_at = begin + 16;
-    const uint32_t dims_tag = u32(dims_at);
-    if (array_class == 5 || dims_tag != 5) return;  // sparse, or small-format dimensions
-    const size_t dims_bytes = u32(dims_at + 4);
+    if (end == begin) return;  // an empty matrix
+    if (end - begin < 16) corrupt(begin, "a matrix too short for its array flags and dimensions");
+    const Element flags = element_at(begin);
+    if (flags.type != 6 || flags.size < 8)
+      corrupt(begin, fmt::format("array flags of type {} and {} bytes (MAT v5: miUINT32, 8 bytes)",
+                                 flags.type, flags.size));
+    const uint32_t array_class = u32(flags.data) & 0xff;
+    const size_t dims_at = begin + 8 + (flags.size + 7) / 8 * 8;
+    if (dims_at + 8 > end) corrupt(begin, "a matrix without dimensions");
+    const Element dims = element_at(dims_at);
+    if (dims.type != 5)
+      corrupt(dims_at, fmt::format("array dimensions of type {} (MAT v5: miINT32 = 5)", dims.type));
+    if (dims.data + dims.size > end)
+      corrupt(dims_at, fmt::format("array dimensions of {} bytes where {} remain", dims.size,
+                                   end - dims.data));
+    if (array_class == 5) return;  // sparse: the count is not bounded by the size
     double elements_count = 1;
-    for (size_t k = 0; k + 4 <= dims_bytes; k += 4) elements_count *= u32(dims_at + 8 + k);
+    for (size_t k = 0; k + 4 <= dims.size; k += 4) elements_count *= u32(dims.data + k);
     if (elements_count > static_cast<double>(end - begin))
       corrupt(begin,
               fmt::format("an array of {:.0f} elements in {} bytes", elements_count, end - begin));

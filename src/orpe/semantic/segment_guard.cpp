@@ -182,4 +182,76 @@ int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_frac
   return released;
 }
 
+namespace {
+
+/// 1.4826 x the median absolute signed distance of the inliers: the plane's noise (sigma).
+float robust_spread(const std::vector<Eigen::Vector3f>& points, const std::vector<std::int32_t>& in,
+                    const Plane& pl) {
+  std::vector<float> r;
+  r.reserve(in.size());
+  for (const auto i : in) r.push_back(std::abs(pl.signed_distance(points[i])));
+  if (r.empty()) return 0;
+  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+  return 1.4826f * r[r.size() / 2];
+}
+
+}  // namespace
+
+std::vector<SupportPlane> find_support_planes(const slam::SurfelMap& map, int max_planes,
+                                              double min_fraction, double min_extent_m,
+                                              double max_distance_m) {
+  std::vector<std::int32_t> background;
+  for (size_t i = 0; i < map.size(); ++i)
+    if (map.instance_id[i] <= 0) background.push_back(static_cast<std::int32_t>(i));
+  PlaneSearchParams search;
+  search.min_inliers = static_cast<size_t>(min_fraction * static_cast<double>(background.size()));
+  search.min_extent_m = min_extent_m;
+  std::mt19937 rng(20261201u);
+  std::vector<SupportPlane> planes;
+  for (int k = 0; k < max_planes; ++k) {
+    SupportPlane sp;
+    if (!find_large_plane(map.position_world, background, search, rng, &sp.plane)) break;
+    std::vector<std::int32_t> in, rest;
+    const float tol = static_cast<float>(search.distance_m);
+    for (const auto i : background)
+      (std::abs(sp.plane.signed_distance(map.position_world[i])) < tol ? in : rest).push_back(i);
+    sp.inliers = in.size();
+    sp.tolerance_m = std::clamp(3.0f * robust_spread(map.position_world, in, sp.plane), 0.003f,
+                                static_cast<float>(max_distance_m));
+    planes.push_back(sp);
+    background.swap(rest);
+  }
+  return planes;
+}
+
+int release_support_plane_surfels(slam::SurfelMap& map, const std::vector<SupportPlane>& planes,
+                                  double max_angle_deg, bool clear_always_active) {
+  if (planes.empty()) return 0;
+  const float min_cos = static_cast<float>(std::cos(max_angle_deg * M_PI / 180.0));
+  std::map<std::int32_t, std::vector<std::int32_t>> on_plane;
+  std::map<std::int32_t, size_t> members;
+  for (size_t i = 0; i < map.size(); ++i) {
+    const auto id = map.instance_id[i];
+    if (id <= 0) continue;
+    ++members[id];
+    for (const auto& sp : planes)
+      if (std::abs(sp.plane.signed_distance(map.position_world[i])) < sp.tolerance_m &&
+          std::abs(sp.plane.normal.dot(map.normal_world[i])) >= min_cos) {
+        on_plane[id].push_back(static_cast<std::int32_t>(i));
+        break;
+      }
+  }
+  int released = 0;
+  for (const auto& [id, idx] : on_plane) {
+    if (2 * idx.size() >= members.at(id)) continue;  // the instance itself lies flat on the plane
+    for (const auto i : idx) {
+      map.instance_id[i] = 0;
+      map.boundary_counter[i] = 0;
+      if (clear_always_active) map.always_active[i] = 0;
+      ++released;
+    }
+  }
+  return released;
+}
+
 }  // namespace orpe

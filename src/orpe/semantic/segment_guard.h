@@ -8,12 +8,17 @@
 //  connected
 //    in 3D; pieces detached from the instance's main body by more than the link distance (surfels
 //    that carry its label behind or beside it) are released to the background.
+//  - find_support_planes / release_support_plane_surfels: the large planes of the map (table,
+//    floor, shelf boards, walls) are support, not object: an instance's surfels lying on one,
+//    within the plane's own noise and oriented like it, are released (the table just past a
+//    small object's silhouette is continuous in depth with it, so neither guard above sees it).
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 #include "orpe/core/image.h"
+#include "orpe/core/plane_fit.h"
 #include "orpe/core/se3.h"
 #include "orpe/slam/surfel_map.h"
 
@@ -45,5 +50,28 @@ std::vector<int> segment_components(const std::vector<Eigen::Vector3f>& points, 
 /// `clear_always_active`.
 int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_fraction,
                              const SE3* T_cam_world, bool clear_always_active);
+
+/// A support plane of the map and the distance (m) within which a surfel lies on it.
+struct SupportPlane {
+  Plane plane;            ///< world frame
+  float tolerance_m = 0;  ///< 3 x the robust (MAD) spread of its inliers, clamped
+  size_t inliers = 0;
+};
+
+/// Up to `max_planes` large planes among the map's surfels without an instance, largest first:
+/// each holds >= min_fraction of them (within 1.2 cm) spread over >= min_extent_m (plane_extent).
+/// Tolerance of each: 3 x 1.4826 x the median absolute residual of its inliers, clamped to
+/// [3 mm, max_distance_m]. Deterministic (fixed seed).
+std::vector<SupportPlane> find_support_planes(const slam::SurfelMap& map, int max_planes,
+                                              double min_fraction, double min_extent_m,
+                                              double max_distance_m);
+
+/// Per instance: its surfels within a plane's tolerance whose normal is within max_angle_deg of
+/// the plane's normal (either sign) lose the instance, unless they are at least half of its
+/// surfels (then the instance is itself flat on the plane, e.g. a sheet, and is left to the
+/// class average). Returns the number of surfels released; `always_active` is cleared for them when
+/// `clear_always_active`.
+int release_support_plane_surfels(slam::SurfelMap& map, const std::vector<SupportPlane>& planes,
+                                  double max_angle_deg, bool clear_always_active);
 
 }  // namespace orpe

@@ -65,6 +65,15 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (!(segment_link_m > 0 && segment_link_m <= 1)) return fail("segment_link_m must be in (0, 1]");
   if (!(segment_min_component_fraction >= 0 && segment_min_component_fraction <= 1))
     return fail("segment_min_component_fraction must be in [0, 1]");
+  if (support_plane_max_planes < 0 || support_plane_max_planes > 10)
+    return fail("support_plane_max_planes must be in [0, 10]");
+  if (!(support_plane_min_fraction > 0 && support_plane_min_fraction <= 1))
+    return fail("support_plane_min_fraction must be in (0, 1]");
+  if (!(support_plane_min_extent_m >= 0)) return fail("support_plane_min_extent_m must be >= 0");
+  if (!(support_plane_max_distance_m >= 0.003))
+    return fail("support_plane_max_distance_m must be >= 0.003 (the tolerance's floor)");
+  if (!(support_plane_max_normal_angle_deg >= 0 && support_plane_max_normal_angle_deg <= 90))
+    return fail("support_plane_max_normal_angle_deg must be in [0, 90]");
   return true;
 }
 
@@ -511,6 +520,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
                                                     params_.segment_min_component_fraction,
                                                     &T_cam_world, params_.always_active_objects);
   }
+  rep.surfels_on_support = release_support_surfels(map);
   rep.update_ms = ms_since(t0);
 
   // 4. Spurious instances: detected rarely and now repeatedly visible without a detection; and
@@ -530,11 +540,21 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   return rep;
 }
 
+int SemanticFusion::release_support_surfels(slam::SurfelMap& map) const {
+  if (!params_.support_plane_guard) return 0;
+  const auto planes =
+      find_support_planes(map, params_.support_plane_max_planes, params_.support_plane_min_fraction,
+                          params_.support_plane_min_extent_m, params_.support_plane_max_distance_m);
+  return release_support_plane_surfels(map, planes, params_.support_plane_max_normal_angle_deg,
+                                       params_.always_active_objects);
+}
+
 int SemanticFusion::finalize(slam::SurfelMap& map) {
   if (params_.segment_connectivity_guard)
     release_detached_surfels(map, static_cast<float>(params_.segment_link_m),
                              params_.segment_min_component_fraction, nullptr,
                              params_.always_active_objects);
+  release_support_surfels(map);
   const auto geometry = instance_geometry(map);
   std::vector<int> doomed;
   for (const auto& [id, info] : instances_) {

@@ -107,6 +107,17 @@ struct SemanticParams {
   bool segment_connectivity_guard = true;
   double segment_link_m = 0.01;
   double segment_min_component_fraction = 0.1;
+  /// Support-plane guard (segment_guard.h): after each keyframe and at finalize(), the large planes
+  /// of the map's background (table, floor, walls: >= support_plane_min_fraction of the background
+  /// surfels, spread >= support_plane_min_extent_m) are found, and an instance's surfels lying on
+  /// one (within 3 sigma of its noise, at most support_plane_max_distance_m, normal within
+  /// support_plane_max_normal_angle_deg) lose the instance.
+  bool support_plane_guard = true;
+  int support_plane_max_planes = 3;
+  double support_plane_min_fraction = 0.15;
+  double support_plane_min_extent_m = 0.35;
+  double support_plane_max_distance_m = 0.01;
+  double support_plane_max_normal_angle_deg = 30;
 
   template <class V>
   void visit(V&& v) {
@@ -185,6 +196,22 @@ struct SemanticParams {
     v("segment_min_component_fraction", segment_min_component_fraction,
       "Connectivity guard: a detached component with at least this share of the instance's surfels "
       "is kept (an object split by an occluder)");
+    v("support_plane_guard", support_plane_guard,
+      "Support-plane guard: release an instance's surfels lying on a large plane of the map "
+      "(table, floor, wall) and oriented like it");
+    v("support_plane_max_planes", support_plane_max_planes,
+      "Support-plane guard: planes searched (largest first)");
+    v("support_plane_min_fraction", support_plane_min_fraction,
+      "Support-plane guard: a support plane holds at least this share of the background surfels");
+    v("support_plane_min_extent_m", support_plane_min_extent_m,
+      "Support-plane guard: a support plane spreads at least this far (m, 4 sigma, both in-plane "
+      "axes; an object's face does not)");
+    v("support_plane_max_distance_m", support_plane_max_distance_m,
+      "Support-plane guard: largest distance (m) from the plane at which a surfel lies on it (the "
+      "tolerance is 3 sigma of the plane's own noise, at least 3 mm)");
+    v("support_plane_max_normal_angle_deg", support_plane_max_normal_angle_deg,
+      "Support-plane guard: a surfel on the plane is support when its normal is within this angle "
+      "(deg) of the plane's");
   }
   bool IsValid(std::string* why) const;
 };
@@ -230,6 +257,7 @@ struct SemanticFrameReport {
   int boundary_joined = 0;      ///< surfels that joined an instance by boundary refinement
   int pixels_behind_edges = 0;  ///< mask pixels dropped by the depth-edge guard
   int surfels_detached = 0;     ///< surfels released by the connectivity guard
+  int surfels_on_support = 0;   ///< surfels released by the support-plane guard
   double render_ms = 0, associate_ms = 0, update_ms = 0, total_ms = 0;
   std::string report() const;
 };
@@ -276,6 +304,8 @@ class SemanticFusion {
   int finalize(slam::SurfelMap& map);
   /// Removes one instance (its surfels become background).
   void remove_instance(int id, slam::SurfelMap& map);
+  /// The support-plane guard (SemanticParams::support_plane_guard); returns the surfels released.
+  int release_support_surfels(slam::SurfelMap& map) const;
 
   const std::map<int, InstanceInfo>& instances() const { return instances_; }
   /// The instance that `id` lives on as: `id` itself unless it was merged into another instance

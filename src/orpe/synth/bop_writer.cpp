@@ -6,6 +6,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <ostream>
+#include <stdexcept>
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/io/image_io.h"
@@ -72,11 +73,13 @@ std::string bop_mask_name(int im_id, int gt_index) {
 }
 
 void write_bop_models(const std::string& dir, const std::vector<ObjectModel>& types, int points,
-                      std::uint64_t seed) {
+                      std::uint64_t seed, const std::vector<int>& obj_ids) {
+  if (!obj_ids.empty() && obj_ids.size() != types.size())
+    throw std::invalid_argument("write_bop_models: one obj_id per model");
   ojson info = ojson::object();
   for (size_t i = 0; i < types.size(); ++i) {
     const ObjectModel& m = types[i];
-    const int obj_id = static_cast<int>(i) + 1;
+    const int obj_id = obj_ids.empty() ? static_cast<int>(i) + 1 : obj_ids[i];
     const std::string stem = fmt::format("obj_{:06d}", obj_id);
     PlyWriteOptions w;
     w.units_per_metre = 1000.0;
@@ -133,10 +136,11 @@ void write_bop_scene_json(const std::string& dir, const PinholeIntrinsics& K, do
     const BopFrameRecord& f = frames[i];
     const std::string key = std::to_string(i);
     const SE3 T_cam_world = f.T_world_cam.inverse();
-    cam[key] = {{"cam_K", Kj},
-                {"depth_scale", depth_scale},
-                {"cam_R_w2c", row_major(T_cam_world.rotation())},
-                {"cam_t_w2c", mm(T_cam_world.translation())}};
+    cam[key] = {{"cam_K", Kj}, {"depth_scale", depth_scale}};
+    if (f.has_camera_pose) {
+      cam[key]["cam_R_w2c"] = row_major(T_cam_world.rotation());
+      cam[key]["cam_t_w2c"] = mm(T_cam_world.translation());
+    }
     add_gt_entries(f.T_cam_obj, f.obj_ids, "obj_id", f.info, gt[key], gt_info[key]);
   }
   write_json(dir + "/scene_camera.json", cam);

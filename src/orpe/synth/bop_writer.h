@@ -23,6 +23,7 @@ namespace orpe::synth {
 struct BopFrameRecord {
   double timestamp_s = 0;
   SE3 T_world_cam;
+  bool has_camera_pose = true;  ///< false: no cam_R_w2c / cam_t_w2c (a recording without them)
   std::vector<SE3> T_cam_obj;  ///< per GT entry
   std::vector<int> obj_ids;    ///< per GT entry
   std::vector<ObjectFrameInfo> info;
@@ -31,9 +32,10 @@ struct BopFrameRecord {
 };
 
 /// Writes obj_XXXXXX.ply (+ texture), obj_XXXXXX_points.xyz and models_info.json for types[i] as
-/// obj_id i + 1.
+/// obj_id obj_ids[i] (i + 1 when obj_ids is empty).
 void write_bop_models(const std::string& models_dir, const std::vector<ObjectModel>& types,
-                      int points_per_model, std::uint64_t seed);
+                      int points_per_model, std::uint64_t seed,
+                      const std::vector<int>& obj_ids = {});
 
 /// scene_camera.json, scene_gt.json, scene_gt_info.json (image ids = record index).
 void write_bop_scene_json(const std::string& dir, const PinholeIntrinsics& K,

@@ -55,6 +55,12 @@ CommandRegistrar reg(20, [](CLI::App& root) {
          "them but not targets (scene_gt_distractors.json, distractor/, "
          "models_distractors/; not in scene_gt.json, masks or models/); 0 = none")
       ->capture_default_str();
+  app->add_option("--symmetries", s->p.symmetries,
+                  "models_info.json symmetries (what ADD(-S) scores with ADD-S): shape = of the "
+                  "geometry | appearance = only those the print keeps too (a box whose front and "
+                  "back labels differ is not symmetric)")
+      ->check(CLI::IsMember({"shape", "appearance"}))
+      ->capture_default_str();
   app->add_option(
          "--noise", s->noise,
          "on: structured-light depth noise + colour noise; off: exact rendered depth and colour")
@@ -119,6 +125,7 @@ CommandRegistrar reg(20, [](CLI::App& root) {
     if (given("--model-unit-m")) p.model_unit_m = s->p.model_unit_m;
     if (given("--repeat-types")) p.repeat_types = true;
     if (given("--distractors")) p.distractors = s->p.distractors;
+    if (given("--symmetries")) p.symmetries = s->p.symmetries;
     if (given("--noise")) p.noise = s->noise == "on";
     if (given("--width")) p.width = s->p.width;
     if (given("--height")) p.height = s->p.height;

@@ -71,7 +71,11 @@ TEST(FusionGain, FusedPosesAreNotWorseThanSingleViewOnATinyScene) {
   EXPECT_EQ(single["instances"].get<int>(), 75);
   EXPECT_GT(single["adds_auc"].get<double>(), 93.0);
   EXPECT_GT(fused["adds_auc"].get<double>(), single["adds_auc"].get<double>() - 0.5);
-  EXPECT_GT(fused["add_auc"].get<double>(), single["add_auc"].get<double>() + 2.6)
+  // Session 6 (posefast2, the colour turn search about a can's axis, pose_registration.
+  // colour_refine_turn): the single view now gets the cans' turn from their labels, single-view ADD
+  // AUC 90.81 -> 93.85, fused 95.97 -> 95.60 (ADD-S unchanged; colour_refine_turn=false gives the
+  // figures above exactly): the fusion gains +1.75 ADD, so the bound is half of that.
+  EXPECT_GT(fused["add_auc"].get<double>(), single["add_auc"].get<double>() + 0.85)
       << "single view " << single["add_auc"] << ", fused " << fused["add_auc"];
 }
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <tuple>
 
 #include "orpe/core/error.h"
@@ -226,6 +227,22 @@ const std::vector<PoseResultRow>& ObjectRpePipeline::pose_rows(size_t v) const {
   return variants_.at(v).rows;
 }
 
+/// A keyframe waiting for its delay (pipeline.segmentation_delay_frames).
+struct ObjectRpePipeline::PendingKeyframe {
+  int due_frame = 0;  // stats_.frames at which it is fused
+  std::shared_ptr<const RgbdFrame> frame;
+  SE3 T_world_cam;
+  std::future<std::vector<Detection>> detections;  // asynchronous: the worker's result
+  std::shared_ptr<double> segment_ms;              // asynchronous: the back-end's time
+};
+
+void ObjectRpePipeline::set_segmenter(std::unique_ptr<Segmenter> segmenter) {
+  if (!segmenter || !semantic_) throw ConfigError("pipeline: no segmenter, or no semantic mapping");
+  if (stats_.frames > 0) throw ConfigError("pipeline: set_segmenter after the first frame");
+  semantic_ = std::make_unique<SemanticMapper>(std::move(segmenter), params_.segmentation,
+                                               params_.semantic);
+}
+
 const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
   const auto t_frame = Clock::now();
   result_ = PipelineFrameResult{};
@@ -247,43 +264,117 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
   stats_.lost_frames += lost;
   stats_.degraded_frames += result_.slam.status == slam::TrackingStatus::kDegraded;
 
-  if (semantic_ && !lost) {
+  const bool delayed = params_.pipeline.segmentation_delay_frames > 0;
+  if (semantic_ && !lost && !delayed) {
     t0 = Clock::now();
     const slam::IndexImage& pixel_surfel = slam_->last_pixel_surfel();
     const SemanticStep& step = semantic_->process(frame, T_world_cam, slam_->map(),
                                                   pixel_surfel.empty() ? nullptr : &pixel_surfel);
     result_.semantic_ms = ms_since(t0);
-    result_.keyframe = step.keyframe;
-    result_.detections = static_cast<int>(step.detections.size());
-    result_.instances = static_cast<int>(semantic_->fusion().instances().size());
-    if (step.keyframe && step.report.merged_instances > 0) hand_over_merged_tracks();
     if (step.keyframe) {
-      ++stats_.keyframes;
-      stats_.detections += result_.detections;
-      result_.evaluated = !variants_.empty() &&
-                          (stats_.keyframes - 1) % params_.pipeline.pose_every_n_keyframes == 0;
+      segmented_frame_ = &frame;
+      segmented_T_world_cam_ = T_world_cam;
+      keyframe_fused(step, frame, T_world_cam);
     }
+  } else if (semantic_ && !lost && semantic_->next_frame(T_world_cam)) {
+    submit_keyframe(frame, T_world_cam);
   }
-  if (result_.evaluated) {
-    ++stats_.evaluated_frames;
-    evaluated_frames_.push_back(frame.index);
-    estimate_poses(frame, T_world_cam, result_);
+  while (delayed && !pending_.empty() && pending_.front().due_frame <= stats_.frames)
+    fuse_pending_keyframe();
+  if (semantic_ && !lost)
+    result_.instances = static_cast<int>(semantic_->fusion().instances().size());
+  finish_result(t_frame);
+  return result_;
+}
+
+void ObjectRpePipeline::keyframe_fused(const SemanticStep& step, const RgbdFrame& frame,
+                                       const SE3& T_world_cam) {
+  result_.keyframe = true;
+  result_.segmented_frame_index = frame.index;
+  result_.detections = static_cast<int>(step.detections.size());
+  if (step.report.merged_instances > 0) hand_over_merged_tracks();
+  ++stats_.keyframes;
+  stats_.detections += result_.detections;
+  result_.evaluated =
+      !variants_.empty() && (stats_.keyframes - 1) % params_.pipeline.pose_every_n_keyframes == 0;
+  if (!result_.evaluated) return;
+  ++stats_.evaluated_frames;
+  evaluated_frames_.push_back(frame.index);
+  estimate_poses(frame, T_world_cam, result_);
+}
+
+void ObjectRpePipeline::submit_keyframe(const RgbdFrame& frame, const SE3& T_world_cam) {
+  PendingKeyframe p;
+  p.due_frame = stats_.frames + params_.pipeline.segmentation_delay_frames;
+  p.frame = std::make_shared<const RgbdFrame>(frame);
+  p.T_world_cam = T_world_cam;
+  if (params_.pipeline.segmentation_async) {
+    if (!worker_) worker_ = std::make_unique<SegmentationWorker>();
+    p.segment_ms = std::make_shared<double>(0.0);
+    SemanticMapper* semantic = semantic_.get();
+    p.detections = worker_->submit([semantic, f = p.frame, T = T_world_cam, ms = p.segment_ms] {
+      SegmentationContext context;  // no map: it changes meanwhile (the back-ends use the pose)
+      context.T_world_cam = T;
+      return semantic->detect(*f, context, ms.get());
+    });
   }
-  result_.total_ms = ms_since(t_frame);
+  pending_.push_back(std::move(p));
+}
+
+void ObjectRpePipeline::fuse_pending_keyframe() {
+  PendingKeyframe p = std::move(pending_.front());
+  pending_.pop_front();
+  const auto t0 = Clock::now();
+  std::vector<Detection> detections;
+  double segment_ms = 0;
+  if (p.detections.valid()) {
+    detections = p.detections.get();  // rethrows the back-end's error
+    stats_.segmentation_wait_ms += ms_since(t0);
+    segment_ms = *p.segment_ms;
+  } else {
+    SegmentationContext context;  // as the asynchronous path: the same results
+    context.T_world_cam = p.T_world_cam;
+    detections = semantic_->detect(*p.frame, context, &segment_ms);
+  }
+  // The frame's pixel -> surfel image is stale by now: the fusion projects the map itself.
+  const SemanticStep& step = semantic_->integrate(*p.frame, p.T_world_cam, std::move(detections),
+                                                  slam_->map(), nullptr, segment_ms);
+  result_.semantic_ms += ms_since(t0);
+  segmented_frame_hold_ = p.frame;
+  segmented_frame_ = p.frame.get();
+  segmented_T_world_cam_ = p.T_world_cam;
+  keyframe_fused(step, *p.frame, p.T_world_cam);
+}
+
+bool ObjectRpePipeline::flush_one() {
+  if (pending_.empty()) return false;
+  const auto t0 = Clock::now();
+  result_ = PipelineFrameResult{};
+  result_.frame_index = pending_.front().frame->index;
+  result_.timestamp_s = pending_.front().frame->timestamp_s;
+  fuse_pending_keyframe();
+  result_.instances = static_cast<int>(semantic_->fusion().instances().size());
+  finish_result(t0);
+  return true;
+}
+
+void ObjectRpePipeline::finish_result(Clock::time_point t_start) {
+  result_.total_ms = ms_since(t_start);
   stats_.slam_ms += result_.slam_ms;
   stats_.semantic_ms += result_.semantic_ms;
   stats_.render_ms += result_.render_ms;
   stats_.single_view_ms += result_.single_view_ms;
   stats_.ekf_ms += result_.ekf_ms;
   stats_.total_ms += result_.total_ms;
-  // The BOP "time" column: the whole frame's processing time, identical for its rows.
+  if (!result_.evaluated) return;
+  // The BOP "time" column: the processing time of the call that estimated the frame's poses.
+  const int im_id = result_.segmented_frame_index;
   for (auto& v : variants_) {
-    for (auto it = v.rows.rbegin(); it != v.rows.rend() && it->im_id == frame.index; ++it)
+    for (auto it = v.rows.rbegin(); it != v.rows.rend() && it->im_id == im_id; ++it)
       it->time_s = result_.total_ms / 1000.0;
-    for (auto it = v.seen.rbegin(); it != v.seen.rend() && it->frame_index == frame.index; ++it)
+    for (auto it = v.seen.rbegin(); it != v.seen.rend() && it->frame_index == im_id; ++it)
       it->time_s = result_.total_ms / 1000.0;
   }
-  return result_;
 }
 
 void ObjectRpePipeline::learn_colour(Track& track, const ObjectModel& model,
@@ -586,6 +677,8 @@ void ObjectRpePipeline::hand_over_merged_tracks() {
 
 void ObjectRpePipeline::finalize() {
   if (!semantic_) return;
+  while (flush_one()) {
+  }
   semantic_->finalize(slam_->map());  // prunes, never merges: the tracks already follow every merge
   const auto& instances = semantic_->fusion().instances();
   for (auto& v : variants_) {

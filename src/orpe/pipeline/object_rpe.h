@@ -25,11 +25,16 @@
 //    plain render of every surfel, so pixels around the object carry the map's surfaces as the
 //    camera's images would (the registration's free-space test looks there).
 //  - Frames whose tracking is LOST are neither segmented nor evaluated (their pose is a held guess).
+//  - pipeline.segmentation_delay_frames = D > 0: a keyframe is segmented on a worker thread
+//    (segmentation_async) and fused, and its poses estimated on its own images, D frames later;
+//    the results depend on D only, not on the back-end's timing (docs/PIPELINE.md).
 //  - Several input configurations (PoseVariant) can run in one pass sharing SLAM and semantic mapping;
 //    a single-view estimate is computed once per distinct input (the geometry-only estimator ignores
 //    colour, so DF-PM-PD-PC reuses DF-PM-PD's estimates).
 #pragma once
 
+#include <chrono>
+#include <deque>
 #include <map>
 #include <memory>
 #include <optional>
@@ -42,6 +47,7 @@
 #include "orpe/pipeline/config.h"
 #include "orpe/pipeline/object_models.h"
 #include "orpe/pipeline/pipeline_params.h"
+#include "orpe/pipeline/segmentation_worker.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
 #include "orpe/recognition/model_recognizer.h"
@@ -102,10 +108,14 @@ struct PipelineFrameResult {
   int frame_index = 0;
   double timestamp_s = 0;
   slam::SlamFrameResult slam;
-  bool keyframe = false;   ///< segmented and fused semantically
-  bool evaluated = false;  ///< poses were estimated
+  /// A keyframe's detections were fused semantically in this call: this frame's, or with
+  /// pipeline.segmentation_delay_frames those of the frame segmented_frame_index (the call
+  /// `segmentation_delay_frames` frames later, or ObjectRpePipeline::flush_one at the end).
+  bool keyframe = false;
+  bool evaluated = false;          ///< poses were estimated (on the keyframe segmented_frame_index)
+  int segmented_frame_index = -1;  ///< the keyframe fused in this call (RgbdFrame::index)
   int detections = 0;
-  int instances = 0;  ///< map instances after this frame
+  int instances = 0;                                       ///< map instances after this frame
   std::vector<std::vector<ObjectFrameEstimate>> variants;  ///< per variant (when evaluated)
   // Wall time, milliseconds.
   double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
@@ -121,16 +131,17 @@ struct ObjectWorldPose {
   double class_probability = 0;
   int detections = 0;  ///< keyframes that detected the instance
   int surfels = 0;
-  std::string model_symmetry;  ///< the class model's detected symmetry (what the EKF treats as equal)
-  std::string model_colour;    ///< where the class model's colour came from; empty = none
-  bool valid = false;  ///< a pose exists
-  /// "ekf" (the filter's state) or "best_single_view" (the highest-scoring single-view estimate moved
-  /// to the world, for variants without the EKF).
+  std::string
+      model_symmetry;        ///< the class model's detected symmetry (what the EKF treats as equal)
+  std::string model_colour;  ///< where the class model's colour came from; empty = none
+  bool valid = false;        ///< a pose exists
+  /// "ekf" (the filter's state) or "best_single_view" (the highest-scoring single-view estimate
+  /// moved to the world, for variants without the EKF).
   std::string source;
   SE3 T_world_obj;
   bool has_covariance = false;
   Mat6 covariance = Mat6::Zero();  ///< EKF: body-frame tangent [rho; phi] (m^2, rad^2)
-  int num_views = 0;  ///< single-view estimates fused (EKF) or valid (no EKF)
+  int num_views = 0;               ///< single-view estimates fused (EKF) or valid (no EKF)
   int num_rejected = 0;
   int num_reinitialisations = 0;
 };
@@ -145,6 +156,8 @@ struct PipelineStats {
   int ekf_accepted = 0, ekf_rejected = 0;
   int colour_views_learned = 0;  ///< views that taught an object its colour (learned from the map)
   double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
+  /// Asynchronous segmentation: time the pipeline waited for a keyframe's detections (ms).
+  double segmentation_wait_ms = 0;
 };
 
 class ObjectRpePipeline {
@@ -158,12 +171,27 @@ class ObjectRpePipeline {
   /// params.pose_registration), e.g. a learned back-end or a test double. `uses_color`: whether its
   /// result depends on the colour image (else estimates are shared between inputs that differ only
   /// in colour). Call before the first process().
-  void set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator, bool uses_color);
+  void set_single_view_estimator(std::unique_ptr<SingleViewPoseEstimator> estimator,
+                                 bool uses_color);
   const SingleViewPoseEstimator* single_view_estimator() const { return estimator_.get(); }
+
+  /// Replaces the segmentation back-end (default: segmentation.backend), e.g. a test double. Call
+  /// before the first process().
+  void set_segmenter(std::unique_ptr<Segmenter> segmenter);
 
   /// Runs every stage on one frame (frames in order).
   const PipelineFrameResult& process(const RgbdFrame& frame);
-  /// End of the run: removes spurious instances (SemanticMapper::finalize) and drops their filters.
+  /// With pipeline.segmentation_delay_frames: fuses the oldest keyframe still waiting for its
+  /// delay (end of the stream) and estimates its poses; false when none waits. The result is in
+  /// last_result().
+  bool flush_one();
+  const PipelineFrameResult& last_result() const { return result_; }
+  /// The keyframe fused by the last process() / flush_one() (result.keyframe) and its camera pose;
+  /// valid until the next call.
+  const RgbdFrame* segmented_frame() const { return segmented_frame_; }
+  const SE3& segmented_T_world_cam() const { return segmented_T_world_cam_; }
+  /// End of the run: fuses the keyframes still waiting (flush_one), removes spurious instances
+  /// (SemanticMapper::finalize) and drops their filters.
   void finalize();
 
   const ObjectRpeParams& params() const { return params_; }
@@ -203,6 +231,15 @@ class ObjectRpePipeline {
   struct Track;
   struct VariantState;
   struct Candidate;
+  struct PendingKeyframe;
+  /// After a keyframe's semantic fusion: track hand-over, counts, pose estimation when evaluated.
+  void keyframe_fused(const SemanticStep& step, const RgbdFrame& frame, const SE3& T_world_cam);
+  /// Delayed segmentation: queues the keyframe (and starts its back-end when asynchronous).
+  void submit_keyframe(const RgbdFrame& frame, const SE3& T_world_cam);
+  /// Delayed segmentation: fuses the oldest queued keyframe (waiting for its detections).
+  void fuse_pending_keyframe();
+  /// Adds this call's times to the stats and stamps the BOP "time" column of its rows.
+  void finish_result(std::chrono::steady_clock::time_point t_start);
   void estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam, PipelineFrameResult& result);
   /// Feeds the track's colour learner (pose_registration.colour_learn*; colour_score.h) with a view
   /// the fusion has just seen, for models without colour of their own.
@@ -230,7 +267,11 @@ class ObjectRpePipeline {
   PipelineFrameResult result_;
   PipelineStats stats_;
   bool first_frame_ = true;
+  std::deque<PendingKeyframe> pending_;  // delayed keyframes, oldest first
+  const RgbdFrame* segmented_frame_ = nullptr;
+  std::shared_ptr<const RgbdFrame> segmented_frame_hold_;
+  SE3 segmented_T_world_cam_;
+  std::unique_ptr<SegmentationWorker> worker_;  // last: stops before the back-end it calls goes
 };
-
 
 }  // namespace orpe

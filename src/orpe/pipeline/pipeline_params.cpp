@@ -40,6 +40,8 @@ bool PipelineParams::IsValid(std::string* why) const {
   if (!(skip_max_translation_m >= 0) || !(skip_max_rotation_deg >= 0))
     return fail("skip_max_translation_m and skip_max_rotation_deg must be >= 0");
   if (skip_max_consecutive < 0) return fail("skip_max_consecutive must be >= 0");
+  if (segmentation_delay_frames < 0 || segmentation_delay_frames > 1000)
+    return fail("segmentation_delay_frames must be in [0, 1000]");
   if (render_margin_px < 0 || render_margin_px > 10000)
     return fail("render_margin_px must be in [0, 10000]");
   if (progress_every_n_frames < 0) return fail("progress_every_n_frames must be >= 0");

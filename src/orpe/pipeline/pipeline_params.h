@@ -1,5 +1,6 @@
-// Switches of the Object-RPE pipeline (config section "pipeline"): which inputs the single-view pose
-// estimator gets, whether the per-object EKF runs, on which frames poses are estimated, and run options.
+// Switches of the Object-RPE pipeline (config section "pipeline"): which inputs the single-view
+// pose estimator gets, whether the per-object EKF runs, on which frames poses are estimated, and
+// run options.
 //
 // The ablation of the paper (Table II) as named configurations of the four input switches:
 //
@@ -10,10 +11,10 @@
 //   DF-PM-PD-PC   | projected | projected | projected | off
 //   Object-RPE    | projected | projected | projected | on
 //
-// "DF" is the single-view estimator in use (the paper's DenseFusion). Until a learned back-end exists it
-// is the model-based registration of the pose stage (pose/model_registration.h), which uses geometry
-// only: DF-PM-PD and DF-PM-PD-PC then give identical single-view poses.
-// "Projected" inputs are rendered from the semantic surfel map at the tracked camera pose
+// "DF" is the single-view estimator in use (the paper's DenseFusion). Until a learned back-end
+// exists it is the model-based registration of the pose stage (pose/model_registration.h), which
+// uses geometry only: DF-PM-PD and DF-PM-PD-PC then give identical single-view poses. "Projected"
+// inputs are rendered from the semantic surfel map at the tracked camera pose
 // (SemanticMapper::render_instance_views).
 #pragma once
 
@@ -38,7 +39,8 @@ struct PipelineParams {
   int ekf_report_min_mask_px = 50;
   /// Projected-mask modes: only instances detected in at least this many keyframes get a pose.
   int min_instance_detections = 1;
-  /// Only instances (projected modes) or detections (raw masks) whose class probability reaches this.
+  /// Only instances (projected modes) or detections (raw masks) whose class probability reaches
+  /// this.
   double min_class_probability = 0.0;
   /// Symmetry group each object's EKF uses to compare a measurement with its state:
   /// "geometric" = the model's detected shape symmetry (pose stage), "dataset" = only for the
@@ -73,8 +75,19 @@ struct PipelineParams {
   /// grown by this many pixels (the registration's free-space and support tests look around the
   /// mask); pixels outside it are empty.
   int render_margin_px = 40;
+  /// Keyframe segmentation delay (docs/PIPELINE.md "Asynchronous segmentation"): the detections of
+  /// a keyframe are fused into the semantic map, and its poses estimated, this many frames later
+  /// (on the keyframe's own images and camera pose; the map has those frames more). 0 = on the
+  /// keyframe itself (the paper). The delay, not the timing, decides the results: a batch run is
+  /// byte-identical whether the back-end runs on its own thread or not, however slow it is.
+  int segmentation_delay_frames = 0;
+  /// With a delay > 0, run the segmentation back-end on its own thread, so that tracking goes on
+  /// while it works; the pipeline waits only when a keyframe's delay is up and its detections are
+  /// not ready. false = the back-end runs on the pipeline's thread when the delay is up.
+  bool segmentation_async = true;
   /// Start the SLAM at the first frame's ground-truth camera pose when the dataset has one, so that
-  /// the trajectory and world poses are in the dataset's world frame; else the first camera is the world.
+  /// the trajectory and world poses are in the dataset's world frame; else the first camera is the
+  /// world.
   bool init_from_ground_truth = true;
   /// map.ply / semantic_map.ply: write surfels with at least this confidence (0 = all).
   double output_min_confidence = 0.0;
@@ -84,7 +97,8 @@ struct PipelineParams {
   template <class V>
   void visit(V&& v) {
     v("use_projected_mask", use_projected_mask,
-      "PM: single-view pose on the instance mask rendered from the map (else the detection's mask)");
+      "PM: single-view pose on the instance mask rendered from the map (else the detection's "
+      "mask)");
     v("use_projected_depth", use_projected_depth,
       "PD: single-view pose on the depth rendered from the map (else the camera's depth)");
     v("use_projected_color", use_projected_color,
@@ -101,7 +115,8 @@ struct PipelineParams {
     v("min_class_probability", min_class_probability,
       "Only instances / detections whose class probability reaches this get a pose, in [0, 1]");
     v("ekf_symmetry", ekf_symmetry,
-      "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the dataset's "
+      "Symmetry the EKF uses: geometric (detected shape symmetry) | dataset (only for the "
+      "dataset's "
       "symmetric classes; their annotated group when the dataset has one) | none");
     v("model_colour_dir", model_colour_dir,
       "Folder of colour models (<class name>.colour, from `orpe colour`) that replace the models' "
@@ -122,11 +137,18 @@ struct PipelineParams {
       "Skip rule: at most this many evaluated frames in a row are skipped per object");
     v("render_margin_px", render_margin_px,
       "Projected depth / colour rendered only within this many pixels of the instances' splats");
+    v("segmentation_delay_frames", segmentation_delay_frames,
+      "Fuse each keyframe's detections (and estimate its poses) this many frames later; with "
+      "segmentation_async the back-end runs meanwhile on its own thread (0 = on the keyframe)");
+    v("segmentation_async", segmentation_async,
+      "With a delay > 0: segment on a background thread while tracking goes on (results do not "
+      "depend on it)");
     v("init_from_ground_truth", init_from_ground_truth,
       "Start the SLAM at the first frame's ground-truth camera pose when there is one");
     v("output_min_confidence", output_min_confidence,
       "map.ply / semantic_map.ply keep surfels with at least this confidence (0 = all)");
-    v("progress_every_n_frames", progress_every_n_frames, "Progress line every n frames (0 = none)");
+    v("progress_every_n_frames", progress_every_n_frames,
+      "Progress line every n frames (0 = none)");
   }
   bool IsValid(std::string* why) const;
 

@@ -311,7 +311,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     summary.no_depth_frames += r.slam.no_depth;
     spdlog::debug("{}", r.slam.report());
     if (masks && r.keyframe)
-      masks->record(frame, r.slam.T_world_cam, pipeline.slam().map(), *pipeline.semantic());
+      masks->record(*pipeline.segmented_frame(), pipeline.segmented_T_world_cam(),
+                    pipeline.slam().map(), *pipeline.semantic());
     if (every > 0 && (summary.frames % every == 0 || summary.frames == static_cast<int>(total)))
       progress(fmt::format("[{:4d}/{}] {}", summary.frames, total, r.report()));
   }
@@ -328,6 +329,11 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
                     "valid between slam_preprocess.min_depth_m and max_depth_m): check "
                     "dataset.depth_units_per_m and the depth images",
                     summary.frames, info.depth_units_per_m));
+  // Keyframes still waiting for their segmentation delay (pipeline.segmentation_delay_frames).
+  while (pipeline.flush_one())
+    if (masks && pipeline.last_result().keyframe)
+      masks->record(*pipeline.segmented_frame(), pipeline.segmented_T_world_cam(),
+                    pipeline.slam().map(), *pipeline.semantic());
   pipeline.finalize();
 
   // Outputs, each atomic.
@@ -490,6 +496,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("timing_ms.total.ekf", st.ekf_ms);
   js.set("timing_ms.total.pipeline", st.total_ms);
   js.set("timing_ms.total.output", summary.output_ms);
+  js.set("timing_ms.total.segmentation_wait", st.segmentation_wait_ms);
   js.set("timing_ms.total.wall", summary.wall_ms);
   js.set("timing_ms.per_frame.read", summary.read_ms / n);
   js.set("timing_ms.per_frame.slam", st.slam_ms / n);

@@ -54,6 +54,7 @@ struct ColourScoreParams {
   int min_pixels = 60;
   double depth_tolerance_m = 0.015;
   bool try_flips = true;
+  bool refine_turn = true;
   double min_learned_fraction = 0.3;
 
   template <class V>
@@ -72,6 +73,9 @@ struct ColourScoreParams {
     v("colour_try_flips", try_flips,
       "Also refine the best pose turned 180 degrees about each principal axis of the model (and "
       "by 60-degree steps about a continuous symmetry axis): the modes geometry confuses");
+    v("colour_refine_turn", refine_turn,
+      "Models with a continuous symmetry axis (cans): choose the turn about the axis by colour "
+      "(10-degree steps, then 5, 2.5, 1.25 about the best), which geometry leaves free");
     v("colour_min_learned_fraction", min_learned_fraction,
       "A learned colour model is used only when this fraction of its samples has a colour");
   }

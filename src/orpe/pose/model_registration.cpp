@@ -468,6 +468,47 @@ double geometry_margin(const std::vector<Hypothesis>& candidates, const Hypothes
   return other > -1e8 ? chosen.score - other : 0.0;
 }
 
+/// A model with a continuous symmetry axis (a can): geometry leaves the turn about the axis free,
+/// the print does not. The colour NCC of the chosen pose turned by 10-degree steps about the axis,
+/// then steps halved three times about the best; the best turn replaces `h` when its NCC is higher
+/// and its geometric score stays within the colour_geometry_margin of `best_geometry`. Run once per
+/// direction of the axis among the competing candidates (the can upright or upside down).
+void refine_turn_by_colour(const ModelRegistrationParams& params, const Registration& reg,
+                           const SegmentedCloud& cloud, const ObjectModel& model,
+                           const SingleViewInput& input, double best_geometry, Hypothesis& h) {
+  const ColourScoreParams& cp = params.colour;
+  auto ncc_at = [&](double angle) {
+    const SE3 T = h.T_cam_obj * model.symmetry.continuous_element(angle);
+    return colour_agreement(*model.colour, T, *input.color, *input.depth, *input.mask,
+                            input.intrinsics, cp)
+        .ncc;
+  };
+  const double coarse = 10.0 * M_PI / 180.0;
+  std::vector<double> ncc(36);
+#pragma omp parallel for schedule(static)
+  for (int k = 0; k < 36; ++k) ncc[static_cast<size_t>(k)] = ncc_at(k * coarse);
+  const int k_best = static_cast<int>(std::max_element(ncc.begin(), ncc.end()) - ncc.begin());
+  double angle = k_best * coarse, value = ncc[static_cast<size_t>(k_best)];
+  h.colour = ncc[0];
+  for (double step = coarse / 2; step > coarse / 10; step /= 2)
+    for (const double a : {angle - step, angle + step})
+      if (const double v = ncc_at(a); v > value) value = v, angle = a;
+  if (value <= h.colour) return;
+  // Refined like the confusable poses: the detected axis is not exact, so the turned pose is off
+  // the surface by a millimetre or two until ICP puts it back (the turn itself stays).
+  Hypothesis turned;
+  const double start =
+      std::max(params.refine_max_corr_factor * model.diameter_m, params.final_max_corr_m);
+  turned.T_cam_obj = reg.icp(cloud.points, h.T_cam_obj * model.symmetry.continuous_element(angle),
+                             params.refine_iterations, start, params.final_max_corr_m, false);
+  reg.score(cloud.points, turned, false);
+  turned.colour = colour_agreement(*model.colour, turned.T_cam_obj, *input.color, *input.depth,
+                                   *input.mask, input.intrinsics, cp)
+                      .ncc;
+  if (turned.score < best_geometry - cp.geometry_margin || turned.colour <= h.colour) return;
+  h = turned;
+}
+
 /// Adds the best hypothesis's confusable poses (refined and scored), scores every candidate's
 /// colour and returns the index of the chosen one, or -1 (no colour: keep the geometric choice).
 int rank_by_colour(const ModelRegistrationParams& params, const Registration& reg,
@@ -498,6 +539,18 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
     refine.insert(refine.end(), extra.begin(), extra.end());
   }
   const double best_geometry = refine[geometric_best()].score;
+  if (cp.refine_turn && model.symmetry.continuous) {
+    // One turn search per direction of the axis in the camera (the can upright or upside down).
+    std::vector<Vec3> axes;
+    for (Hypothesis& h : refine) {
+      if (h.score < best_geometry - cp.geometry_margin) continue;
+      const Vec3 axis = h.T_cam_obj.rotation() * model.symmetry.axis_obj;
+      if (std::any_of(axes.begin(), axes.end(), [&](const Vec3& a) { return a.dot(axis) > 0.87; }))
+        continue;
+      axes.push_back(axis);
+      refine_turn_by_colour(params, reg, cloud, model, input, best_geometry, h);
+    }
+  }
   int chosen = -1;
   double chosen_rank = -1e9;
   for (size_t i = 0; i < refine.size(); ++i) {

@@ -50,18 +50,44 @@ SemanticMapper::SemanticMapper(std::unique_ptr<Segmenter> segmenter,
 const SemanticStep& SemanticMapper::process(const RgbdFrame& frame, const SE3& T_world_cam,
                                             slam::SurfelMap& map,
                                             const slam::IndexImage* pixel_surfel) {
-  ++frames_;
-  step_ = SemanticStep{};
-  step_.keyframe = keyframe_selector_.is_keyframe(T_world_cam);
-  if (!step_.keyframe) return step_;
-  ++keyframes_;
-  const auto t0 = std::chrono::steady_clock::now();
+  if (!next_frame(T_world_cam)) {
+    step_ = SemanticStep{};
+    return step_;
+  }
   SegmentationContext context;
   context.T_world_cam = T_world_cam;
   context.map = &map;
-  step_.detections = segmenter_->detect_in_context(frame, context);
-  segment_ms_ +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  double segment_ms = 0;
+  std::vector<Detection> detections = detect(frame, context, &segment_ms);
+  return integrate(frame, T_world_cam, std::move(detections), map, pixel_surfel, segment_ms);
+}
+
+bool SemanticMapper::next_frame(const SE3& T_world_cam) {
+  ++frames_;
+  return keyframe_selector_.is_keyframe(T_world_cam);
+}
+
+std::vector<Detection> SemanticMapper::detect(const RgbdFrame& frame,
+                                              const SegmentationContext& context,
+                                              double* segment_ms) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<Detection> detections = segmenter_->detect_in_context(frame, context);
+  if (segment_ms)
+    *segment_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return detections;
+}
+
+const SemanticStep& SemanticMapper::integrate(const RgbdFrame& frame, const SE3& T_world_cam,
+                                              std::vector<Detection> detections,
+                                              slam::SurfelMap& map,
+                                              const slam::IndexImage* pixel_surfel,
+                                              double segment_ms) {
+  step_ = SemanticStep{};
+  step_.keyframe = true;
+  ++keyframes_;
+  segment_ms_ += segment_ms;
+  step_.detections = std::move(detections);
   detections_ += static_cast<int>(step_.detections.size());
   step_.report = fusion_.integrate(frame, step_.detections, T_world_cam, map, pixel_surfel);
   fuse_ms_ += step_.report.total_ms;

@@ -63,6 +63,18 @@ class SemanticMapper {
   /// (SlamSystem::last_pixel_surfel()).
   const SemanticStep& process(const RgbdFrame& frame, const SE3& T_world_cam, slam::SurfelMap& map,
                               const slam::IndexImage* pixel_surfel = nullptr);
+  /// process() in three steps, for a caller that segments elsewhere (the pipeline's asynchronous
+  /// segmentation, pipeline.segmentation_delay_frames): next_frame() advances the keyframe policy
+  /// (true = segment this frame); detect() runs the back-end and touches nothing else (so it may
+  /// run on another thread, one call at a time, in keyframe order; `segment_ms` gets its time);
+  /// integrate() fuses a keyframe's detections (`segment_ms` is added to the summary's time).
+  bool next_frame(const SE3& T_world_cam);
+  std::vector<Detection> detect(const RgbdFrame& frame, const SegmentationContext& context,
+                                double* segment_ms = nullptr);
+  const SemanticStep& integrate(const RgbdFrame& frame, const SE3& T_world_cam,
+                                std::vector<Detection> detections, slam::SurfelMap& map,
+                                const slam::IndexImage* pixel_surfel = nullptr,
+                                double segment_ms = 0);
   /// End of the run: removes spurious instances. Returns how many were removed.
   int finalize(slam::SurfelMap& map) { return fusion_.finalize(map); }
 

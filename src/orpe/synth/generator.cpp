@@ -20,6 +20,7 @@
 #include "orpe/core/params_io.h"
 #include "orpe/io/image_io.h"
 #include "orpe/render/rasterizer.h"
+#include "orpe/synth/appearance_symmetry.h"
 #include "orpe/synth/bop_writer.h"
 #include "orpe/synth/trajectory.h"
 
@@ -83,6 +84,18 @@ std::vector<std::string> expand_model_paths(const std::string& list) {
     }
   }
   return files;
+}
+
+/// synth.symmetries=appearance: each type keeps only the symmetries its print keeps (a printed box
+/// or a labelled can is then not symmetric); the scene itself is unchanged.
+void use_appearance_symmetries(std::vector<ObjectModel>& types) {
+  for (ObjectModel& m : types) {
+    const ObjectSymmetries kept = appearance_symmetries(m);
+    spdlog::debug("synth: {} keeps {}/{} discrete and {}/{} continuous symmetries (appearance)",
+                  m.name, kept.discrete.size(), m.symmetries.discrete.size(),
+                  kept.continuous.size(), m.symmetries.continuous.size());
+    m.symmetries = kept;
+  }
 }
 
 /// Per-frame random stream: depends on the seed and the frame only.
@@ -355,6 +368,7 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
     }
     scene_.types = std::move(used);
   }
+  if (params_.symmetries == "appearance") use_appearance_symmetries(scene_.types);
 
   // --- Camera path.
   TrajectoryParams tp;

@@ -11,6 +11,8 @@ bool SynthParams::IsValid(std::string* why) const {
   if (objects < 1 || objects > 500) return fail("objects must be in 1..500");
   if (scene != "floor" && scene != "table" && scene != "shelf")
     return fail("scene must be floor, table or shelf (got '" + scene + "')");
+  if (symmetries != "shape" && symmetries != "appearance")
+    return fail("symmetries must be shape or appearance (got '" + symmetries + "')");
   if (distractors < 0 || distractors > 200) return fail("distractors must be in 0..200");
   if (model_unit_m < 0) return fail("model_unit_m must be >= 0 (0 = guess)");
   if (width < 16 || height < 16 || width > 8192 || height > 8192)

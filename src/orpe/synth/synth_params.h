@@ -13,7 +13,8 @@ struct SynthParams {
   std::string models;  // comma-separated OBJ/PLY files or folders; empty = built-in warehouse set
   double model_unit_m = 0;  // metres per model-file unit; 0 = guess
   bool repeat_types = false;
-  int distractors = 0;  // boxes and cylinders outside the model set (not targets)
+  int distractors = 0;               // boxes and cylinders outside the model set (not targets)
+  std::string symmetries = "shape";  // models_info.json symmetries: shape | appearance
   int width = 640;
   int height = 480;
   double fx = 0, fy = 0, cx = 0, cy = 0;
@@ -55,6 +56,11 @@ struct SynthParams {
       "Distractors: plain-coloured boxes and cylinders of sizes unlike the objects', placed "
       "among them but not targets (not in scene_gt.json, models/, masks; see "
       "scene_gt_distractors.json); 0 = none, the scene is then the same as without the option");
+    v("symmetries", symmetries,
+      "Symmetries written to models_info.json (and so scored with ADD-S): shape = of the geometry "
+      "(a printed box is symmetric) | appearance = only those that also map the print onto itself "
+      "(a box whose front and back labels differ is not symmetric; ADD(-S) then scores its "
+      "rotation)");
     v("width", width, "Image width (pixels)");
     v("height", height, "Image height (pixels)");
     v("fx", fx, "Focal length x (pixels); 0 = 580 * width / 640 (Xtion-like)");

@@ -1,0 +1,85 @@
+#include "orpe/synth/appearance_symmetry.h"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace orpe::synth {
+namespace {
+
+struct ColouredSamples {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<double> grey;
+};
+
+ColouredSamples coloured_samples(const TriangleMesh& mesh, int count, std::uint64_t seed) {
+  std::vector<Rgb8> colours;
+  const auto pts = sample_surface_points(mesh, static_cast<size_t>(count), seed, &colours);
+  ColouredSamples s;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    s.points.push_back(pts[i].cast<float>());
+    s.grey.push_back((0.299 * colours[i].r + 0.587 * colours[i].g + 0.114 * colours[i].b) / 255.0);
+  }
+  return s;
+}
+
+/// Pearson correlation of a's grey levels with those of b's samples nearest to S * a.points.
+double transformed_correlation(const ColouredSamples& a, const ColouredSamples& b, const SE3& S) {
+  const Eigen::Matrix3f R = S.rotation().cast<float>();
+  const Eigen::Vector3f t = S.translation().cast<float>();
+  const size_t n = a.points.size();
+  std::vector<double> y(n);
+#pragma omp parallel for schedule(static)
+  for (long i = 0; i < static_cast<long>(n); ++i) {
+    const Eigen::Vector3f q = R * a.points[i] + t;
+    float best = std::numeric_limits<float>::max();
+    size_t arg = 0;
+    for (size_t j = 0; j < b.points.size(); ++j) {
+      const float d = (b.points[j] - q).squaredNorm();
+      if (d < best) best = d, arg = j;
+    }
+    y[i] = b.grey[arg];
+  }
+  double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double x = a.grey[i];
+    sx += x, sy += y[i], sxx += x * x, syy += y[i] * y[i], sxy += x * y[i];
+  }
+  const double m = static_cast<double>(n);
+  const double vx = sxx / m - (sx / m) * (sx / m), vy = syy / m - (sy / m) * (sy / m);
+  if (vx < 1e-8 || vy < 1e-8) return 1.0;  // flat colour: nothing tells S from the identity
+  return (sxy / m - (sx / m) * (sy / m)) / std::sqrt(vx * vy);
+}
+
+SE3 turn_about(const Vec3& axis, const Vec3& offset, double angle) {
+  const Mat3 R = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+  return SE3(R, offset - R * offset);
+}
+
+}  // namespace
+
+ObjectSymmetries appearance_symmetries(const ObjectModel& model,
+                                       const AppearanceSymmetryParams& params) {
+  const TriangleMesh& mesh = *model.mesh;
+  if (!model.symmetries.any() || (!mesh.has_texture() && !mesh.has_colors()))
+    return model.symmetries;
+  const ColouredSamples a = coloured_samples(mesh, params.samples, 101);
+  const ColouredSamples b = coloured_samples(mesh, params.samples, 202);
+  const double baseline = transformed_correlation(a, b, SE3());
+  if (baseline >= 1.0) return model.symmetries;  // one flat colour
+  auto keeps = [&](const SE3& S) {
+    return transformed_correlation(a, b, S) >= params.min_correlation * baseline;
+  };
+  ObjectSymmetries out;
+  for (const SE3& S : model.symmetries.discrete)
+    if (keeps(S)) out.discrete.push_back(S);
+  for (const auto& c : model.symmetries.continuous) {
+    bool all = true;
+    for (int k = 1; k < params.continuous_steps && all; ++k)
+      all = keeps(turn_about(c.axis, c.offset_m, 2 * M_PI * k / params.continuous_steps));
+    if (all) out.continuous.push_back(c);
+  }
+  return out;
+}
+
+}  // namespace orpe::synth

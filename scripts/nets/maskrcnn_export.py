@@ -11,6 +11,8 @@ generates the equivalence fixtures of its tests. Debian's python3-torch / python
   fixtures  the tiny seeded model of the tests, its input and torchvision's outputs on it, and random
             inputs/outputs of torchvision::nms and torchvision::roi_align (tests/nets/data):
             /usr/bin/python3 scripts/nets/maskrcnn_export.py fixtures --out-dir tests/nets/data
+  bench     times a TorchScript file in Python (the peer of bench/maskrcnn_speed.cpp;
+            scripts/nets/maskrcnn_bench.sh runs both)
 
 The C++ side (src/orpe/nets) registers its own torchvision::nms / torchvision::roi_align, so no
 torchvision library is needed at run time. docs/NETWORKS.md.
@@ -179,6 +181,26 @@ def cmd_fixtures(args):
     print(f"fixtures: {len(ref['scores'])} detections, scores {ref['scores'].tolist()}")
 
 
+def cmd_bench(args):
+    """The Python peer of bench/maskrcnn_speed.cpp: the same TorchScript file and image, torchvision's
+    own operators, same thread count."""
+    import time
+    from torchvision.io import read_image
+    if args.threads > 0:
+        torch.set_num_threads(args.threads)
+    model = torch.jit.load(args.model)
+    x = read_image(args.image).float() / 255
+    with torch.inference_mode():
+        model([x])  # warm-up
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(args.repeats):
+            _, out = model([x])
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    print(f"python torchvision: {x.shape[2]}x{x.shape[1]}, {args.repeats} calls: wall "
+          f"{1e3 * wall / args.repeats:.0f} ms/call, cpu {1e3 * cpu / args.repeats:.0f} ms/call, "
+          f"{len(out[0]['scores'])} detections")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -195,6 +217,12 @@ def main():
     f.add_argument("--out-dir", default="tests/nets/data")
     f.add_argument("--seed", type=int, default=5)
     f.set_defaults(func=cmd_fixtures)
+    b = sub.add_parser("bench", help="time a TorchScript file in Python (bench/maskrcnn_speed.cpp's peer)")
+    b.add_argument("--model", required=True)
+    b.add_argument("--image", required=True)
+    b.add_argument("--repeats", type=int, default=3)
+    b.add_argument("--threads", type=int, default=0)
+    b.set_defaults(func=cmd_bench)
     args = p.parse_args()
     args.func(args)
 

@@ -49,6 +49,19 @@ TEST(maskrcnn, RunsInsideOrpeRunFullMode) {
   std::ifstream is(log);
   const std::string text((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("missing.pt: cannot open the model file"), std::string::npos) << text;
+
+  // The LibTorch plugin is opened on first use: an unloadable one is a message, not a crash.
+  setenv("ORPE_NETS_PLUGIN", "/nonexistent/liborpe_nets_torch.so", 1);
+  const int status = test::run_cli(
+      "run" + common + " --out " + dir + "/noplugin" +
+      " --set segmentation.maskrcnn_model=" + test::nets_data("maskrcnn_tiny.pt") + " 2> " + log);
+  unsetenv("ORPE_NETS_PLUGIN");
+  EXPECT_NE(status, 0);
+  std::ifstream is2(log);
+  const std::string text2((std::istreambuf_iterator<char>(is2)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text2.find("cannot load the LibTorch plugin liborpe_nets_torch.so"), std::string::npos)
+      << text2;
+  EXPECT_NE(text2.find("/nonexistent/liborpe_nets_torch.so: no such file"), std::string::npos);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // The `maskrcnn` segmentation back-end: a torchvision Mask R-CNN exported to TorchScript
 // (scripts/nets/maskrcnn_export.py), run in LibTorch on the CPU, no Python at run time. LibTorch
-// stays in src/orpe/nets/torch: this header has none. docs/NETWORKS.md.
+// stays in src/orpe/nets/torch, a plugin opened on first use (orpe/nets/plugin.h): this header has
+// none. docs/NETWORKS.md.
 #pragma once
 
 #include <array>
@@ -13,6 +14,8 @@
 #include "orpe/semantic/segmenter.h"
 
 namespace orpe::nets {
+
+class MaskRcnnImpl;
 
 /// True when orpe was built with LibTorch (ORPE_WITH_TORCH): the network back-ends exist.
 bool torch_built();
@@ -61,8 +64,7 @@ class MaskRcnnNetwork {
   MaskRcnnOutput run(const ColorImage& image) const;
 
  private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
+  std::unique_ptr<MaskRcnnImpl> impl_;  ///< in the LibTorch plugin (orpe/nets/plugin.h)
 };
 
 /// Network label -> dataset class id, from a class map file: one `label class` line per network

@@ -1,6 +1,6 @@
-// The LibTorch side of the maskrcnn back-end: torchvision operator registration, model loading and
-// inference, fixture reading. One translation unit on purpose (LibTorch headers cost ~1 GB of
-// compiler memory per file).
+// The LibTorch plugin (liborpe_nets_torch.so, orpe/nets/plugin.h): torchvision operator
+// registration, Mask R-CNN loading and inference, fixture reading. One translation unit on purpose
+// (LibTorch headers cost ~1 GB of compiler memory per file).
 #include <ATen/Parallel.h>
 #include <torch/script.h>
 
@@ -11,6 +11,7 @@
 
 #include "orpe/core/error.h"
 #include "orpe/nets/maskrcnn.h"
+#include "orpe/nets/plugin.h"
 #include "orpe/nets/torchvision_kernels.h"
 
 namespace orpe::nets {
@@ -106,11 +107,7 @@ torch::jit::Module load_module(const std::string& path, torch::jit::ExtraFilesMa
 
 }  // namespace
 
-bool torch_built() {
-  return true;
-}
-
-std::map<std::string, HostTensor> read_tensor_file(const std::string& path) {
+std::map<std::string, HostTensor> read_tensors(const std::string& path) {
   torch::jit::ExtraFilesMap extra;
   torch::jit::Module m = load_module(path, &extra);
   std::map<std::string, HostTensor> out;
@@ -124,18 +121,23 @@ std::map<std::string, HostTensor> read_tensor_file(const std::string& path) {
   return out;
 }
 
-struct MaskRcnnNetwork::Impl {
-  std::string path;
-  mutable torch::jit::Module module;
-  int num_classes = 0;
+class TorchMaskRcnn : public MaskRcnnImpl {
+ public:
+  TorchMaskRcnn(const std::string& model_path, const MaskRcnnOptions& options);
+  int num_classes() const override { return num_classes_; }
+  MaskRcnnOutput run(const ColorImage& image) const override;
+
+ private:
+  std::string path_;
+  mutable torch::jit::Module module_;
+  int num_classes_ = 0;
 };
 
-MaskRcnnNetwork::MaskRcnnNetwork(const std::string& model_path, const MaskRcnnOptions& options)
-    : impl_(std::make_unique<Impl>()) {
-  impl_->path = model_path;
+TorchMaskRcnn::TorchMaskRcnn(const std::string& model_path, const MaskRcnnOptions& options)
+    : path_(model_path) {
   torch::jit::ExtraFilesMap extra{{"orpe_maskrcnn.json", ""}};
-  impl_->module = load_module(model_path, &extra);
-  torch::jit::Module& m = impl_->module;
+  module_ = load_module(model_path, &extra);
+  torch::jit::Module& m = module_;
   if (!m.hasattr("transform") || !m.hasattr("roi_heads") || !m.find_method("forward"))
     throw IoError(model_path, "not a scripted torchvision Mask R-CNN (no transform / roi_heads)");
   if (!extra["orpe_maskrcnn.json"].empty()) {
@@ -143,7 +145,7 @@ MaskRcnnNetwork::MaskRcnnNetwork(const std::string& model_path, const MaskRcnnOp
     if (meta.is_discarded() || !meta.contains("num_classes") ||
         !meta["num_classes"].is_number_integer())
       throw IoError(model_path, "orpe_maskrcnn.json inside the model has no integer num_classes");
-    impl_->num_classes = meta["num_classes"].get<int>();
+    num_classes_ = meta["num_classes"].get<int>();
   }
   torch::jit::Module transform = m.attr("transform").toModule();
   try {
@@ -157,12 +159,6 @@ MaskRcnnNetwork::MaskRcnnNetwork(const std::string& model_path, const MaskRcnnOp
                   "cannot set the input size: " + first_line(e.what_without_backtrace()));
   }
   if (options.threads > 0) at::set_num_threads(options.threads);
-}
-
-MaskRcnnNetwork::~MaskRcnnNetwork() = default;
-
-int MaskRcnnNetwork::num_classes() const {
-  return impl_->num_classes;
 }
 
 namespace {
@@ -197,7 +193,7 @@ MaskRcnnOutput to_output(const c10::Dict<c10::IValue, c10::IValue>& dets, int wi
 
 }  // namespace
 
-MaskRcnnOutput MaskRcnnNetwork::run(const ColorImage& image) const {
+MaskRcnnOutput TorchMaskRcnn::run(const ColorImage& image) const {
   if (image.width() < 32 || image.height() < 32)
     throw std::invalid_argument("maskrcnn: the image is " + std::to_string(image.width()) + "x" +
                                 std::to_string(image.height()) + ", the network needs >= 32x32");
@@ -210,12 +206,23 @@ MaskRcnnOutput MaskRcnnNetwork::run(const ColorImage& image) const {
   const at::Tensor chw = hwc.permute({2, 0, 1}).to(at::kFloat).div(255).contiguous();
   try {
     c10::List<at::Tensor> images({chw});
-    const c10::IValue result = impl_->module.forward({images});
+    const c10::IValue result = module_.forward({images});
     const auto dets = result.toTupleRef().elements().at(1).toList().get(0).toGenericDict();
     return to_output(dets, image.width(), image.height());
   } catch (const c10::Error& e) {
-    throw IoError(impl_->path, "the network failed: " + first_line(e.what_without_backtrace()));
+    throw IoError(path_, "the network failed: " + first_line(e.what_without_backtrace()));
   }
 }
 
+std::unique_ptr<MaskRcnnImpl> open_maskrcnn(const std::string& path,
+                                            const MaskRcnnOptions& options) {
+  return std::make_unique<TorchMaskRcnn>(path, options);
+}
+
 }  // namespace orpe::nets
+
+extern "C" __attribute__((visibility("default"))) const orpe::nets::PluginApi* orpe_nets_plugin() {
+  static const orpe::nets::PluginApi api{orpe::nets::kPluginApiVersion, &orpe::nets::open_maskrcnn,
+                                         &orpe::nets::read_tensors};
+  return &api;
+}

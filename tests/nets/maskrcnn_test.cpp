@@ -39,7 +39,7 @@ SegmentationParams tiny_params() {
 }
 
 std::string write_file(const std::string& name, const std::string& text) {
-  const std::string path = test::scratch_dir("maskrcnn") + "/" + name;
+  const std::string path = test::scratch_dir("maskrcnn_" + name) + "/" + name;
   std::ofstream(path) << text;
   return path;
 }
@@ -113,38 +113,34 @@ TEST(maskrcnn, SegmenterMapsLabelsToDatasetClassesAndFilters) {
   EXPECT_LT(expected, ref.at("scores").values.size());  // the score filter removed some
 }
 
+/// The error of constructing the segmenter with `p` (a failure when there is none).
+std::string segmenter_error(const SegmentationParams& p) {
+  return error_of([&] { nets::MaskRcnnSegmenter(p, kClasses); });
+}
+
 TEST(maskrcnn, ClearErrorsForBadModelFilesAndClassMaps) {
   ORPE_REQUIRE_TORCH();
   SegmentationParams p = tiny_params();
+  std::vector<std::pair<SegmentationParams, std::string>> cases;
   p.maskrcnn_model = "/nonexistent/model.pt";
-  EXPECT_NE(error_of([&] {
-              nets::MaskRcnnSegmenter(p, kClasses);
-            }).find("/nonexistent/model.pt: cannot open the model file"),
-            std::string::npos);
+  cases.push_back({p, "/nonexistent/model.pt: cannot open the model file"});
   p.maskrcnn_model = write_file("garbage.pt", "not a zip archive");
-  EXPECT_NE(error_of([&] {
-              nets::MaskRcnnSegmenter(p, kClasses);
-            }).find("garbage.pt: not a TorchScript file"),
-            std::string::npos);
+  cases.push_back({p, "garbage.pt: not a TorchScript file"});
   p.maskrcnn_model = test::nets_data("torchvision_ops.pt");  // TorchScript, but no Mask R-CNN
-  EXPECT_NE(error_of([&] {
-              nets::MaskRcnnSegmenter(p, kClasses);
-            }).find("not a scripted torchvision Mask R-CNN"),
-            std::string::npos);
+  cases.push_back({p, "not a scripted torchvision Mask R-CNN"});
   p = tiny_params();
   p.maskrcnn_class_map = write_file("short.txt", "1 1\n2 2\n");
-  EXPECT_NE(error_of([&] {
-              nets::MaskRcnnSegmenter(p, kClasses);
-            }).find("short.txt: maps 2 labels, the network has 3 classes"),
-            std::string::npos);
+  cases.push_back({p, "short.txt: maps 2 labels, the network has 3 classes"});
   p.maskrcnn_class_map = write_file("unknown.txt", "1 1\n2 plate\n3 3\n");
-  EXPECT_NE(error_of([&] {
-              nets::MaskRcnnSegmenter(p, kClasses);
-            }).find("unknown.txt: line 2: 'plate' is not a class of the dataset"),
-            std::string::npos);
+  cases.push_back({p, "unknown.txt: line 2: 'plate' is not a class of the dataset"});
   p.maskrcnn_class_map = write_file("range.txt", "1 1\n4 2\n3 3\n");
-  EXPECT_NE(error_of([&] { nets::MaskRcnnSegmenter(p, kClasses); }).find("range.txt: line 2"),
-            std::string::npos);
+  cases.push_back({p, "range.txt: line 2, label"});
+  p.maskrcnn_class_map = write_file("twice.txt", "1 1\n2 2\n2 3\n");
+  cases.push_back({p, "twice.txt: line 3: label 2 appears twice"});
+  for (const auto& [params, expected] : cases) {
+    const std::string error = segmenter_error(params);
+    EXPECT_NE(error.find(expected), std::string::npos) << error;
+  }
 }
 
 TEST(maskrcnn, ClearErrorsForFramesOfTheWrongSize) {

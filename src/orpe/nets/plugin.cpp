@@ -99,3 +99,30 @@ MaskRcnnOutput MaskRcnnNetwork::run(const ColorImage& image) const {
 }
 
 }  // namespace orpe::nets
+
+namespace orpe::nets {
+
+DenseFusionNetwork::DenseFusionNetwork(const DenseFusionSpec& spec)
+    : impl_(nets_plugin("densefusion").open_densefusion(spec)) {}
+
+DenseFusionNetwork::~DenseFusionNetwork() = default;
+
+DenseFusionPoints DenseFusionNetwork::estimate(const std::vector<float>& crop_chw, int h, int w,
+                                               const std::vector<float>& cloud,
+                                               const std::vector<std::int64_t>& choose,
+                                               int obj) const {
+  return impl_->estimate(crop_chw, h, w, cloud, choose, obj);
+}
+
+DenseFusionPose DenseFusionNetwork::pose(const DenseFusionPoints& points,
+                                         const std::vector<float>& cloud, int obj, int iterations,
+                                         DenseFusionPose* before_refinement) const {
+  return impl_->pose(points, cloud, obj, iterations, before_refinement);
+}
+
+std::vector<std::pair<std::string, std::vector<std::int64_t>>> DenseFusionNetwork::parameters()
+    const {
+  return impl_->parameters();
+}
+
+}  // namespace orpe::nets

@@ -214,6 +214,9 @@ MaskRcnnOutput TorchMaskRcnn::run(const ColorImage& image) const {
   }
 }
 
+std::unique_ptr<DenseFusionImpl> open_densefusion(
+    const DenseFusionSpec& spec);  // densefusion_network.cpp
+
 std::unique_ptr<MaskRcnnImpl> open_maskrcnn(const std::string& path,
                                             const MaskRcnnOptions& options) {
   return std::make_unique<TorchMaskRcnn>(path, options);
@@ -223,6 +226,6 @@ std::unique_ptr<MaskRcnnImpl> open_maskrcnn(const std::string& path,
 
 extern "C" __attribute__((visibility("default"))) const orpe::nets::PluginApi* orpe_nets_plugin() {
   static const orpe::nets::PluginApi api{orpe::nets::kPluginApiVersion, &orpe::nets::open_maskrcnn,
-                                         &orpe::nets::read_tensors};
+                                         &orpe::nets::read_tensors, &orpe::nets::open_densefusion};
   return &api;
 }

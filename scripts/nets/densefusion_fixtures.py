@@ -91,6 +91,22 @@ def cmd_fixtures(args):
           f"{int(which[0])}, final t {my_t}")
 
 
+def cmd_seeded_checkpoints(args):
+    """Checkpoints in the official format (state_dicts, torch.save) holding the fixtures' seeded weights,
+    built from the names file alone (no reference code needed): the converter test's input."""
+    import collections
+    lines = [l.split() for l in open(args.names) if l.strip()]
+    firsts = [i for i, l in enumerate(lines) if l[0] == "feat.conv1.weight"]
+    split = firsts[1]  # PoseNet's tensors, then PoseRefineNet's
+    for part, seed, out in ((lines[:split], args.seed, args.posenet), (lines[split:], args.seed + 1, args.refiner)):
+        state = collections.OrderedDict((l[0], torch.empty([int(d) for d in l[1:]])) for l in part)
+        torch.manual_seed(seed)
+        for p in state.values():
+            std = 1.0 / np.sqrt(p.numel() / p.shape[0]) if p.dim() > 1 else 0.1
+            p.normal_(0.0, float(std))
+        torch.save(state, out)
+
+
 def cmd_convert(args):
     state = torch.load(args.checkpoint, map_location="cpu")
     if not isinstance(state, dict):
@@ -111,6 +127,12 @@ def main():
     f.add_argument("--points", type=int, default=50)
     f.add_argument("--seed", type=int, default=11)
     f.set_defaults(func=cmd_fixtures)
+    k = sub.add_parser("seeded-checkpoints")
+    k.add_argument("--names", required=True)
+    k.add_argument("--seed", type=int, default=11)
+    k.add_argument("--posenet", required=True)
+    k.add_argument("--refiner", required=True)
+    k.set_defaults(func=cmd_seeded_checkpoints)
     c = sub.add_parser("convert")
     c.add_argument("checkpoint")
     c.add_argument("--out", required=True)

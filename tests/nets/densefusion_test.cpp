@@ -5,43 +5,23 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
 #include "nets/net_fixtures.h"
 #include "orpe/nets/densefusion.h"
+#include "support/test_data.h"
 
 namespace orpe {
 namespace {
 
 using nets::HostTensor;
 
-TEST(densefusion, MatchesTheReferenceImplementationWithSeededWeights) {
-  ORPE_REQUIRE_TORCH();
-  const auto f = nets::read_tensor_file(test::nets_data("densefusion_small.pt"));
+void expect_reference_outputs(const nets::DenseFusionNetwork& net,
+                              const std::map<std::string, HostTensor>& f) {
   const std::vector<float>& meta = f.at("meta").values;
-  const int n = int(meta[0]), h = int(meta[2]), w = int(meta[3]), obj = int(meta[4]);
-  nets::DenseFusionSpec spec;
-  spec.num_points = n;
-  spec.num_objects = int(meta[1]);
-  spec.random_seed = int(meta[5]);
-  const nets::DenseFusionNetwork net(spec);
-
-  // Names and shapes, in the reference's state_dict order.
-  std::ifstream names(test::nets_data("densefusion_small.names.txt"));
-  const auto params = net.parameters();
-  std::string line;
-  size_t i = 0;
-  for (; std::getline(names, line); ++i) {
-    ASSERT_LT(i, params.size());
-    std::ostringstream mine;
-    mine << params[i].first;
-    for (auto d : params[i].second) mine << " " << d;
-    EXPECT_EQ(mine.str(), line) << "tensor " << i;
-  }
-  EXPECT_EQ(i, params.size());
-  EXPECT_EQ(i, 101u);  // PoseNet 77 + PoseRefineNet 24
-
+  const int h = int(meta[2]), w = int(meta[3]), obj = int(meta[4]);
   std::vector<std::int64_t> choose;
   for (float c : f.at("choose").values) choose.push_back(std::int64_t(c));
   const auto pts = net.estimate(f.at("img").values, h, w, f.at("cloud").values, choose, obj);
@@ -78,6 +58,74 @@ TEST(densefusion, MatchesTheReferenceImplementationWithSeededWeights) {
       "densefusion equivalence: per-point max error %.2g, pose before refinement %.2g, after 2 "
       "refinements R %.2g t %.2g\n",
       worst, e_before, e_R, e_t);
+}
+
+TEST(densefusion, MatchesTheReferenceImplementationWithSeededWeights) {
+  ORPE_REQUIRE_TORCH();
+  const auto f = nets::read_tensor_file(test::nets_data("densefusion_small.pt"));
+  const std::vector<float>& meta = f.at("meta").values;
+  const int n = int(meta[0]);
+  nets::DenseFusionSpec spec;
+  spec.num_points = n;
+  spec.num_objects = int(meta[1]);
+  spec.random_seed = int(meta[5]);
+  const nets::DenseFusionNetwork net(spec);
+
+  // Names and shapes, in the reference's state_dict order.
+  std::ifstream names(test::nets_data("densefusion_small.names.txt"));
+  const auto params = net.parameters();
+  std::string line;
+  size_t i = 0;
+  for (; std::getline(names, line); ++i) {
+    ASSERT_LT(i, params.size());
+    std::ostringstream mine;
+    mine << params[i].first;
+    for (auto d : params[i].second) mine << " " << d;
+    EXPECT_EQ(mine.str(), line) << "tensor " << i;
+  }
+  EXPECT_EQ(i, params.size());
+  EXPECT_EQ(i, 101u);  // PoseNet 77 + PoseRefineNet 24
+
+  expect_reference_outputs(net, f);
+}
+
+/// Converted official-format checkpoints (scripts/nets/densefusion_fixtures.py seeded-checkpoints,
+/// then convert) holding the fixture's weights load by name and give the reference's outputs.
+/// Needs /usr/bin/python3 with Debian's torch at test time (skips without it; never at run time).
+TEST(densefusion, LoadsConvertedCheckpoints) {
+  ORPE_REQUIRE_TORCH();
+  if (std::system("/usr/bin/python3 -c 'import torch' 2> /dev/null") != 0)
+    GTEST_SKIP() << "no /usr/bin/python3 with torch (python3-torch)";
+  const auto f = nets::read_tensor_file(test::nets_data("densefusion_small.pt"));
+  const std::string dir = test::scratch_dir("densefusion_convert");
+  const std::string script = std::string(ORPE_SOURCE_DIR) + "/scripts/nets/densefusion_fixtures.py";
+  const std::string py = "/usr/bin/python3 " + script + " ";
+  ASSERT_EQ(
+      std::system(
+          (py + "seeded-checkpoints --names " + test::nets_data("densefusion_small.names.txt") +
+           " --seed " + std::to_string(int(f.at("meta").values[5])) + " --posenet " + dir +
+           "/pose_model.pth --refiner " + dir + "/pose_refine_model.pth && " + py + "convert " +
+           dir + "/pose_model.pth --out " + dir + "/posenet.pt > /dev/null && " + py + "convert " +
+           dir + "/pose_refine_model.pth --out " + dir + "/refiner.pt > /dev/null")
+              .c_str()),
+      0);
+  nets::DenseFusionSpec spec;
+  spec.num_points = int(f.at("meta").values[0]);
+  spec.num_objects = int(f.at("meta").values[1]);
+  spec.posenet_path = dir + "/posenet.pt";
+  spec.refiner_path = dir + "/refiner.pt";
+  expect_reference_outputs(nets::DenseFusionNetwork(spec), f);
+
+  spec.posenet_path = dir + "/refiner.pt";  // the wrong network's file
+  try {
+    nets::DenseFusionNetwork wrong(spec);
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("refiner.pt: no tensor cnn.model.module.feats.conv1.weight"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(densefusion, RefusesInputsOfTheWrongSize) {

@@ -107,6 +107,29 @@ def cmd_seeded_checkpoints(args):
         torch.save(state, out)
 
 
+def cmd_bench(args):
+    """The reference implementation's CPU time on bench/densefusion_speed.cpp's sizes."""
+    import time
+    sys.path.insert(0, args.reference)
+    from lib.network import PoseNet, PoseRefineNet
+    n, h, w = 1000, 120, 160
+    est = seeded(PoseNet(num_points=n, num_obj=21), 1)
+    ref = seeded(PoseRefineNet(num_points=n, num_obj=21), 2)
+    img, cloud = torch.randn(1, 3, h, w), torch.randn(1, n, 3) * 0.05
+    choose, index = (torch.arange(n) * 7919 % (h * w)).view(1, 1, n), torch.LongTensor([0])
+    with torch.no_grad():
+        _, _, _, emb = est(img, cloud, choose, index)
+        c0 = time.process_time()
+        for _ in range(args.repeats):
+            est(img, cloud, choose, index)
+        posenet = (time.process_time() - c0) / args.repeats
+        c0 = time.process_time()
+        for _ in range(args.repeats):
+            ref(cloud, emb, index)
+        refiner = (time.process_time() - c0) / args.repeats
+    print(f"reference (python): PoseNet {1e3 * posenet:.0f} ms CPU/call, refiner pass {1e3 * refiner:.1f} ms")
+
+
 def cmd_convert(args):
     state = torch.load(args.checkpoint, map_location="cpu")
     if not isinstance(state, dict):
@@ -133,6 +156,10 @@ def main():
     k.add_argument("--posenet", required=True)
     k.add_argument("--refiner", required=True)
     k.set_defaults(func=cmd_seeded_checkpoints)
+    b = sub.add_parser("bench")
+    b.add_argument("--reference", required=True)
+    b.add_argument("--repeats", type=int, default=5)
+    b.set_defaults(func=cmd_bench)
     c = sub.add_parser("convert")
     c.add_argument("checkpoint")
     c.add_argument("--out", required=True)

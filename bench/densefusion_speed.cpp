@@ -9,15 +9,10 @@
 #include <random>
 #include <string>
 
+#include "cpu_time.h"
 #include "orpe/nets/densefusion.h"
 
-namespace {
-double cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
-}  // namespace
+using orpe::bench::process_cpu_s;
 
 int main(int argc, char** argv) {
   const int repeats = argc > 2 && std::string(argv[1]) == "--repeats" ? std::stoi(argv[2]) : 5;
@@ -35,15 +30,15 @@ int main(int argc, char** argv) {
     std::vector<std::int64_t> choose(n);
     for (int i = 0; i < n; ++i) choose[i] = (i * 7919) % (h * w);
     auto pts = net.estimate(crop, h, w, cloud, choose, 0);  // warm-up
-    double c0 = cpu_s();
+    double c0 = process_cpu_s();
     for (int r = 0; r < repeats; ++r) pts = net.estimate(crop, h, w, cloud, choose, 0);
-    const double posenet_ms = 1e3 * (cpu_s() - c0) / repeats;
-    c0 = cpu_s();
+    const double posenet_ms = 1e3 * (process_cpu_s() - c0) / repeats;
+    c0 = process_cpu_s();
     for (int r = 0; r < repeats; ++r) net.pose(pts, cloud, 0, 0);
-    const double pick_ms = 1e3 * (cpu_s() - c0) / repeats;
-    c0 = cpu_s();
+    const double pick_ms = 1e3 * (process_cpu_s() - c0) / repeats;
+    c0 = process_cpu_s();
     for (int r = 0; r < repeats; ++r) net.pose(pts, cloud, 0, 1);
-    const double refine_ms = 1e3 * (cpu_s() - c0) / repeats - pick_ms;
+    const double refine_ms = 1e3 * (process_cpu_s() - c0) / repeats - pick_ms;
     std::printf(
         "densefusion_speed: PoseNet %.0f ms CPU/call (120x160, %d points), refiner pass %.1f ms\n",
         posenet_ms, n, refine_ms);

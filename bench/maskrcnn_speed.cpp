@@ -12,17 +12,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
+#include "cpu_time.h"
 #include "orpe/nets/maskrcnn.h"
 
-namespace {
-
-double process_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
-
-}  // namespace
+using orpe::bench::process_cpu_s;
 
 int main(int argc, char** argv) {
   std::string model, image_path;

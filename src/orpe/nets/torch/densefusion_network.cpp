@@ -23,6 +23,18 @@ namespace F = torch::nn::functional;
 using Shape = std::vector<std::int64_t>;
 using ParamList = std::vector<std::pair<std::string, Shape>>;
 
+/// The PointNet / fusion branch "feat.*" of both networks; conv5 takes 256 (PoseNet) or 384
+/// channels.
+void add_point_feature_parameters(ParamList* p, std::int64_t conv5_in) {
+  const std::pair<const char*, Shape> feat[] = {
+      {"conv1", {64, 3, 1}},     {"conv2", {128, 64, 1}},       {"e_conv1", {64, 32, 1}},
+      {"e_conv2", {128, 64, 1}}, {"conv5", {512, conv5_in, 1}}, {"conv6", {1024, 512, 1}}};
+  for (const auto& [name, shape] : feat) {
+    p->push_back({std::string("feat.") + name + ".weight", shape});
+    p->push_back({std::string("feat.") + name + ".bias", {shape[0]}});
+  }
+}
+
 ParamList posenet_parameters(int num_obj) {
   ParamList p;
   const std::string cnn = "cnn.model.module.";
@@ -56,13 +68,7 @@ ParamList posenet_parameters(int num_obj) {
   p.push_back({cnn + "classifier.0.bias", {256}});
   p.push_back({cnn + "classifier.2.weight", {21, 256}});
   p.push_back({cnn + "classifier.2.bias", {21}});
-  const std::pair<const char*, Shape> feat[] = {
-      {"conv1", {64, 3, 1}},     {"conv2", {128, 64, 1}},  {"e_conv1", {64, 32, 1}},
-      {"e_conv2", {128, 64, 1}}, {"conv5", {512, 256, 1}}, {"conv6", {1024, 512, 1}}};
-  for (const auto& [name, shape] : feat) {
-    p.push_back({std::string("feat.") + name + ".weight", shape});
-    p.push_back({std::string("feat.") + name + ".bias", {shape[0]}});
-  }
+  add_point_feature_parameters(&p, 256);
   const int head_in[4] = {1408, 640, 256, 128}, head_out[3] = {640, 256, 128};
   const int last[3] = {4 * num_obj, 3 * num_obj, num_obj};
   for (int layer = 0; layer < 4; ++layer)
@@ -77,13 +83,7 @@ ParamList posenet_parameters(int num_obj) {
 
 ParamList refiner_parameters(int num_obj) {
   ParamList p;
-  const std::pair<const char*, Shape> feat[] = {
-      {"conv1", {64, 3, 1}},     {"conv2", {128, 64, 1}},  {"e_conv1", {64, 32, 1}},
-      {"e_conv2", {128, 64, 1}}, {"conv5", {512, 384, 1}}, {"conv6", {1024, 512, 1}}};
-  for (const auto& [name, shape] : feat) {
-    p.push_back({std::string("feat.") + name + ".weight", shape});
-    p.push_back({std::string("feat.") + name + ".bias", {shape[0]}});
-  }
+  add_point_feature_parameters(&p, 384);
   const std::pair<const char*, Shape> heads[] = {
       {"conv1_r", {512, 1024}}, {"conv1_t", {512, 1024}},        {"conv2_r", {128, 512}},
       {"conv2_t", {128, 512}},  {"conv3_r", {4 * num_obj, 128}}, {"conv3_t", {3 * num_obj, 128}}};

@@ -10,6 +10,9 @@ PACKAGES=(
   libmatio-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libtbb-dev libgtest-dev libgmock-dev libbenchmark-dev
   libassimp-dev libyaml-cpp-dev parallel
+  # LibTorch for src/orpe/nets (ORPE_WITH_TORCH; ~0.5 GB), and Debian's PyTorch for the export /
+  # fixture / training scripts of scripts/nets (run with /usr/bin/python3). docs/NETWORKS.md.
+  libtorch-dev python3-torch python3-torchvision
 )
 if [ "${1:-}" = --fuzz ]; then
   PACKAGES+=(clang-14 libclang-rt-14-dev libomp-14-dev)

@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "orpe/core/error.h"
+#include "orpe/nets/maskrcnn.h"
 #include "orpe/pipeline/instance_tracks.h"
 #include "orpe/pipeline/object_fusion.h"
 #include "orpe/pose/colour_score.h"
@@ -177,6 +178,10 @@ ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const Datase
     if (params_.segmentation.backend == "model")
       semantic_ = std::make_unique<SemanticMapper>(make_model_recognizer(), params_.segmentation,
                                                    params_.semantic);
+    else if (params_.segmentation.backend == "maskrcnn")
+      semantic_ = std::make_unique<SemanticMapper>(
+          std::make_unique<nets::MaskRcnnSegmenter>(params_.segmentation, dataset_.class_names),
+          params_.segmentation, params_.semantic);
     else
       semantic_ =
           std::make_unique<SemanticMapper>(params_.segmentation, params_.semantic, class_ids);

@@ -11,9 +11,14 @@ bool SegmentationParams::IsValid(std::string* why) const {
     if (why) *why = m;
     return false;
   };
-  if (backend != "gt" && backend != "files" && backend != "model")
-    return fail("backend must be gt, files or model (got '" + backend + "')");
+  if (backend != "gt" && backend != "files" && backend != "model" && backend != "maskrcnn")
+    return fail("backend must be gt, files, model or maskrcnn (got '" + backend + "')");
   if (backend == "files" && files_dir.empty()) return fail("backend files needs files_dir");
+  if (backend == "maskrcnn" && maskrcnn_model.empty())
+    return fail("backend maskrcnn needs maskrcnn_model (a TorchScript file)");
+  for (int v : {maskrcnn_threads, maskrcnn_min_size_px, maskrcnn_max_size_px,
+                maskrcnn_input_width_px, maskrcnn_input_height_px})
+    if (v < 0) return fail("maskrcnn_threads and maskrcnn_*_px must be >= 0");
   if (!(mask_threshold > 0 && mask_threshold < 1)) return fail("mask_threshold must be in (0, 1)");
   if (!(min_score >= 0 && min_score <= 1)) return fail("min_score must be in [0, 1]");
   if (min_mask_area_px < 0) return fail("min_mask_area_px must be >= 0");
@@ -61,6 +66,10 @@ std::unique_ptr<Segmenter> make_segmenter(const SegmentationParams& params,
     throw ConfigError(
         "segmentation: the model back-end needs the dataset's object models; construct "
         "ModelRecognizer (orpe/recognition) and pass it to SemanticMapper (orpe run does)");
+  if (params.backend == "maskrcnn")
+    throw ConfigError(
+        "segmentation: the maskrcnn back-end needs the dataset's classes; construct "
+        "nets::MaskRcnnSegmenter (orpe/nets) and pass it to SemanticMapper (orpe run does)");
   return std::make_unique<FileSegmenter>(params);
 }
 

@@ -5,7 +5,9 @@
 //              just below 0.5, missed detections, wrong classes, spurious blobs);
 //   - "files": precomputed detections of any external detector (docs/SEMANTIC.md, "files format");
 //   - "model": recognition of the dataset's object models from geometry alone (src/orpe/recognition;
-//              built by the pipeline, which has the models: make_segmenter() cannot create it).
+//              built by the pipeline, which has the models: make_segmenter() cannot create it);
+//   - "maskrcnn": a torchvision Mask R-CNN exported to TorchScript, run in LibTorch (src/orpe/nets;
+//              built by the pipeline, which has the dataset's classes; docs/NETWORKS.md).
 // A back-end is deterministic: the same frame (and seed) always gives the same detections.
 #pragma once
 
@@ -24,7 +26,7 @@ class SurfelMap;
 namespace orpe {
 
 struct SegmentationParams {
-  std::string backend = "gt";   ///< gt | files | model
+  std::string backend = "gt";   ///< gt | files | model | maskrcnn
   std::string files_dir;        ///< files back-end: folder of <frame index:06d>.json + mask images
   /// model back-end: comma-separated class names or ids to look for; empty = every model of the
   /// dataset.
@@ -32,6 +34,15 @@ struct SegmentationParams {
   double mask_threshold = 0.5;  ///< soft mask -> binary mask (Mask R-CNN: 0.5)
   double min_score = 0.5;       ///< detections below this score are dropped (every back-end)
   int min_mask_area_px = 30;    ///< detections with fewer mask pixels are dropped (every back-end)
+
+  // maskrcnn back-end (src/orpe/nets, docs/NETWORKS.md).
+  std::string maskrcnn_model;        ///< TorchScript file of scripts/nets/maskrcnn_export.py
+  std::string maskrcnn_class_map;    ///< label -> class file; empty = <model>.classes.txt
+  int maskrcnn_threads = 0;          ///< LibTorch intra-op threads (process-wide); 0 = default
+  int maskrcnn_min_size_px = 0;      ///< network input shorter side; 0 = as exported
+  int maskrcnn_max_size_px = 0;      ///< network input longer side at most; 0 = as exported
+  int maskrcnn_input_width_px = 0;   ///< frames must be this wide; 0 = any
+  int maskrcnn_input_height_px = 0;  ///< frames must be this high; 0 = any
 
   // Keyframe policy: a frame is a keyframe when either enabled rule fires; the first frame always
   // is.
@@ -79,6 +90,21 @@ struct SegmentationParams {
     v("mask_threshold", mask_threshold, "Soft mask -> binary mask threshold (Mask R-CNN: 0.5)");
     v("min_score", min_score, "Detections with a lower score are dropped, in [0, 1]");
     v("min_mask_area_px", min_mask_area_px, "Detections with fewer mask pixels are dropped");
+    v("maskrcnn_model", maskrcnn_model,
+      "maskrcnn back-end: TorchScript file from scripts/nets/maskrcnn_export.py "
+      "(docs/NETWORKS.md)");
+    v("maskrcnn_class_map", maskrcnn_class_map,
+      "maskrcnn back-end: network label -> dataset class file; empty = <model>.classes.txt");
+    v("maskrcnn_threads", maskrcnn_threads,
+      "maskrcnn back-end: LibTorch intra-op threads (process-wide); 0 = LibTorch's default");
+    v("maskrcnn_min_size_px", maskrcnn_min_size_px,
+      "maskrcnn back-end: network input shorter side (px); 0 = as exported");
+    v("maskrcnn_max_size_px", maskrcnn_max_size_px,
+      "maskrcnn back-end: network input longer side at most (px); 0 = as exported");
+    v("maskrcnn_input_width_px", maskrcnn_input_width_px,
+      "maskrcnn back-end: frames of another width are an error; 0 = any");
+    v("maskrcnn_input_height_px", maskrcnn_input_height_px,
+      "maskrcnn back-end: frames of another height are an error; 0 = any");
     v("keyframe_every_n_frames", keyframe_every_n_frames,
       "Segment every n-th frame; 0 disables the rule (the first frame is always a keyframe)");
     v("keyframe_min_translation_m", keyframe_min_translation_m,

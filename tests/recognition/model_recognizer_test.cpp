@@ -61,6 +61,34 @@ TEST(SceneGeometry, RemovesTheSupportPlaneAndKeepsTheObject) {
   ASSERT_EQ(regions.size(), 1u);
 }
 
+// Objects of one height: their tops are coplanar and, together, as large and as spread as a
+// support. A support is one connected surface: the tops are not removed (with what lies below
+// them, i.e. the objects) as a second plane.
+TEST(SceneGeometry, CoplanarTopsOfSeveralObjectsAreNoSupportPlane) {
+  const auto& s = shapes();
+  std::vector<PlacedObject> boxes;
+  for (double x : {-0.2, 0.0, 0.2})
+    for (double y : {-0.1, 0.12})
+      boxes.push_back({1, &s.box, TestShapes::on_table(x, y, 0.2, 0.025)});
+  const RgbdFrame f = test::render_table_scene(boxes, Vec3(0.0, -0.55, 0.5), Vec3(0, 0.02, 0.02));
+  auto kept_object_fraction = [&](bool connected) {
+    SceneGeometryParams gp;
+    gp.connected_planes = connected;
+    gp.min_plane_fraction = 0.05;
+    SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+    remove_support_planes(g, gp);
+    int object = 0, kept = 0;
+    for (size_t c = 0; c < g.points.size(); ++c) {
+      if (!g.valid[c] || (*f.T_world_cam_gt * g.points[c].cast<double>()).z() < 0.012) continue;
+      ++object;
+      kept += g.kept[c];
+    }
+    return object > 0 ? static_cast<double>(kept) / object : 0.0;
+  };
+  EXPECT_GT(kept_object_fraction(true), 0.9);
+  EXPECT_LT(kept_object_fraction(false), 0.5);  // the mechanism off: the tops went as a plane
+}
+
 TEST(SceneGeometry, SplitsSeparateObjectsIntoRegions) {
   const auto& s = shapes();
   const RgbdFrame f =

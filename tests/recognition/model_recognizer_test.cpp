@@ -62,8 +62,8 @@ TEST(SceneGeometry, RemovesTheSupportPlaneAndKeepsTheObject) {
 }
 
 // Objects of one height: their tops are coplanar and, together, as large and as spread as a
-// support. A support is one connected surface: the tops are not removed (with what lies below
-// them, i.e. the objects) as a second plane.
+// support. A support hides what lies below it, the tops do not (the table is seen between them):
+// they are not removed (with what lies below them, i.e. the objects) as a second plane.
 TEST(SceneGeometry, CoplanarTopsOfSeveralObjectsAreNoSupportPlane) {
   const auto& s = shapes();
   std::vector<PlacedObject> boxes;
@@ -71,9 +71,9 @@ TEST(SceneGeometry, CoplanarTopsOfSeveralObjectsAreNoSupportPlane) {
     for (double y : {-0.1, 0.12})
       boxes.push_back({1, &s.box, TestShapes::on_table(x, y, 0.2, 0.025)});
   const RgbdFrame f = test::render_table_scene(boxes, Vec3(0.0, -0.55, 0.5), Vec3(0, 0.02, 0.02));
-  auto kept_object_fraction = [&](bool connected) {
+  auto kept_object_fraction = [&](bool occlusion_test) {
     SceneGeometryParams gp;
-    gp.connected_planes = connected;
+    if (!occlusion_test) gp.max_seen_below_fraction = 1;
     gp.min_plane_fraction = 0.05;
     SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
     remove_support_planes(g, gp);

@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 namespace orpe {
@@ -23,7 +24,8 @@ bool SceneGeometryParams::IsValid(std::string* why) const {
     return fail("min_plane_fraction must be in (0, 1]");
   if (!(min_plane_extent_m >= 0)) return fail("min_plane_extent_m must be >= 0");
   if (plane_iterations < 1) return fail("plane_iterations must be >= 1");
-  if (!(plane_gap_m >= 0)) return fail("plane_gap_m must be >= 0");
+  if (!(max_seen_below_fraction >= 0 && max_seen_below_fraction <= 1))
+    return fail("max_seen_below_fraction must be in [0, 1]");
   if (!(max_height_above_plane_m >= 0)) return fail("max_height_above_plane_m must be >= 0");
   if (!(region_distance_m > 0) || !(region_distance_per_m >= 0))
     return fail("region_distance_m must be > 0 and region_distance_per_m >= 0");
@@ -50,7 +52,6 @@ SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
       g.points[c] = K.backproject(u, v, z).cast<float>();
       g.valid[c] = 1;
     }
-  g.fx = K.fx;
   g.kept = g.valid;
   return g;
 }
@@ -98,46 +99,26 @@ float plane_extent(const std::vector<Eigen::Vector3f>& pts) {
   return static_cast<float>(4.0 * std::sqrt(std::max(0.0, es.eigenvalues()(1))));
 }
 
-/// The largest connected piece (on the grid) of `cells`: cells join their nearest member along
-/// each grid direction when within `gap_m` (3D) of it, so narrow gaps (between a pallet's deck
-/// boards) do not split a surface, gaps wider than gap_m (between separate objects) do.
-std::vector<int> largest_component(const SceneGrid& g, const std::vector<int>& cells,
-                                   double gap_m) {
-  std::vector<int> label(g.points.size(), -2);  // -2: not a member, -1: unvisited member
-  for (int c : cells) label[c] = -1;
-  const float gap = static_cast<float>(gap_m);
-  std::vector<int> best, comp, stack;
-  for (int start : cells) {
-    if (label[start] != -1) continue;
-    comp.clear();
-    stack = {start};
-    label[start] = 0;
-    while (!stack.empty()) {
-      const int c = stack.back();
-      stack.pop_back();
-      comp.push_back(c);
-      const int gu = c % g.width, gv = c / g.width;
-      // Grid cells spanning gap_m at this depth (at least the direct neighbour).
-      const float z = std::max(0.05f, g.points[c].z());
-      const int reach = std::clamp(
-          static_cast<int>(std::ceil(gap * static_cast<float>(g.fx) / (z * g.stride))), 1, 64);
-      const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-      for (const auto& d : nb)
-        for (int k = 1; k <= reach; ++k) {
-          const int uu = gu + k * d[0], vv = gv + k * d[1];
-          if (uu < 0 || vv < 0 || uu >= g.width || vv >= g.height) break;
-          const int n = g.cell(uu, vv);
-          if (label[n] == -2) continue;
-          if (label[n] == -1 && (k == 1 || (g.points[n] - g.points[c]).norm() < gap)) {
-            label[n] = 0;
-            stack.push_back(n);
-          }
-          break;  // the nearest member in this direction
-        }
-    }
-    if (comp.size() > best.size()) best = comp;
+/// Fraction of the observed surface over a plane's inliers (their convex hull in the plane,
+/// looking along the normal) that lies below the plane: 0 for a support, which hides what is below
+/// it; large for the coplanar tops of objects of one height, between which the support they stand
+/// on is seen.
+double seen_below_fraction(const SceneGrid& g, const Plane& pl, const std::vector<int>& inliers,
+                           float tol) {
+  const Eigen::Vector3f e1 = pl.normal.unitOrthogonal(), e2 = pl.normal.cross(e1);
+  std::vector<cv::Point2f> in2;
+  in2.reserve(inliers.size());
+  for (int c : inliers) in2.emplace_back(e1.dot(g.points[c]), e2.dot(g.points[c]));
+  std::vector<cv::Point2f> hull;
+  cv::convexHull(in2, hull);
+  if (hull.size() < 3) return 1.0;
+  size_t below = 0;
+  for (size_t c = 0; c < g.valid.size(); ++c) {
+    if (!g.valid[c] || pl.signed_distance(g.points[c]) > -tol) continue;
+    const cv::Point2f q(e1.dot(g.points[c]), e2.dot(g.points[c]));
+    below += cv::pointPolygonTest(hull, q, false) >= 0;
   }
-  return best;
+  return static_cast<double>(below) / static_cast<double>(below + inliers.size());
 }
 
 /// Best RANSAC plane over the candidate cells; false when none qualifies.
@@ -168,19 +149,25 @@ bool find_plane(const SceneGrid& g, const std::vector<int>& cells,
     }
   }
   if (best_count * step < min_inliers) return false;
-  // Refine on the inliers' largest connected piece, twice: a support is one surface, not the
-  // coplanar tops of several objects of one height (which hold as many points, spread as far).
+  // Refine on the inliers, twice; then the size, spread and occlusion tests of a support.
+  std::vector<int> in_cells;
   for (int r = 0; r < 2; ++r) {
-    std::vector<int> in_cells;
+    in_cells.clear();
     for (int c : cells)
       if (std::abs(best.signed_distance(g.points[c])) < tol) in_cells.push_back(c);
-    if (params.connected_planes) in_cells = largest_component(g, in_cells, params.plane_gap_m);
     if (in_cells.size() < min_inliers) return false;
     std::vector<Eigen::Vector3f> in;
     in.reserve(in_cells.size());
     for (int c : in_cells) in.push_back(g.points[c]);
     best = fit_plane(in);
     if (r == 1 && plane_extent(in) < params.min_plane_extent_m) return false;
+  }
+  if (params.max_seen_below_fraction < 1) {
+    const double below = seen_below_fraction(g, best, in_cells, tol);
+    spdlog::debug(
+        "recognition: plane candidate d {:.3f}: {} inliers, {:.2f} of its hull seen below it",
+        best.d, in_cells.size(), below);
+    if (below > params.max_seen_below_fraction) return false;
   }
   *out = best;
   return true;

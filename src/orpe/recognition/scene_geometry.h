@@ -23,8 +23,7 @@ struct SceneGeometryParams {
   double min_plane_fraction = 0.08;  ///< a plane needs this fraction of the valid points
   double min_plane_extent_m = 0.35;  ///< and inliers spread over at least this (2 sigma, both axes)
   int plane_iterations = 300;        ///< RANSAC samples per plane
-  bool connected_planes = true;      ///< a plane is judged on its inliers' largest connected piece
-  double plane_gap_m = 0.05;         ///< gaps up to this do not disconnect a plane (pallet deck)
+  double max_seen_below_fraction = 0.4;    ///< of the surface over a plane seen below it (1 = off)
   double max_height_above_plane_m = 0.45;  ///< points farther above the first plane are dropped
   double region_distance_m =
       0.008;  ///< neighbours closer than this + region_distance_per_m * z join
@@ -46,14 +45,11 @@ struct SceneGeometryParams {
       "A support plane's inliers spread at least this far (m, 4 sigma) in both in-plane directions "
       "(an object's face is not a support plane)");
     v("plane_iterations", plane_iterations, "RANSAC samples per plane");
-    v("connected_planes", connected_planes,
-      "A support plane is fitted to, and its size and spread tested on, the largest connected "
-      "piece (on the image grid) of its inliers: the coplanar tops of several objects of one "
-      "height are no support; false = all inliers (the tops were removed as a plane with all "
-      "below them)");
-    v("plane_gap_m", plane_gap_m,
-      "Connected pieces of a plane: inliers this close (m) across a gap of other points join "
-      "(the 4 cm gaps between a pallet's deck boards); wider gaps separate (objects apart)");
+    v("max_seen_below_fraction", max_seen_below_fraction,
+      "A support hides what is below it: a plane whose inliers' convex hull (in the plane) has "
+      "more "
+      "than this fraction of the observed points over it below the plane is no support (the "
+      "coplanar tops of objects of one height, with the table seen between them); 1 = no test");
     v("max_height_above_plane_m", max_height_above_plane_m,
       "Points farther than this (m) above the first support plane are dropped; 0 = keep");
     v("region_distance_m", region_distance_m,
@@ -76,7 +72,6 @@ struct Plane {
 
 struct SceneGrid {
   int stride = 2;
-  double fx = 0;                        ///< focal length (px) of the image the grid samples
   int width = 0, height = 0;            ///< grid size (image size / stride)
   std::vector<Eigen::Vector3f> points;  ///< per grid cell, camera frame; z = 0 when invalid
   std::vector<std::uint8_t> valid;      ///< valid depth

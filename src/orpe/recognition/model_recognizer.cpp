@@ -202,39 +202,6 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
 }
 
-/// Extents (m) of points along their principal axes, largest first. With `min_area`, the two
-/// dominant axes are turned (5-degree steps) to the bounding rectangle of least area: on a face
-/// close to square the principal axes are arbitrary (often the diagonals, whose extents exceed the
-/// face's sides), the least-area rectangle is the face's own.
-Vec3f principal_extents(const std::vector<Vec3f>& pts, bool min_area = true) {
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& p : pts) mean += p.cast<double>();
-  mean /= std::max<size_t>(1, pts.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = p.cast<double>() - mean;
-    cov += q * q.transpose();
-  }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  const Eigen::Matrix3f R = es.eigenvectors().transpose().cast<float>();  // rows: small -> large
-  std::vector<Vec3f> q(pts.size());
-  for (size_t i = 0; i < pts.size(); ++i) q[i] = R * (pts[i] - mean.cast<float>());
-  Vec3f best = Vec3f::Constant(std::numeric_limits<float>::infinity());
-  for (int step = 0; step < (min_area ? 18 : 1); ++step) {
-    const float a = static_cast<float>(step * 5.0 * M_PI / 180.0), c = std::cos(a), s = std::sin(a);
-    Vec3f lo = Vec3f::Constant(1e9f), hi = -lo;
-    for (const auto& v : q) {
-      const Vec3f r(v.x(), c * v.y() - s * v.z(), s * v.y() + c * v.z());
-      lo = lo.cwiseMin(r);
-      hi = hi.cwiseMax(r);
-    }
-    const Vec3f e = hi - lo;
-    if (e.y() * e.z() < best.y() * best.z()) best = e;
-  }
-  std::sort(best.data(), best.data() + 3, std::greater<float>());
-  return best;
-}
-
 /// Whether observed points with extents `obs` can be a view of a model with extents `model`.
 bool extents_compatible(const Vec3f& obs, const Vec3f& model, const RecognitionParams& p) {
   const float slack = static_cast<float>(p.extent_slack_m);

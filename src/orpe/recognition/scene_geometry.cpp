@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -259,6 +260,45 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
   for (size_t i = 0; i < regions.size(); ++i)
     for (int c : regions[i].cells) g.region[c] = static_cast<int>(i);
   return regions;
+}
+
+Eigen::Vector3f principal_extents(const std::vector<Eigen::Vector3f>& pts, bool min_area) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) mean += p.cast<double>();
+  mean /= std::max<size_t>(1, pts.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = p.cast<double>() - mean;
+    cov += q * q.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  const Eigen::Matrix3f R = es.eigenvectors().transpose().cast<float>();  // rows: small -> large
+  std::vector<Eigen::Vector3f> q(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) q[i] = R * (pts[i] - mean.cast<float>());
+  Eigen::Vector3f best = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  auto extents_at = [&](double deg) {
+    const float a = static_cast<float>(deg * M_PI / 180.0), c = std::cos(a), s = std::sin(a);
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
+    for (const auto& v : q) {
+      const Eigen::Vector3f r(v.x(), c * v.y() - s * v.z(), s * v.y() + c * v.z());
+      lo = lo.cwiseMin(r);
+      hi = hi.cwiseMax(r);
+    }
+    return Eigen::Vector3f(hi - lo);
+  };
+  double best_deg = 0;
+  // 5-degree steps over the quarter turn, then half-degree steps around the best.
+  for (int step = 0; step < (min_area ? 18 : 1); ++step) {
+    const Eigen::Vector3f e = extents_at(5.0 * step);
+    if (e.y() * e.z() < best.y() * best.z()) best = e, best_deg = 5.0 * step;
+  }
+  const double coarse = best_deg;
+  for (int step = -4; min_area && step <= 4; ++step) {
+    const Eigen::Vector3f e = extents_at(coarse + 0.5 * step);
+    if (e.y() * e.z() < best.y() * best.z()) best = e;
+  }
+  std::sort(best.data(), best.data() + 3, std::greater<float>());
+  return best;
 }
 
 }  // namespace orpe

@@ -99,4 +99,10 @@ void remove_support_planes(SceneGrid& grid, const SceneGeometryParams& params);
 /// grid.region. Regions under min_region_points are dropped. Sorted by size, largest first.
 std::vector<SceneRegion> split_regions(SceneGrid& grid, const SceneGeometryParams& params);
 
+/// Extents (m) of points along their principal axes, largest first. With `min_area`, the two
+/// dominant axes are turned (5-degree steps) to the bounding rectangle of least area: on a face
+/// close to square the principal axes are arbitrary (often the diagonals, whose extents exceed the
+/// face's sides), the least-area rectangle is the face's own.
+Eigen::Vector3f principal_extents(const std::vector<Eigen::Vector3f>& pts, bool min_area = true);
+
 }  // namespace orpe

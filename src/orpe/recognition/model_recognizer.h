@@ -43,7 +43,7 @@ struct RecognitionParams {
   double max_extent_factor = 1.15;  ///< observed extents up to this x the model's (+ slack)
   double min_extent_factor = 0.35;  ///< observed largest extent at least this x the model's
   double extent_slack_m = 0.01;
-  bool min_area_extents = true;  ///< extents of the least-area rectangle, not the principal axes
+  bool min_area_extents = false;  ///< extents of the least-area rectangle, not the principal axes
   double crop_radius_factor = 0.55;   ///< crops: region points within this x diameter of a seed
   double crop_spacing_factor = 0.45;  ///< seeds this x diameter apart (farthest-point sampling)
   int max_crops = 5;                  ///< per region and model

@@ -181,8 +181,9 @@ void run_scene(const std::string& root, const std::string& scene, const bench::B
         "%s/%06d %zu det %.0f ms (cpu %.0f; geometry %.0f, tracks %.0f, search %.0f, verify %.0f, "
         "masks %.0f; "
         "%d refinements, %d searches)%s\n",
-        (scene.empty() ? "scene" : scene).c_str(), frame.index, dets.size(), ms, tm.cpu_ms, tm.geometry_ms, tm.tracks_ms,
-        tm.search_ms, tm.verify_ms, tm.detections_ms, tm.refinements, tm.searches, line.c_str());
+        (scene.empty() ? "scene" : scene).c_str(), frame.index, dets.size(), ms, tm.cpu_ms,
+        tm.geometry_ms, tm.tracks_ms, tm.search_ms, tm.verify_ms, tm.detections_ms, tm.refinements,
+        tm.searches, line.c_str());
     std::fflush(stdout);
     if (!dump.empty()) {
       std::filesystem::create_directories(dump);

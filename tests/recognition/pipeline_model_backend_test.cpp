@@ -6,10 +6,10 @@
 #include <filesystem>
 #include <set>
 
-#include "orpe/synth/bop_writer.h"
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
 #include "orpe/pipeline/object_rpe.h"
+#include "orpe/synth/bop_writer.h"
 #include "pipeline/pipeline_test_util.h"
 
 namespace orpe {

@@ -202,29 +202,6 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
 }
 
-/// Extents (m) of points along their principal axes, largest first.
-Vec3f principal_extents(const std::vector<Vec3f>& pts) {
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& p : pts) mean += p.cast<double>();
-  mean /= std::max<size_t>(1, pts.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = p.cast<double>() - mean;
-    cov += q * q.transpose();
-  }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  Vec3f lo = Vec3f::Constant(1e9f), hi = -lo;
-  for (const auto& p : pts) {
-    const Vec3f q =
-        es.eigenvectors().transpose().cast<float>() * (p.cast<float>() - mean.cast<float>());
-    lo = lo.cwiseMin(q);
-    hi = hi.cwiseMax(q);
-  }
-  Vec3f e = hi - lo;
-  std::sort(e.data(), e.data() + 3, std::greater<float>());
-  return e;
-}
-
 /// Whether observed points with extents `obs` can be a view of a model with extents `model`.
 bool extents_compatible(const Vec3f& obs, const Vec3f& model, const RecognitionParams& p) {
   const float slack = static_cast<float>(p.extent_slack_m);
@@ -307,6 +284,51 @@ struct OutlineTest {
   double seam = 0;     ///< its fraction of seamless pairs
 };
 
+/// Per grid cell, whether it lies outside object i's explained cells: not explained by i and,
+/// with `fill_holes`, reachable from beyond their bounding box without crossing them (holes
+/// enclosed by the object -- depth noise, dents the model does not have -- are inside: no outline).
+std::vector<std::uint8_t> outside_of(const SceneGrid& g, const std::vector<int>& explained_by,
+                                     int i, bool fill_holes) {
+  std::vector<std::uint8_t> out(explained_by.size());
+  for (size_t c = 0; c < out.size(); ++c) out[c] = explained_by[c] != i;
+  if (!fill_holes) return out;
+  int u0 = g.width, v0 = g.height, u1 = -1, v1 = -1;
+  for (size_t c = 0; c < out.size(); ++c)
+    if (!out[c]) {
+      const int u = static_cast<int>(c) % g.width, v = static_cast<int>(c) / g.width;
+      u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+    }
+  if (u1 < 0) return out;
+  u0 = std::max(0, u0 - 1), v0 = std::max(0, v0 - 1);
+  u1 = std::min(g.width - 1, u1 + 1), v1 = std::min(g.height - 1, v1 + 1);
+  std::vector<std::uint8_t> reached(out.size(), 0);
+  std::vector<int> stack;
+  for (int v = v0; v <= v1; ++v)
+    for (int u = u0; u <= u1; ++u)
+      if ((u == u0 || u == u1 || v == v0 || v == v1) && out[g.cell(u, v)]) {
+        reached[g.cell(u, v)] = 1;
+        stack.push_back(g.cell(u, v));
+      }
+  while (!stack.empty()) {
+    const int c = stack.back();
+    stack.pop_back();
+    const int gu = c % g.width, gv = c / g.width;
+    const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    for (const auto& d : nb) {
+      const int uu = gu + d[0], vv = gv + d[1];
+      if (uu < u0 || vv < v0 || uu > u1 || vv > v1) continue;
+      const int n = g.cell(uu, vv);
+      if (reached[n] || !out[n]) continue;
+      reached[n] = 1;
+      stack.push_back(n);
+    }
+  }
+  for (int v = v0; v <= v1; ++v)
+    for (int u = u0; u <= u1; ++u)
+      if (!reached[g.cell(u, v)]) out[g.cell(u, v)] = 0;
+  return out;
+}
+
 OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
                           const std::vector<int>& explained_by, int i, const RecognitionParams& p,
                           GridNormals& normals) {
@@ -316,18 +338,19 @@ OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
   const float coplanar = static_cast<float>(p.smooth_edge_max_step_m);
   const float min_cos = static_cast<float>(std::cos(p.smooth_edge_max_angle_deg * M_PI / 180.0));
   const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  const std::vector<std::uint8_t> outside = outside_of(g, explained_by, i, p.fill_outline_holes);
   for (size_t c = 0; c < explained_by.size(); ++c) {
     if (explained_by[c] != i) continue;
     const int gu = static_cast<int>(c) % g.width, gv = static_cast<int>(c) / g.width;
     for (const auto& s : steps) {
       const int u1 = gu + s[0], v1 = gv + s[1];
       if (u1 < 0 || v1 < 0 || u1 >= g.width || v1 >= g.height) continue;
-      if (explained_by[g.cell(u1, v1)] == i) continue;  // not on the outline in this direction
+      if (!outside[g.cell(u1, v1)]) continue;  // not on the outline in this direction
       const int u2 = gu + 2 * s[0], v2 = gv + 2 * s[1];
       if (u2 < 0 || v2 < 0 || u2 >= g.width || v2 >= g.height) continue;
       const int n = g.cell(u2, v2);
       ++tested;
-      if (!g.kept[n] || explained_by[n] == i) continue;
+      if (!g.kept[n] || !outside[n]) continue;
       if (explained_by[n] >= 0) ++shared[explained_by[n]].first;
       if ((g.points[n] - g.points[c]).norm() >= reach) continue;
       if (explained_by[n] < 0) {
@@ -376,9 +399,12 @@ std::vector<std::vector<int>> region_crops(const SceneGrid& g, const std::vector
     std::vector<Vec3f> pts;
     pts.reserve(cs.size());
     for (int c : cs) pts.push_back(g.points[c]);
-    return principal_extents(pts);
+    return principal_extents(pts, p.min_area_extents);
   };
   const Vec3f whole = extents_of(cells);
+  spdlog::trace("crops for {}: region extents {:.3f} {:.3f} {:.3f}, model {:.3f} {:.3f} {:.3f}",
+                model.name, whole[0], whole[1], whole[2], model_extents[0], model_extents[1],
+                model_extents[2]);
   if (whole[0] <= p.max_extent_factor * model_extents[0] + p.extent_slack_m) {
     if (extents_compatible(whole, model_extents, p)) crops.push_back(cells);
     return crops;
@@ -423,7 +449,7 @@ ModelRecognizer::ModelRecognizer(const SegmentationParams& segmentation,
   if (models_.empty()) throw ConfigError("segmentation.backend=model: no object model to look for");
   for (auto& m : models_) {
     if (!m.prepared() || !m.has_normals()) prepare_object_model(m);
-    model_extents_.push_back(principal_extents(m.points));
+    model_extents_.push_back(principal_extents(m.points, params_.min_area_extents));
   }
 }
 
@@ -617,8 +643,13 @@ void ModelRecognizer::Pass::reject_clutter() {
         seam_drop = hyps[static_cast<size_t>(t.seam_with)].rank < hyps[i].rank ? t.seam_with : i;
       }
     }
+    const bool by_seam = worst < 0;
     if (worst < 0) worst = seam_drop;
     if (worst >= 0) {
+      spdlog::debug("recognition: drop {} ({} points, {}): {}",
+                    rec.models_[hyps[static_cast<size_t>(worst)].model].name,
+                    hyps[static_cast<size_t>(worst)].explained.size(), worst,
+                    by_seam ? "seam" : "outline leak");
       hyps[static_cast<size_t>(worst)].support = -1;  // out of the next selection
       select();
       continue;
@@ -640,6 +671,9 @@ void ModelRecognizer::Pass::reject_clutter() {
       // A known object (confirmed on an earlier keyframe) is not dropped for its region: an
       // unknown object touching it leaves the region poorly explained, not the object wrong.
       if (total > 0 && in_poor > total / 2 && !hyps[static_cast<size_t>(i)].from_track) {
+        spdlog::debug("recognition: drop {} ({} points, {}): region coverage",
+                      rec.models_[hyps[static_cast<size_t>(i)].model].name,
+                      hyps[static_cast<size_t>(i)].explained.size(), i);
         hyps[static_cast<size_t>(i)].support = -1;
         dropped = true;
       }

@@ -43,6 +43,7 @@ struct RecognitionParams {
   double max_extent_factor = 1.15;  ///< observed extents up to this x the model's (+ slack)
   double min_extent_factor = 0.35;  ///< observed largest extent at least this x the model's
   double extent_slack_m = 0.01;
+  bool min_area_extents = false;  ///< extents of the least-area rectangle, not the principal axes
   double crop_radius_factor = 0.55;   ///< crops: region points within this x diameter of a seed
   double crop_spacing_factor = 0.45;  ///< seeds this x diameter apart (farthest-point sampling)
   int max_crops = 5;                  ///< per region and model
@@ -58,6 +59,7 @@ struct RecognitionParams {
   double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
   double max_boundary_leak = 0.25;   ///< outline fraction continuing into unexplained surface
   double boundary_continuation_m = 0.015;
+  bool fill_outline_holes = true;  ///< holes enclosed by an object are no part of its outline
   double smooth_edge_max_angle_deg = 20;  ///< a shared edge without a crease continues the surface
   double smooth_edge_max_step_m =
       0.004;  ///< and the far side within this of the near tangent plane
@@ -84,6 +86,10 @@ struct RecognitionParams {
     v("min_extent_factor", min_extent_factor,
       "A region (crop) whose largest extent is under this x the model's is not searched for it");
     v("extent_slack_m", extent_slack_m, "Slack (m) of the extent test (depth noise, mixed pixels)");
+    v("min_area_extents", min_area_extents,
+      "Extents along the two dominant principal axes turned to the bounding rectangle of least "
+      "area (on a face close to square the principal axes are the diagonals, whose extents exceed "
+      "the sides); false = the principal axes' extents");
     v("crop_radius_factor", crop_radius_factor,
       "Crop of a large region: its points within this x the model diameter of a seed");
     v("crop_spacing_factor", crop_spacing_factor,
@@ -115,6 +121,10 @@ struct RecognitionParams {
     v("boundary_continuation_m", boundary_continuation_m,
       "Outline test: a point two grid cells outside within this distance (m) continues the "
       "surface");
+    v("fill_outline_holes", fill_outline_holes,
+      "Outline test: cells enclosed by an object's explained cells (depth noise, dents or print "
+      "the model does not have) are inside it, not outline; false = every unexplained neighbour "
+      "is outline");
     v("smooth_edge_max_angle_deg", smooth_edge_max_angle_deg,
       "Outline test across two kept objects' shared edge: where the surface continues (within "
       "boundary_continuation_m) with normals within this angle (deg), no crease or depth step "

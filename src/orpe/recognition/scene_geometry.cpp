@@ -1,8 +1,12 @@
 #include "orpe/recognition/scene_geometry.h"
 
+#include <spdlog/spdlog.h>
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 namespace orpe {
@@ -21,6 +25,8 @@ bool SceneGeometryParams::IsValid(std::string* why) const {
     return fail("min_plane_fraction must be in (0, 1]");
   if (!(min_plane_extent_m >= 0)) return fail("min_plane_extent_m must be >= 0");
   if (plane_iterations < 1) return fail("plane_iterations must be >= 1");
+  if (!(max_seen_below_fraction >= 0 && max_seen_below_fraction <= 1))
+    return fail("max_seen_below_fraction must be in [0, 1]");
   if (!(max_height_above_plane_m >= 0)) return fail("max_height_above_plane_m must be >= 0");
   if (!(region_distance_m > 0) || !(region_distance_per_m >= 0))
     return fail("region_distance_m must be > 0 and region_distance_per_m >= 0");
@@ -94,6 +100,28 @@ float plane_extent(const std::vector<Eigen::Vector3f>& pts) {
   return static_cast<float>(4.0 * std::sqrt(std::max(0.0, es.eigenvalues()(1))));
 }
 
+/// Fraction of the observed surface over a plane's inliers (their convex hull in the plane,
+/// looking along the normal) that lies below the plane: 0 for a support, which hides what is below
+/// it; large for the coplanar tops of objects of one height, between which the support they stand
+/// on is seen.
+double seen_below_fraction(const SceneGrid& g, const Plane& pl, const std::vector<int>& inliers,
+                           float tol) {
+  const Eigen::Vector3f e1 = pl.normal.unitOrthogonal(), e2 = pl.normal.cross(e1);
+  std::vector<cv::Point2f> in2;
+  in2.reserve(inliers.size());
+  for (int c : inliers) in2.emplace_back(e1.dot(g.points[c]), e2.dot(g.points[c]));
+  std::vector<cv::Point2f> hull;
+  cv::convexHull(in2, hull);
+  if (hull.size() < 3) return 1.0;
+  size_t below = 0;
+  for (size_t c = 0; c < g.valid.size(); ++c) {
+    if (!g.valid[c] || pl.signed_distance(g.points[c]) > -tol) continue;
+    const cv::Point2f q(e1.dot(g.points[c]), e2.dot(g.points[c]));
+    below += cv::pointPolygonTest(hull, q, false) >= 0;
+  }
+  return static_cast<double>(below) / static_cast<double>(below + inliers.size());
+}
+
 /// Best RANSAC plane over the candidate cells; false when none qualifies.
 bool find_plane(const SceneGrid& g, const std::vector<int>& cells,
                 const SceneGeometryParams& params, std::mt19937& rng, size_t min_inliers,
@@ -122,14 +150,25 @@ bool find_plane(const SceneGrid& g, const std::vector<int>& cells,
     }
   }
   if (best_count * step < min_inliers) return false;
-  // Refine on the inliers, twice.
+  // Refine on the inliers, twice; then the size, spread and occlusion tests of a support.
+  std::vector<int> in_cells;
   for (int r = 0; r < 2; ++r) {
-    std::vector<Eigen::Vector3f> in;
+    in_cells.clear();
     for (int c : cells)
-      if (std::abs(best.signed_distance(g.points[c])) < tol) in.push_back(g.points[c]);
-    if (in.size() < min_inliers) return false;
+      if (std::abs(best.signed_distance(g.points[c])) < tol) in_cells.push_back(c);
+    if (in_cells.size() < min_inliers) return false;
+    std::vector<Eigen::Vector3f> in;
+    in.reserve(in_cells.size());
+    for (int c : in_cells) in.push_back(g.points[c]);
     best = fit_plane(in);
     if (r == 1 && plane_extent(in) < params.min_plane_extent_m) return false;
+  }
+  if (params.max_seen_below_fraction < 1) {
+    const double below = seen_below_fraction(g, best, in_cells, tol);
+    spdlog::debug(
+        "recognition: plane candidate d {:.3f}: {} inliers, {:.2f} of its hull seen below it",
+        best.d, in_cells.size(), below);
+    if (below > params.max_seen_below_fraction) return false;
   }
   *out = best;
   return true;
@@ -159,6 +198,8 @@ void remove_support_planes(SceneGrid& g, const SceneGeometryParams& params) {
       if (first && params.max_height_above_plane_m > 0 && s > params.max_height_above_plane_m)
         g.kept[c] = 0;
     }
+    spdlog::debug("recognition: support plane {}: normal ({:.2f} {:.2f} {:.2f}) d {:.3f}", k,
+                  pl.normal.x(), pl.normal.y(), pl.normal.z(), pl.d);
     g.planes.push_back(pl);
   }
 }
@@ -219,6 +260,45 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
   for (size_t i = 0; i < regions.size(); ++i)
     for (int c : regions[i].cells) g.region[c] = static_cast<int>(i);
   return regions;
+}
+
+Eigen::Vector3f principal_extents(const std::vector<Eigen::Vector3f>& pts, bool min_area) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) mean += p.cast<double>();
+  mean /= std::max<size_t>(1, pts.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = p.cast<double>() - mean;
+    cov += q * q.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  const Eigen::Matrix3f R = es.eigenvectors().transpose().cast<float>();  // rows: small -> large
+  std::vector<Eigen::Vector3f> q(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) q[i] = R * (pts[i] - mean.cast<float>());
+  Eigen::Vector3f best = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  auto extents_at = [&](double deg) {
+    const float a = static_cast<float>(deg * M_PI / 180.0), c = std::cos(a), s = std::sin(a);
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
+    for (const auto& v : q) {
+      const Eigen::Vector3f r(v.x(), c * v.y() - s * v.z(), s * v.y() + c * v.z());
+      lo = lo.cwiseMin(r);
+      hi = hi.cwiseMax(r);
+    }
+    return Eigen::Vector3f(hi - lo);
+  };
+  double best_deg = 0;
+  // 5-degree steps over the quarter turn, then half-degree steps around the best.
+  for (int step = 0; step < (min_area ? 18 : 1); ++step) {
+    const Eigen::Vector3f e = extents_at(5.0 * step);
+    if (e.y() * e.z() < best.y() * best.z()) best = e, best_deg = 5.0 * step;
+  }
+  const double coarse = best_deg;
+  for (int step = -4; min_area && step <= 4; ++step) {
+    const Eigen::Vector3f e = extents_at(coarse + 0.5 * step);
+    if (e.y() * e.z() < best.y() * best.z()) best = e;
+  }
+  std::sort(best.data(), best.data() + 3, std::greater<float>());
+  return best;
 }
 
 }  // namespace orpe

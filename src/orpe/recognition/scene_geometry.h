@@ -23,6 +23,7 @@ struct SceneGeometryParams {
   double min_plane_fraction = 0.08;  ///< a plane needs this fraction of the valid points
   double min_plane_extent_m = 0.35;  ///< and inliers spread over at least this (2 sigma, both axes)
   int plane_iterations = 300;        ///< RANSAC samples per plane
+  double max_seen_below_fraction = 0.4;    ///< of the surface over a plane seen below it (1 = off)
   double max_height_above_plane_m = 0.45;  ///< points farther above the first plane are dropped
   double region_distance_m =
       0.008;  ///< neighbours closer than this + region_distance_per_m * z join
@@ -44,6 +45,11 @@ struct SceneGeometryParams {
       "A support plane's inliers spread at least this far (m, 4 sigma) in both in-plane directions "
       "(an object's face is not a support plane)");
     v("plane_iterations", plane_iterations, "RANSAC samples per plane");
+    v("max_seen_below_fraction", max_seen_below_fraction,
+      "A support hides what is below it: a plane whose inliers' convex hull (in the plane) has "
+      "more "
+      "than this fraction of the observed points over it below the plane is no support (the "
+      "coplanar tops of objects of one height, with the table seen between them); 1 = no test");
     v("max_height_above_plane_m", max_height_above_plane_m,
       "Points farther than this (m) above the first support plane are dropped; 0 = keep");
     v("region_distance_m", region_distance_m,
@@ -92,5 +98,11 @@ void remove_support_planes(SceneGrid& grid, const SceneGeometryParams& params);
 /// Connected regions of the kept cells (4-neighbourhood, split at depth discontinuities); fills
 /// grid.region. Regions under min_region_points are dropped. Sorted by size, largest first.
 std::vector<SceneRegion> split_regions(SceneGrid& grid, const SceneGeometryParams& params);
+
+/// Extents (m) of points along their principal axes, largest first. With `min_area`, the two
+/// dominant axes are turned (5-degree steps) to the bounding rectangle of least area: on a face
+/// close to square the principal axes are arbitrary (often the diagonals, whose extents exceed the
+/// face's sides), the least-area rectangle is the face's own.
+Eigen::Vector3f principal_extents(const std::vector<Eigen::Vector3f>& pts, bool min_area = true);
 
 }  // namespace orpe

@@ -59,47 +59,6 @@ SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
 
 namespace {
 
-/// Mean and covariance (sum of outer products / n) of points.
-void mean_covariance(const std::vector<Eigen::Vector3f>& pts, Eigen::Vector3d* mean,
-                     Eigen::Matrix3d* cov) {
-  *mean = Eigen::Vector3d::Zero();
-  for (const auto& p : pts) *mean += p.cast<double>();
-  *mean /= static_cast<double>(pts.size());
-  *cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = p.cast<double>() - *mean;
-    *cov += q * q.transpose();
-  }
-  *cov /= static_cast<double>(pts.size());
-}
-
-/// Least-squares plane through points, oriented towards the camera (origin).
-Plane fit_plane(const std::vector<Eigen::Vector3f>& pts) {
-  Eigen::Vector3d mean;
-  Eigen::Matrix3d cov;
-  mean_covariance(pts, &mean, &cov);
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  Eigen::Vector3d n = es.eigenvectors().col(0);
-  double d = -n.dot(mean);
-  if (d < 0) {
-    n = -n;
-    d = -d;
-  }
-  Plane pl;
-  pl.normal = n.cast<float>();
-  pl.d = static_cast<float>(d);
-  return pl;
-}
-
-/// Spread (4 sigma) of points along the two in-plane principal axes: the smaller one.
-float plane_extent(const std::vector<Eigen::Vector3f>& pts) {
-  Eigen::Vector3d mean;
-  Eigen::Matrix3d cov;
-  mean_covariance(pts, &mean, &cov);
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  return static_cast<float>(4.0 * std::sqrt(std::max(0.0, es.eigenvalues()(1))));
-}
-
 /// Fraction of the observed surface over a plane's inliers (their convex hull in the plane,
 /// looking along the normal) that lies below the plane: 0 for a support, which hides what is below
 /// it; large for the coplanar tops of objects of one height, between which the support they stand

@@ -11,6 +11,7 @@
 
 #include "orpe/core/camera.h"
 #include "orpe/core/image.h"
+#include "orpe/core/plane_fit.h"
 
 namespace orpe {
 
@@ -63,12 +64,7 @@ struct SceneGeometryParams {
   bool IsValid(std::string* why) const;
 };
 
-/// A plane n . p + d = 0 (camera frame), n unit, oriented towards the camera (d > 0).
-struct Plane {
-  Eigen::Vector3f normal = Eigen::Vector3f::UnitZ();
-  float d = 0;
-  float signed_distance(const Eigen::Vector3f& p) const { return normal.dot(p) + d; }
-};
+// Planes (orpe/core/plane_fit.h) here are in the camera frame, oriented towards the camera (d > 0).
 
 struct SceneGrid {
   int stride = 2;

@@ -28,6 +28,7 @@
 #include "orpe/render/mesh_io.h"
 #include "orpe/render/rasterizer.h"
 #include "orpe/synth/bop_writer.h"
+#include "orpe/synth/frame_info.h"
 
 namespace orpe::cli {
 namespace {
@@ -85,68 +86,52 @@ SourceModels read_models(const DatasetInfo& info) {
   return sm;
 }
 
-/// Visibility of each annotated object: silhouettes rendered from the model meshes (in-image
-/// pixels), visible pixels from the frame's labels. Unknown counts stay -1.
-std::vector<synth::ObjectFrameInfo> object_info(const RgbdFrame& f, const SourceModels& sm) {
-  std::vector<synth::ObjectFrameInfo> info(f.objects_gt.size());
+/// Visibility of each annotated object as bop_toolkit computes it (synth/frame_info.h):
+/// silhouettes rendered from the model meshes, visible pixels from the frame's labels; the visible
+/// masks are written to mask_visib/. What the source cannot tell stays -1 (pixel counts and boxes
+/// of an object without a mesh; visible counts of a frame without labels, whose visib_fract is
+/// the source's own, or -1).
+std::vector<synth::ObjectFrameInfo> object_info(const RgbdFrame& f, const SourceModels& sm,
+                                                const std::string& scene, int im_id) {
+  const int W = f.depth.width(), H = f.depth.height(), n = static_cast<int>(f.objects_gt.size());
   std::vector<RenderItem> items;
-  std::vector<size_t> item_object;
-  for (size_t k = 0; k < f.objects_gt.size(); ++k) {
+  std::vector<int> item_object;
+  for (int k = 0; k < n; ++k) {
     const auto it = sm.index.find(f.objects_gt[k].class_id);
     if (it == sm.index.end()) continue;
-    items.push_back({sm.models[it->second].mesh.get(), f.objects_gt[k].T_cam_obj,
-                     static_cast<std::int32_t>(k) + 1});
+    items.push_back({sm.models[it->second].mesh.get(), f.objects_gt[k].T_cam_obj, k + 1});
     item_object.push_back(k);
   }
   RenderBuffers buf;
+  const RasterizerParams rp;
   if (!items.empty())
-    Rasterizer().render(f.intrinsics, std::span<const RenderItem>(items), buf, kRenderSilhouettes);
-  auto bbox = [](const auto& inside, int W, int H, int* b) {
-    int x0 = W, y0 = H, x1 = -1, y1 = -1, n = 0;
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u)
-        if (inside(u, v))
-          x0 = std::min(x0, u), y0 = std::min(y0, v), x1 = std::max(x1, u), y1 = std::max(y1, v),
-          ++n;
-    if (n > 0) b[0] = x0, b[1] = y0, b[2] = x1 - x0 + 1, b[3] = y1 - y0 + 1;
-    return n;
-  };
-  const int W = f.depth.width(), H = f.depth.height();
+    Rasterizer(rp).render(f.intrinsics, std::span<const RenderItem>(items), buf,
+                          kRenderSilhouettes);
+  std::vector<MaskImage> silhouettes(n, MaskImage(W, H, 0));
+  for (size_t j = 0; j < items.size(); ++j)
+    silhouettes[item_object[j]] = std::move(buf.silhouettes[j]);
+  const bool labelled = !f.labels_gt.empty();
+  std::vector<MaskImage> masks_visib;
+  std::vector<synth::ObjectFrameInfo> info;
+  synth::object_frame_info(labelled ? f.labels_gt : LabelImage(W, H, 0), silhouettes, f.depth,
+                           masks_visib, info);
+  std::vector<bool> has_mesh(n, false);
   for (size_t j = 0; j < items.size(); ++j) {
-    const MaskImage& s = buf.silhouettes[j];
-    info[item_object[j]].px_count_all =
-        bbox([&](int u, int v) { return s.at(u, v) > 0; }, W, H, info[item_object[j]].bbox_obj);
+    has_mesh[item_object[j]] = true;
+    synth::add_silhouette_outside_image(*items[j].mesh, items[j].T_cam_obj, f.intrinsics, rp,
+                                        info[item_object[j]]);
   }
-  for (size_t k = 0; k < info.size(); ++k) {
-    auto& o = info[k];
-    if (f.labels_gt.empty()) {
-      o.px_count_visib = o.px_count_valid = -1;
-      o.visib_fract = f.objects_gt[k].visible_fraction;
-      continue;
-    }
-    const int label = static_cast<int>(k) + 1;
-    o.px_count_visib =
-        bbox([&](int u, int v) { return f.labels_gt.at(u, v) == label; }, W, H, o.bbox_visib);
-    o.px_count_valid = 0;
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u)
-        o.px_count_valid += f.labels_gt.at(u, v) == label && f.depth.at(u, v) > 0;
-    o.visib_fract = o.px_count_all > 0 ? std::min(1.0, 1.0 * o.px_count_visib / o.px_count_all)
-                                       : f.objects_gt[k].visible_fraction;
+  for (int k = 0; k < n; ++k) {
+    synth::ObjectFrameInfo& o = info[k];
+    if (labelled)
+      write_mask_png(scene + "/mask_visib/" + synth::bop_mask_name(im_id, k) + ".png",
+                     masks_visib[k]);
+    else
+      o.px_count_visib = o.px_count_valid = -1, std::fill(o.bbox_visib, o.bbox_visib + 4, -1);
+    if (!has_mesh[k]) o.px_count_all = -1, std::fill(o.bbox_obj, o.bbox_obj + 4, -1);
+    if (!labelled || !has_mesh[k]) o.visib_fract = f.objects_gt[k].visible_fraction;
   }
   return info;
-}
-
-void write_masks(const std::string& scene, int im_id, const RgbdFrame& f) {
-  if (f.labels_gt.empty()) return;
-  for (size_t k = 0; k < f.objects_gt.size(); ++k) {
-    MaskImage m(f.labels_gt.width(), f.labels_gt.height(), 0);
-    for (int v = 0; v < m.height(); ++v)
-      for (int u = 0; u < m.width(); ++u)
-        m.at(u, v) = f.labels_gt.at(u, v) == static_cast<int>(k) + 1 ? 1 : 0;
-    write_mask_png(
-        scene + "/mask_visib/" + synth::bop_mask_name(im_id, static_cast<int>(k)) + ".png", m);
-  }
 }
 
 /// Writes the frames; returns their records for the scene's JSON files.
@@ -169,7 +154,6 @@ std::vector<synth::BopFrameRecord> write_frames(const DatasetReader& reader, con
     const std::string name = synth::bop_image_name(im_id);
     write_color_png(scene + "/rgb/" + name + ".png", f.color);
     write_depth_png(scene + "/depth/" + name + ".png", f.depth, info.depth_units_per_m);
-    write_masks(scene, im_id, f);
     synth::BopFrameRecord r;
     r.timestamp_s = f.timestamp_s;
     r.has_camera_pose = f.T_world_cam_gt.has_value();
@@ -178,7 +162,7 @@ std::vector<synth::BopFrameRecord> write_frames(const DatasetReader& reader, con
       r.T_cam_obj.push_back(g.T_cam_obj);
       r.obj_ids.push_back(g.class_id);
     }
-    r.info = object_info(f, sm);
+    r.info = object_info(f, sm, scene, im_id);
     records.push_back(std::move(r));
     names.push_back(
         {{"im_id", im_id}, {"source", f.name}, {"index", f.index}, {"timestamp_s", f.timestamp_s}});

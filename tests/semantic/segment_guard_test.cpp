@@ -58,6 +58,7 @@ SemanticParams guards(bool edge, bool connectivity, bool support = false) {
   p.edge_depth_guard = edge;
   p.segment_connectivity_guard = connectivity;
   p.support_plane_guard = support;
+  p.segment_confirmed_surfels_only = false;  // the scenes below are built by hand, not fused
   return p;
 }
 
@@ -241,6 +242,51 @@ TEST(SegmentGuard, FinalizeAppliesTheSupportPlaneGuardOnlyWhenOn) {
   }
   // On by default.
   EXPECT_TRUE(SemanticParams().support_plane_guard);
+}
+
+TEST(SegmentGuard, FinalizeReleasesOnceSeenSurfelsNextToConfirmedSurfaceWhenOn) {
+  // Instance 1: 100 confirmed surfels (fused in frames 3..9) on a 1 mm line; 30 once-seen surfels
+  // (created in frame 9, never re-observed: last_seen_time == init_time) 6 mm off that line, next
+  // to it (an outlier of a surface already known); 20 once-seen surfels 10 cm away (new surface,
+  // kept); 10 once-seen background surfels keep label 0.
+  auto scene = [] {
+    slam::SurfelMap map;
+    auto add = [&](const Eigen::Vector3f& p, int init, int id) {
+      slam::Surfel s;
+      s.position_world = p;
+      s.radius_m = 0.002f;
+      s.confidence = init < 9 ? 5.0f : 0.8f;
+      s.init_time = init;
+      s.last_seen_time = 9;
+      s.instance_id = id;
+      s.always_active = id > 0;
+      map.push_back(s);
+    };
+    for (int i = 0; i < 100; ++i) add({0.001f * i, 0, 1}, 3, 1);
+    for (int i = 0; i < 30; ++i) add({0.003f * i, 0.0f, 1.006f}, 9, 1);
+    for (int i = 0; i < 20; ++i) add({0.001f * i, 0.1f, 1}, 9, 1);
+    for (int i = 0; i < 10; ++i) add({0.001f * i, 0.5f, 1}, 9, 0);
+    return map;
+  };
+  for (const bool on : {true, false}) {
+    slam::SurfelMap map = scene();
+    SemanticParams p = guards(false, false, false);
+    p.segment_confirmed_surfels_only = on;
+    SemanticFusion(p).finalize(map);
+    int outliers = 0, confirmed = 0, new_surface = 0, active = 0;
+    for (size_t i = 0; i < map.size(); ++i) {
+      const bool labelled = map.instance_id[i] == 1;
+      (i < 100 ? confirmed : i < 130 ? outliers : i < 150 ? new_surface : active) += labelled;
+      if (i < 150) active += map.always_active[i];
+    }
+    EXPECT_EQ(confirmed, 100);
+    EXPECT_EQ(outliers, on ? 0 : 30) << "rule " << on;
+    EXPECT_EQ(new_surface, 20)
+        << "once-seen surfels away from the confirmed surface are new surface";
+    EXPECT_EQ(active, on ? 120 : 150) << "released surfels are no longer always active";
+    EXPECT_EQ(map.size(), 160u) << "the surfels stay in the map";
+  }
+  EXPECT_TRUE(SemanticParams().segment_confirmed_surfels_only);  // on by default
 }
 
 TEST(SegmentGuard, PixelsBehindTheMaskEdgeAreDropped) {

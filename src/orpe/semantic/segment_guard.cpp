@@ -254,4 +254,70 @@ int release_support_plane_surfels(slam::SurfelMap& map, const std::vector<Suppor
   return released;
 }
 
+namespace {
+
+/// Whether a point lies within `link` of one of `pts` (voxel hash of cell `link`, 27 cells).
+class NearQuery {
+ public:
+  NearQuery(const std::vector<Eigen::Vector3f>& pts, float link) : pts_(pts), link_(link) {
+    for (size_t k = 0; k < pts.size(); ++k) cells_[key(cell(pts[k]))].push_back(k);
+  }
+  bool near(const Eigen::Vector3f& p) const {
+    const Eigen::Vector3i c = cell(p);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = cells_.find(key(c + Eigen::Vector3i(dx, dy, dz)));
+          if (it == cells_.end()) continue;
+          for (const size_t k : it->second)
+            if ((pts_[k] - p).squaredNorm() <= link_ * link_) return true;
+        }
+    return false;
+  }
+
+ private:
+  Eigen::Vector3i cell(const Eigen::Vector3f& p) const {
+    return (p / link_).array().floor().cast<int>();
+  }
+  static std::int64_t key(const Eigen::Vector3i& c) {
+    return (static_cast<std::int64_t>(c.x()) * 73856093) ^
+           (static_cast<std::int64_t>(c.y()) * 19349663) ^
+           (static_cast<std::int64_t>(c.z()) * 83492791);
+  }
+  const std::vector<Eigen::Vector3f>& pts_;
+  float link_;
+  std::unordered_map<std::int64_t, std::vector<size_t>> cells_;
+};
+
+}  // namespace
+
+int release_unconfirmed_surfels(slam::SurfelMap& map, float link_m, bool clear_always_active) {
+  std::map<std::int32_t, std::vector<std::int32_t>> once, confirmed;
+  for (size_t i = 0; i < map.size(); ++i) {
+    const auto id = map.instance_id[i];
+    if (id <= 0) continue;
+    auto& bucket = map.last_seen_time[i] == map.init_time[i] ? once : confirmed;
+    bucket[id].push_back(static_cast<std::int32_t>(i));
+  }
+  int released = 0;
+  for (const auto& [id, idx] : once) {
+    const auto c = confirmed.find(id);
+    if (c == confirmed.end()) continue;
+    std::vector<Eigen::Vector3f> pts;
+    std::vector<float> radius;
+    for (const auto i : c->second)
+      pts.push_back(map.position_world[i]), radius.push_back(map.radius_m[i]);
+    std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
+    const NearQuery confirmed_surface(pts, std::max(link_m, 2.0f * radius[radius.size() / 2]));
+    for (const auto i : idx) {
+      if (!confirmed_surface.near(map.position_world[i])) continue;  // new surface: kept
+      map.instance_id[i] = 0;
+      map.boundary_counter[i] = 0;
+      if (clear_always_active) map.always_active[i] = 0;
+      ++released;
+    }
+  }
+  return released;
+}
+
 }  // namespace orpe

@@ -12,6 +12,10 @@
 //    floor, shelf boards, walls) are support, not object: an instance's surfels lying on one,
 //    within the plane's own noise and oriented like it, are released (the table just past a
 //    small object's silhouette is continuous in depth with it, so neither guard above sees it).
+//  - release_unconfirmed_surfels: a surfel fused in one frame only, next to the instance's
+//  confirmed
+//    surface, is a measurement that disagreed with that surface (else it would have been fused into
+//    it); at the end of a run it does not count as part of the object's segment.
 #pragma once
 
 #include <cstdint>
@@ -73,5 +77,14 @@ std::vector<SupportPlane> find_support_planes(const slam::SurfelMap& map, int ma
 /// `clear_always_active`.
 int release_support_plane_surfels(slam::SurfelMap& map, const std::vector<SupportPlane>& planes,
                                   double max_angle_deg, bool clear_always_active);
+
+/// Instance surfels fused in one frame only (last_seen_time == init_time) that lie within the link
+/// (max(link_m, twice the median radius of the instance's confirmed surfels)) of a confirmed surfel
+/// of the same instance lose the instance: had the measurement agreed with that surface it would
+/// have been fused into it (projective association), so it is an outlier of a surface already
+/// known. Once-seen surfels away from every confirmed one are new surface and keep the label. The
+/// surfels stay in the map. Returns the number released; `always_active` is cleared for them when
+/// `clear_always_active`.
+int release_unconfirmed_surfels(slam::SurfelMap& map, float link_m, bool clear_always_active);
 
 }  // namespace orpe

@@ -550,6 +550,9 @@ int SemanticFusion::release_support_surfels(slam::SurfelMap& map) const {
 }
 
 int SemanticFusion::finalize(slam::SurfelMap& map) {
+  if (params_.segment_confirmed_surfels_only)
+    release_unconfirmed_surfels(map, static_cast<float>(params_.segment_link_m),
+                                params_.always_active_objects);
   if (params_.segment_connectivity_guard)
     release_detached_surfels(map, static_cast<float>(params_.segment_link_m),
                              params_.segment_min_component_fraction, nullptr,

@@ -118,6 +118,9 @@ struct SemanticParams {
   double support_plane_min_extent_m = 0.35;
   double support_plane_max_distance_m = 0.01;
   double support_plane_max_normal_angle_deg = 30;
+  /// At finalize(), before the guards above: an instance's surfels fused in one frame only (never
+  /// re-observed) lose the instance (segment_guard.h, release_unconfirmed_surfels).
+  bool segment_confirmed_surfels_only = true;
 
   template <class V>
   void visit(V&& v) {
@@ -199,6 +202,8 @@ struct SemanticParams {
     v("support_plane_guard", support_plane_guard,
       "Support-plane guard: release an instance's surfels lying on a large plane of the map "
       "(table, floor, wall) and oriented like it");
+    v("segment_confirmed_surfels_only", segment_confirmed_surfels_only,
+      "At finalize, surfels fused in one frame only (never re-observed) leave their instance");
     v("support_plane_max_planes", support_plane_max_planes,
       "Support-plane guard: planes searched (largest first)");
     v("support_plane_min_fraction", support_plane_min_fraction,

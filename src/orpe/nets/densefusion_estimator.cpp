@@ -127,6 +127,10 @@ DenseFusionEstimator::DenseFusionEstimator(const PoseBackendParams& params,
   if (!params_.IsValid(&why)) throw ConfigError("pose: " + why);
   DenseFusionSpec spec;
   spec.num_objects = 0;  // from the file
+  if (params_.densefusion_random_seed >= 0) {
+    spec.num_objects = static_cast<int>(class_names.size());
+    spec.random_seed = params_.densefusion_random_seed;
+  }
   spec.num_points = params_.densefusion_num_points;
   spec.threads = params_.densefusion_threads;
   spec.posenet_path = params_.densefusion_model;

@@ -19,6 +19,9 @@ struct PoseBackendParams {
   int densefusion_min_points = 50;    ///< fewer valid-depth mask pixels in the box -> no estimate
   int densefusion_threads = 0;        ///< LibTorch intra-op threads (process-wide); 0 = default
   int densefusion_seed = 1;  ///< seed of the random subset of chosen pixels (deterministic)
+  /// >= 0: seeded untrained weights (one head per dataset class) instead of the files, for wiring
+  /// tests and timing; -1 = the files.
+  int densefusion_random_seed = -1;
 
   template <class V>
   void visit(V&& v) {
@@ -39,6 +42,9 @@ struct PoseBackendParams {
       "densefusion: LibTorch intra-op threads (process-wide); 0 = LibTorch's default");
     v("densefusion_seed", densefusion_seed,
       "densefusion: seed of the chosen-pixel subset (the same input gives the same pose)");
+    v("densefusion_random_seed", densefusion_random_seed,
+      "densefusion: >= 0 = seeded UNTRAINED weights instead of the files (wiring tests, timing); "
+      "-1 = the files");
   }
 
   bool IsValid(std::string* why) const {
@@ -48,10 +54,11 @@ struct PoseBackendParams {
     };
     if (backend != "model" && backend != "densefusion")
       return fail("backend must be model or densefusion");
-    if (backend == "densefusion" && densefusion_model.empty())
+    const bool files = backend == "densefusion" && densefusion_random_seed < 0;
+    if (files && densefusion_model.empty())
       return fail("backend densefusion needs densefusion_model (a converted PoseNet file)");
     if (densefusion_iterations < 0) return fail("densefusion_iterations must be >= 0");
-    if (backend == "densefusion" && densefusion_iterations > 0 && densefusion_refiner.empty())
+    if (files && densefusion_iterations > 0 && densefusion_refiner.empty())
       return fail("densefusion_iterations > 0 needs densefusion_refiner (or set it to 0)");
     if (densefusion_num_points < 1) return fail("densefusion_num_points must be >= 1");
     if (densefusion_min_points < 1) return fail("densefusion_min_points must be >= 1");

@@ -386,24 +386,36 @@ def cmd_train(args):
     P = Params(posenet_parameters(num_obj))
     untrained = P.state()
     save_orpe(untrained, args.out + "_untrained_posenet.pt")
-    ev0 = evaluate(P, num_obj, test, models, index_of, args.points)
+    ev0 = evaluate(P, num_obj, test, models, index_of, args.eval_points)
     print(summary("untrained", ev0), flush=True)
+    if args.init:  # continue a run: its weights (the frozen CNN is the same initialisation)
+        P = load_orpe(args.init, posenet_parameters(num_obj))
+        print(summary("start (" + args.init + ")", evaluate(P, num_obj, test, models, index_of, args.eval_points)),
+              flush=True)
     cnn = [p for name, p in P.p.items() if name.startswith("cnn__")]
     if not args.train_cnn:  # the colour CNN stays at its initialisation: embeddings computed once
         for p in cnn:
             p.requires_grad_(False)
         t0 = time.time()
+        cache = torch.load(args.cache) if args.cache and os.path.exists(args.cache) else None
         with torch.no_grad():
-            for s in train:
+            for i, s in enumerate(train):
+                if cache is not None:
+                    s["pool_emb"], s["pool_cloud"] = cache[i]
+                    del s["crop"]
+                    continue
                 keep = rng.choice(len(s["choose_all"]), min(args.pool, len(s["choose_all"])), replace=False)
                 emb = pspnet(P, torch.from_numpy(s["crop"])[None]).view(32, -1)
                 s["pool_emb"] = emb[:, torch.from_numpy(s["choose_all"][keep].astype(np.int64))].clone()
                 s["pool_cloud"] = torch.from_numpy(s["cloud_all"][keep])
                 del s["crop"]
+        if args.cache and cache is None:
+            torch.save([(s["pool_emb"], s["pool_cloud"]) for s in train], args.cache)
         print(f"colour embeddings of {len(train)} views (frozen CNN): {time.time() - t0:.0f} s", flush=True)
     opt = torch.optim.Adam([p for p in P.parameters() if p.requires_grad], lr=args.lr)
-    log = open(args.out + "_loss.txt", "w")
-    log.write("# step seconds loss mean_point_adds_m (running means over the last --log-every steps)\n")
+    log = open(args.out + "_loss.txt", "a" if args.init else "w")
+    if not args.init:
+        log.write("# step seconds loss mean_point_adds_m (running means over the last --log-every steps)\n")
     step, start, acc_l, acc_d = 0, time.time(), 0.0, 0.0
     while time.time() - start < 60 * args.minutes:
         s = train[rng.integers(len(train))]
@@ -435,7 +447,7 @@ def cmd_train(args):
     trained = P.state()
     save_orpe(trained, args.out + "_posenet.pt")
     torch.save(trained, args.out + "_pose_model.pth")
-    ev1 = evaluate(P, num_obj, test, models, index_of, args.points)
+    ev1 = evaluate(P, num_obj, test, models, index_of, args.eval_points)
     print(f"trained {step} steps in {time.time() - start:.0f} s")
     print(summary("untrained", ev0))
     print(summary("trained", ev1))
@@ -464,8 +476,11 @@ def main():
     t.add_argument("--points", type=int, default=100, help="chosen points per view (pose.densefusion_num_points)")
     t.add_argument("--train-cnn", action="store_true",
                    help="train the colour CNN too (a GPU's job); default: frozen at its initialisation")
+    t.add_argument("--init", default="", help="start from this PoseNet file (continue a run)")
+    t.add_argument("--cache", default="", help="frozen CNN: file of the views' embeddings (written once, reused)")
     t.add_argument("--pool", type=int, default=400, help="frozen CNN: pixels kept per view to choose from")
     t.add_argument("--max-views", type=int, default=300, help="training views used (0 = all)")
+    t.add_argument("--eval-points", type=int, default=100, help="chosen points per held-out view")
     t.add_argument("--loss-model-points", type=int, default=100)
     t.add_argument("--lr", type=float, default=3e-4)
     t.add_argument("--accumulate", type=int, default=4, help="views per optimiser step")

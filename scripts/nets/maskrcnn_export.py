@@ -56,9 +56,12 @@ def cmd_export(args):
     if not classes:
         sys.exit("export: --classes must name at least one dataset class")
     num_classes = len(classes) + 1  # + background
-    builder = getattr(torchvision.models.detection, args.arch)
-    model = builder(weights=None, weights_backbone=None, num_classes=num_classes,
-                    min_size=args.min_size, max_size=args.max_size)
+    if args.arch == "small":
+        model = small_maskrcnn(num_classes, args.min_size, args.max_size)
+    else:
+        builder = getattr(torchvision.models.detection, args.arch)
+        model = builder(weights=None, weights_backbone=None, num_classes=num_classes,
+                        min_size=args.min_size, max_size=args.max_size)
     if args.checkpoint:
         state = torch.load(args.checkpoint, map_location="cpu")
         if isinstance(state, dict) and "model" in state:
@@ -84,6 +87,40 @@ class TinyBackbone(nn.Module):
     def forward(self, x):
         f0 = self.level0(x)
         return collections.OrderedDict([("0", f0), ("1", self.level1(f0))])
+
+
+class SmallBackbone(nn.Module):
+    """Three feature levels (stride 4, 8, 16), 64 channels, no normalisation: a backbone light enough to
+    train from scratch on a CPU in minutes (scripts/nets/maskrcnn_train.py; `--arch small`)."""
+
+    def __init__(self, c=64):
+        super().__init__()
+        def conv(i, o, s=1):
+            return [nn.Conv2d(i, o, 3, stride=s, padding=1), nn.ReLU()]
+        self.level0 = nn.Sequential(*conv(3, 16, 2), *conv(16, 32, 2), *conv(32, c))
+        self.level1 = nn.Sequential(*conv(c, c, 2), *conv(c, c))
+        self.level2 = nn.Sequential(*conv(c, c, 2), *conv(c, c))
+        self.out_channels = c
+
+    def forward(self, x):
+        f0 = self.level0(x)
+        f1 = self.level1(f0)
+        return collections.OrderedDict([("0", f0), ("1", f1), ("2", self.level2(f1))])
+
+
+def small_maskrcnn(num_classes, min_size=120, max_size=160):
+    """torchvision's MaskRCNN on SmallBackbone, anchors 16-64 px, few proposals: `orpe synth` images resized
+    to 160 x 120 inside the network (its transform; masks are pasted back at full size)."""
+    anchors = AnchorGenerator(sizes=((16,), (32,), (64,)), aspect_ratios=((0.5, 1.0, 2.0),) * 3)
+    box_pool = MultiScaleRoIAlign(["0", "1", "2"], 7, 2)
+    mask_pool = MultiScaleRoIAlign(["0", "1", "2"], 14, 2)
+    return MaskRCNN(SmallBackbone(), num_classes=None, min_size=min_size, max_size=max_size,
+                    rpn_anchor_generator=anchors, rpn_pre_nms_top_n_train=500, rpn_post_nms_top_n_train=200,
+                    rpn_pre_nms_top_n_test=300, rpn_post_nms_top_n_test=100, rpn_batch_size_per_image=64,
+                    box_batch_size_per_image=64, box_roi_pool=box_pool,
+                    box_head=TwoMLPHead(64 * 7 * 7, 256), box_predictor=FastRCNNPredictor(256, num_classes),
+                    box_detections_per_img=20, mask_roi_pool=mask_pool,
+                    mask_head=MaskRCNNHeads(64, (64, 64), 1), mask_predictor=MaskRCNNPredictor(64, 64, num_classes))
 
 
 def tiny_maskrcnn(num_classes, seed):
@@ -206,7 +243,8 @@ def main():
     sub = p.add_subparsers(dest="cmd", required=True)
     e = sub.add_parser("export", help="TorchScript file + class map from a torchvision checkpoint")
     e.add_argument("--arch", default="maskrcnn_resnet50_fpn",
-                   help="torchvision.models.detection builder (maskrcnn_resnet50_fpn, maskrcnn_resnet50_fpn_v2)")
+                   help="torchvision.models.detection builder (maskrcnn_resnet50_fpn, maskrcnn_resnet50_fpn_v2), "
+                        "or small (SmallBackbone: scripts/nets/maskrcnn_train.py)")
     e.add_argument("--checkpoint", default="", help="state_dict (.pth) of that builder with these classes")
     e.add_argument("--classes", required=True, help="comma-separated dataset classes of labels 1..N (ids or names)")
     e.add_argument("--min-size", type=int, default=480, help="network input: shorter side (px)")

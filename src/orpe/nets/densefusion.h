@@ -2,7 +2,7 @@
 // embedding, PointNet geometry, dense fusion, per-point rotation / translation / confidence heads)
 // and PoseRefineNet, with the reference implementation's parameter names and shapes
 // (cnn.model.module.feats.conv1.weight, ...; 77 + 24 tensors). LibTorch stays in the plugin
-// (orpe/nets/plugin.h). docs/NETWORKS.md. Not yet a pose back-end (issue 16).
+// (orpe/nets/plugin.h). docs/NETWORKS.md. The pose back-end over it: densefusion_estimator.h.
 #pragma once
 
 #include <array>
@@ -15,8 +15,11 @@ namespace orpe::nets {
 class DenseFusionImpl;
 
 struct DenseFusionSpec {
-  int num_objects = 21;  ///< classes of the checkpoint (YCB-Video: 21)
+  /// Classes of the checkpoint (YCB-Video: 21); 0 = from the PoseNet file (conv4_r.weight's rows /
+  /// 4).
+  int num_objects = 21;
   int num_points = 1000;
+  int threads = 0;  ///< LibTorch intra-op threads (process-wide); 0 = LibTorch's default
   /// Weights: files of parameter name -> tensor (scripts/nets/densefusion_fixtures.py convert), or,
   /// when random_seed >= 0, seeded normal weights drawn in the reference's parameter order
   /// (torch.manual_seed(seed), then per tensor normal_(0, 1/sqrt(fan_in)) or normal_(0, 0.1) for
@@ -56,6 +59,9 @@ class DenseFusionNetwork {
   /// The reference evaluation: best-confidence point, then `iterations` refiner passes.
   DenseFusionPose pose(const DenseFusionPoints& points, const std::vector<float>& cloud, int obj,
                        int iterations, DenseFusionPose* before_refinement = nullptr) const;
+  int num_objects() const;  ///< classes of the loaded network
+  int num_points() const;
+  bool has_refiner() const;
   /// Parameter names and shapes (PoseNet then PoseRefineNet, reference order), for tests.
   std::vector<std::pair<std::string, std::vector<std::int64_t>>> parameters() const;
 

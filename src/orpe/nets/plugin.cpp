@@ -120,6 +120,16 @@ DenseFusionPose DenseFusionNetwork::pose(const DenseFusionPoints& points,
   return impl_->pose(points, cloud, obj, iterations, before_refinement);
 }
 
+int DenseFusionNetwork::num_objects() const {
+  return impl_->num_objects();
+}
+int DenseFusionNetwork::num_points() const {
+  return impl_->num_points();
+}
+bool DenseFusionNetwork::has_refiner() const {
+  return impl_->has_refiner();
+}
+
 std::vector<std::pair<std::string, std::vector<std::int64_t>>> DenseFusionNetwork::parameters()
     const {
   return impl_->parameters();

@@ -31,6 +31,9 @@ class DenseFusionImpl {
   virtual DenseFusionPose pose(const DenseFusionPoints& points, const std::vector<float>& cloud,
                                int obj, int iterations, DenseFusionPose* before) const = 0;
   virtual std::vector<std::pair<std::string, std::vector<std::int64_t>>> parameters() const = 0;
+  virtual int num_objects() const = 0;
+  virtual int num_points() const = 0;
+  virtual bool has_refiner() const = 0;
 };
 
 /// What the plugin exports, through `extern "C" const PluginApi* orpe_nets_plugin()`.
@@ -42,7 +45,7 @@ struct PluginApi {
   std::unique_ptr<DenseFusionImpl> (*open_densefusion)(const DenseFusionSpec& spec) = nullptr;
 };
 
-inline constexpr int kPluginApiVersion = 2;
+inline constexpr int kPluginApiVersion = 3;
 
 /// The plugin, opened on first use. Throws ConfigError saying why when orpe was built without
 /// LibTorch or the plugin cannot be loaded (the paths tried, dlerror()). `what` names the caller in

@@ -13,6 +13,7 @@
 #include "orpe/io/dataset.h"
 #include "orpe/pipeline/pipeline_params.h"
 #include "orpe/pose/model_registration.h"
+#include "orpe/pose/pose_backend.h"
 #include "orpe/pose/pose_ekf.h"
 #include "orpe/recognition/model_recognizer.h"
 #include "orpe/semantic/segmenter.h"
@@ -41,6 +42,7 @@ struct OrpeConfig {
   SemanticParams semantic;          ///< instance-aware semantic fusion
   RecognitionParams recognition;    ///< segmentation.backend=model: hypotheses and verification
   SceneGeometryParams recognition_geometry;  ///< segmentation.backend=model: planes and regions
+  PoseBackendParams pose;                    ///< single-view pose back-end (model | densefusion)
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
   SynthParams synth;
@@ -63,6 +65,7 @@ struct OrpeConfig {
     v("semantic", semantic);
     v("recognition", recognition);
     v("recognition_geometry", recognition_geometry);
+    v("pose", pose);
     v("pose_registration", pose_registration);
     v("pose_ekf", pose_ekf);
     v("synth", synth);
@@ -72,8 +75,8 @@ struct OrpeConfig {
   bool IsValid(std::string* why) const;
 };
 
-/// Applies a config file: JSON ({"section": {"key": value}}), or YAML (.yaml / .yml: `section:` then
-/// indented `key: value` lines, each value parsed by the key's type as `--set` does). Unknown
+/// Applies a config file: JSON ({"section": {"key": value}}), or YAML (.yaml / .yml: `section:`
+/// then indented `key: value` lines, each value parsed by the key's type as `--set` does). Unknown
 /// sections / keys and wrong types are IoErrors naming the file (and, for YAML, the line).
 void load_config_file(OrpeConfig& config, const std::string& path);
 /// Applies one "section.key=value" override. Throws ConfigError for unknown keys or bad values.

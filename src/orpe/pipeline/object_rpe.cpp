@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "orpe/core/error.h"
+#include "orpe/nets/densefusion_estimator.h"
 #include "orpe/nets/maskrcnn.h"
 #include "orpe/pipeline/instance_tracks.h"
 #include "orpe/pipeline/object_fusion.h"
@@ -71,6 +72,7 @@ ObjectRpeParams ObjectRpeParams::from_config(const OrpeConfig& config) {
   p.semantic = config.semantic;
   p.recognition = config.recognition;
   p.recognition_geometry = config.recognition_geometry;
+  p.pose = config.pose;
   p.pose_registration = config.pose_registration;
   p.pose_ekf = config.pose_ekf;
   p.pipeline = config.pipeline;
@@ -89,6 +91,7 @@ bool ObjectRpeParams::IsValid(std::string* why) const {
   if (!semantic.IsValid(&r)) return fail("semantic", r);
   if (!recognition.IsValid(&r)) return fail("recognition", r);
   if (!recognition_geometry.IsValid(&r)) return fail("recognition_geometry", r);
+  if (!pose.IsValid(&r)) return fail("pose", r);
   if (!pose_registration.IsValid(&r)) return fail("pose_registration", r);
   if (!pose_ekf.IsValid(&r)) return fail("pose_ekf", r);
   if (!pipeline.IsValid(&r)) return fail("pipeline", r);
@@ -186,7 +189,11 @@ ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const Datase
       semantic_ =
           std::make_unique<SemanticMapper>(params_.segmentation, params_.semantic, class_ids);
   }
-  if (!params_.variants.empty()) {
+  if (!params_.variants.empty() && params_.pose.backend == "densefusion") {
+    // A learned estimator that uses the colour crop: PC and raw colour are different inputs.
+    estimator_ = std::make_unique<nets::DenseFusionEstimator>(params_.pose, dataset_.class_names);
+    estimator_uses_color_ = true;
+  } else if (!params_.variants.empty()) {
     estimator_ = std::make_unique<ModelRegistrationEstimator>(params_.pose_registration);
     // The registration ranks confusable poses by colour (pose_registration.colour_enabled).
     estimator_uses_color_ = params_.pose_registration.colour.enabled;

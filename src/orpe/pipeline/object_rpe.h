@@ -2,35 +2,40 @@
 //   1. tracking + surfel fusion (slam::SlamSystem);
 //   2. on segmentation keyframes: 2D instance segmentation + instance-aware semantic fusion
 //      (SemanticMapper);
-//   3. on evaluated frames (every PipelineParams::pose_every_n_keyframes-th keyframe): for each object
-//      seen in the frame, single-view 6D pose on the chosen inputs (detection or map-projected mask,
-//      camera or map-projected depth / colour);
+//   3. on evaluated frames (every PipelineParams::pose_every_n_keyframes-th keyframe): for each
+//   object
+//      seen in the frame, single-view 6D pose on the chosen inputs (detection or map-projected
+//      mask, camera or map-projected depth / colour);
 //   4. with the EKF: one PoseEkf per map instance (keyed by instance id; model and symmetry of the
-//      instance's argmax class) fuses the single-view poses moved to the world by the tracked camera.
-// Outputs: per evaluated frame and object a camera-frame pose (BOP result rows), per instance a final
-// world pose (objects.json), plus the SLAM trajectory and the semantic map.
+//      instance's argmax class) fuses the single-view poses moved to the world by the tracked
+//      camera.
+// Outputs: per evaluated frame and object a camera-frame pose (BOP result rows), per instance a
+// final world pose (objects.json), plus the SLAM trajectory and the semantic map.
 //
 // Choices (docs/PIPELINE.md has the rationale):
 //  - "Seen in the frame": projected-mask modes take every map instance whose projected mask has at
-//    least min_pose_mask_px pixels at the tracked pose (so an object the detector missed in this frame
-//    still gets a pose); raw-mask modes take this keyframe's detections.
+//    least min_pose_mask_px pixels at the tracked pose (so an object the detector missed in this
+//    frame still gets a pose); raw-mask modes take this keyframe's detections.
 //  - Class: the instance's argmax class (projected masks) or the detection's class (raw masks).
 //  - Reported camera-frame pose with the EKF: T_world_cam^-1 * T_world_obj of the instance's filter
-//    after this frame's update (also when this frame's measurement was invalid or gated out, as long as
-//    the filter is initialised); without the EKF: the frame's single-view estimate when valid.
+//    after this frame's update (also when this frame's measurement was invalid or gated out, as
+//    long as the filter is initialised); without the EKF: the frame's single-view estimate when
+//    valid.
 //  - Projected mask / depth / colour: the semantic stage's label-aware render of the instances
 //    (InstanceRenderer + split_instance_views, every instance: the semantic stage's own
 //    render_instance_views keeps only confirmed ones, which would leave an object's first keyframe
 //    without a projected mask); around the instances, depth and colour of a
 //    plain render of every surfel, so pixels around the object carry the map's surfaces as the
 //    camera's images would (the registration's free-space test looks there).
-//  - Frames whose tracking is LOST are neither segmented nor evaluated (their pose is a held guess).
+//  - Frames whose tracking is LOST are neither segmented nor evaluated (their pose is a held
+//  guess).
 //  - pipeline.segmentation_delay_frames = D > 0: a keyframe is segmented on a worker thread
 //    (segmentation_async) and fused, and its poses estimated on its own images, D frames later;
 //    the results depend on D only, not on the back-end's timing (docs/PIPELINE.md).
-//  - Several input configurations (PoseVariant) can run in one pass sharing SLAM and semantic mapping;
-//    a single-view estimate is computed once per distinct input (the geometry-only estimator ignores
-//    colour, so DF-PM-PD-PC reuses DF-PM-PD's estimates).
+//  - Several input configurations (PoseVariant) can run in one pass sharing SLAM and semantic
+//  mapping;
+//    a single-view estimate is computed once per distinct input (the geometry-only estimator
+//    ignores colour, so DF-PM-PD-PC reuses DF-PM-PD's estimates).
 #pragma once
 
 #include <chrono>
@@ -49,6 +54,7 @@
 #include "orpe/pipeline/pipeline_params.h"
 #include "orpe/pipeline/segmentation_worker.h"
 #include "orpe/pose/model_registration.h"
+#include "orpe/pose/pose_backend.h"
 #include "orpe/pose/pose_ekf.h"
 #include "orpe/recognition/model_recognizer.h"
 #include "orpe/semantic/instance_render.h"
@@ -78,6 +84,7 @@ struct ObjectRpeParams {
   SemanticParams semantic;
   RecognitionParams recognition;             ///< segmentation.backend=model
   SceneGeometryParams recognition_geometry;  ///< segmentation.backend=model
+  PoseBackendParams pose;  ///< single-view back-end: model (pose_registration) | densefusion
   ModelRegistrationParams pose_registration;
   PoseEkfParams pose_ekf;
   PipelineParams pipeline;

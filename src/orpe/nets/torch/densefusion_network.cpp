@@ -343,6 +343,10 @@ class TorchDenseFusion : public DenseFusionImpl {
     return pose;
   }
 
+  int num_objects() const override { return spec_.num_objects; }
+  int num_points() const override { return spec_.num_points; }
+  bool has_refiner() const override { return has_refiner_; }
+
   ParamList parameters() const override {
     ParamList all = posenet_list_;
     all.insert(all.end(), refiner_list_.begin(), refiner_list_.end());
@@ -356,9 +360,28 @@ class TorchDenseFusion : public DenseFusionImpl {
   bool has_refiner_;
 };
 
+/// The class count of a converted PoseNet file: conv4_r.weight has 4 rows per class.
+int file_num_objects(const std::string& path) {
+  const auto tensors = read_tensors(path);
+  const auto it = tensors.find("conv4_r__weight");
+  if (it == tensors.end())
+    throw IoError(path, "no tensor conv4_r.weight (not a converted PoseNet checkpoint?)");
+  if (it->second.shape.empty() || it->second.shape[0] <= 0 || it->second.shape[0] % 4)
+    throw IoError(path, "tensor conv4_r.weight has no 4 rows per class");
+  return static_cast<int>(it->second.shape[0] / 4);
+}
+
 }  // namespace
 
-std::unique_ptr<DenseFusionImpl> open_densefusion(const DenseFusionSpec& spec) {
+std::unique_ptr<DenseFusionImpl> open_densefusion(const DenseFusionSpec& spec_in) {
+  DenseFusionSpec spec = spec_in;
+  if (spec.num_points <= 0) throw std::invalid_argument("densefusion: num_points must be > 0");
+  if (spec.num_objects <= 0) {
+    if (spec.random_seed >= 0)
+      throw std::invalid_argument("densefusion: seeded weights need num_objects > 0");
+    spec.num_objects = file_num_objects(spec.posenet_path);
+  }
+  if (spec.threads > 0) at::set_num_threads(spec.threads);
   return std::make_unique<TorchDenseFusion>(spec);
 }
 

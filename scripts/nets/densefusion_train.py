@@ -1,0 +1,503 @@
+#!/usr/bin/python3
+"""Trains DenseFusion's PoseNet (and optionally PoseRefineNet) on `orpe synth` scenes, for orpe's
+`pose.backend=densefusion` (src/orpe/nets/densefusion_estimator.h). Debian's python3-torch; run with
+/usr/bin/python3. The network is orpe's own PyTorch port of the C++ one (the reference's structure
+and parameter names, re-derived; no reference code), trained with DenseFusion's loss (per-point
+ADD-S weighted by the confidence, minus w log c). docs/NETWORKS.md, docs/RESULTS.md.
+
+  selfcheck  this port against the committed equivalence fixture of the reference implementation
+             (tests/nets/data/densefusion_small.pt): must agree to 1e-4.
+  train      /usr/bin/python3 scripts/nets/densefusion_train.py train --train DIR1,DIR2,... \\
+                 --test DIR --out PREFIX --minutes 8
+             writes PREFIX_posenet.pt (orpe's tensor file: pose.densefusion_model), PREFIX_pose_model.pth
+             (the reference's state_dict format), the loss log, and the ADD-S on the held-out scene of
+             the untrained and the trained network.
+  eval       ADD-S of a PoseNet file on a held-out scene.
+
+Input contract (the C++ back-end's, tools/eval_ycb.py's): box of the visible mask snapped to
+40, 80, ... px, mask pixels with depth, num_points chosen, crop RGB 0..255 ImageNet-normalised.
+"""
+import argparse
+import collections
+import glob
+import json
+import math
+import os
+import sys
+import time
+
+import cv2
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+MEAN = np.array([0.485, 0.456, 0.406], np.float32)
+STD = np.array([0.229, 0.224, 0.225], np.float32)
+BORDERS = [-1, 40, 80, 120, 160, 200, 240, 280, 320, 360, 400, 440, 480, 520, 560, 600, 640, 680]
+
+
+# ----------------------------------------------------------------------------- parameters
+def posenet_parameters(num_obj):
+    p = []
+    cnn = "cnn.model.module."
+    p.append((cnn + "feats.conv1.weight", (64, 3, 7, 7)))
+    inp, planes = 64, [64, 128, 256, 512]
+    for l in range(4):
+        for b in range(2):
+            pre = f"{cnn}feats.layer{l + 1}.{b}"
+            p.append((pre + ".conv1.weight", (planes[l], inp if b == 0 else planes[l], 3, 3)))
+            p.append((pre + ".conv2.weight", (planes[l], planes[l], 3, 3)))
+            if b == 0 and inp != planes[l]:
+                p.append((pre + ".downsample.0.weight", (planes[l], inp, 1, 1)))
+        inp = planes[l]
+    for s in range(4):
+        p.append((f"{cnn}psp.stages.{s}.1.weight", (512, 512, 1, 1)))
+    p += [(cnn + "psp.bottleneck.weight", (1024, 2560, 1, 1)), (cnn + "psp.bottleneck.bias", (1024,))]
+    for u, (i, o) in enumerate(((1024, 256), (256, 64), (64, 64))):
+        pre = f"{cnn}up_{u + 1}.conv."
+        p += [(pre + "1.weight", (o, i, 3, 3)), (pre + "1.bias", (o,)), (pre + "2.weight", (1,))]
+    p += [(cnn + "final.0.weight", (32, 64, 1, 1)), (cnn + "final.0.bias", (32,)),
+          (cnn + "classifier.0.weight", (256, 256)), (cnn + "classifier.0.bias", (256,)),
+          (cnn + "classifier.2.weight", (21, 256)), (cnn + "classifier.2.bias", (21,))]
+    p += point_feature_parameters(256)
+    head_in, head_out, last = [1408, 640, 256, 128], [640, 256, 128], [4 * num_obj, 3 * num_obj, num_obj]
+    for layer in range(4):
+        for h in range(3):
+            out = head_out[layer] if layer < 3 else last[h]
+            name = f"conv{layer + 1}_{'rtc'[h]}"
+            p += [(name + ".weight", (out, head_in[layer], 1)), (name + ".bias", (out,))]
+    return p
+
+
+def point_feature_parameters(conv5_in):
+    p = []
+    for name, shape in (("conv1", (64, 3, 1)), ("conv2", (128, 64, 1)), ("e_conv1", (64, 32, 1)),
+                        ("e_conv2", (128, 64, 1)), ("conv5", (512, conv5_in, 1)), ("conv6", (1024, 512, 1))):
+        p += [(f"feat.{name}.weight", shape), (f"feat.{name}.bias", (shape[0],))]
+    return p
+
+
+def refiner_parameters(num_obj):
+    p = point_feature_parameters(384)
+    for name, shape in (("conv1_r", (512, 1024)), ("conv1_t", (512, 1024)), ("conv2_r", (128, 512)),
+                        ("conv2_t", (128, 512)), ("conv3_r", (4 * num_obj, 128)), ("conv3_t", (3 * num_obj, 128))):
+        p += [(name + ".weight", shape), (name + ".bias", (shape[0],))]
+    return p
+
+
+class Params(nn.Module):
+    """Parameters by the reference's names ('.' stored as '__', the converted file's buffer names)."""
+
+    def __init__(self, plist, init="default"):
+        super().__init__()
+        self.names = [n for n, _ in plist]
+        self.p = nn.ParameterDict()
+        for name, shape in plist:
+            t = torch.empty(shape)
+            fan_in = t.numel() // shape[0] if len(shape) > 1 else None
+            with torch.no_grad():
+                if name.endswith("2.weight") and len(shape) == 1:  # PReLU
+                    t.fill_(0.25)
+                elif fan_in:  # PyTorch's default conv / linear init
+                    t.uniform_(-1 / math.sqrt(fan_in), 1 / math.sqrt(fan_in))
+                else:  # biases: of the weight's fan-in, as PyTorch does
+                    w = dict(plist)[name[:-4] + "weight"]
+                    bound = 1 / math.sqrt(int(np.prod(w)) // w[0])
+                    t.uniform_(-bound, bound)
+            self.p[name.replace(".", "__")] = nn.Parameter(t)
+
+    def __call__(self, name):
+        return self.p[name.replace(".", "__")]
+
+    def state(self):
+        return collections.OrderedDict((n, self(n).detach().clone()) for n in self.names)
+
+
+# ----------------------------------------------------------------------------- networks
+def basic_block(P, x, pre, stride, dil, downsample):
+    out = F.relu(F.conv2d(x, P(pre + ".conv1.weight"), None, stride, dil, dil))
+    out = F.conv2d(out, P(pre + ".conv2.weight"), None, 1, dil, dil)
+    res = F.conv2d(x, P(pre + ".downsample.0.weight"), None, stride) if downsample else x
+    return F.relu(out + res)
+
+
+def pspnet(P, img):
+    f = "cnn.model.module.feats."
+    x = F.max_pool2d(F.relu(F.conv2d(img, P(f + "conv1.weight"), None, 2, 3)), 3, 2, 1)
+    for l, (stride, dil) in enumerate(zip((1, 2, 1, 1), (1, 1, 2, 4))):
+        pre = f"{f}layer{l + 1}"
+        x = basic_block(P, x, pre + ".0", stride, 1, l > 0)
+        x = basic_block(P, x, pre + ".1", 1, dil, False)
+    c = "cnn.model.module."
+    h, w = x.shape[2], x.shape[3]
+    priors = [F.interpolate(F.conv2d(F.adaptive_avg_pool2d(x, s), P(f"{c}psp.stages.{k}.1.weight")),
+                            size=(h, w), mode="bilinear", align_corners=False)
+              for k, s in enumerate((1, 2, 3, 6))]
+    x = F.relu(F.conv2d(torch.cat(priors + [x], 1), P(c + "psp.bottleneck.weight"), P(c + "psp.bottleneck.bias")))
+    for u in (1, 2, 3):
+        pre = f"{c}up_{u}.conv."
+        x = F.interpolate(x, size=(2 * x.shape[2], 2 * x.shape[3]), mode="bilinear", align_corners=True)
+        x = F.prelu(F.conv2d(x, P(pre + "1.weight"), P(pre + "1.bias"), 1, 1), P(pre + "2.weight"))
+    return F.log_softmax(F.conv2d(x, P(c + "final.0.weight"), P(c + "final.0.bias")), 1)
+
+
+def c1d(P, name, x):
+    return F.conv1d(x, P(name + ".weight"), P(name + ".bias"))
+
+
+def point_features(P, x, emb, refiner):
+    a, e = F.relu(c1d(P, "feat.conv1", x)), F.relu(c1d(P, "feat.e_conv1", emb))
+    pf1 = torch.cat([a, e], 1)
+    a, e = F.relu(c1d(P, "feat.conv2", a)), F.relu(c1d(P, "feat.e_conv2", e))
+    pf2 = torch.cat([a, e], 1)
+    g = F.relu(c1d(P, "feat.conv5", torch.cat([pf1, pf2], 1) if refiner else pf2))
+    g = F.relu(c1d(P, "feat.conv6", g))
+    return pf1, pf2, F.avg_pool1d(g, x.shape[2])
+
+
+def posenet(P, num_obj, img, cloud, choose, obj):
+    """img [1,3,h,w], cloud [1,n,3], choose [1,n] -> rotation [n,4], translation [n,3], confidence [n], emb."""
+    n = cloud.shape[1]
+    emb = torch.gather(pspnet(P, img).view(1, 32, -1), 2, choose.view(1, 1, n).repeat(1, 32, 1))
+    return posenet_heads(P, num_obj, emb, cloud, obj) + (emb,)
+
+
+def posenet_heads(P, num_obj, emb, cloud, obj):
+    """PointNet, dense fusion and the heads on the gathered colour embedding emb [1,32,n]."""
+    n = cloud.shape[1]
+    pf1, pf2, g = point_features(P, cloud.transpose(2, 1), emb, False)
+    ap = torch.cat([pf1, pf2, g.repeat(1, 1, n)], 1)
+    heads = []
+    for hd, dims in enumerate((4, 3, 1)):
+        y = ap
+        for layer in range(1, 5):
+            y = c1d(P, f"conv{layer}_{'rtc'[hd]}", y)
+            if layer < 4:
+                y = F.relu(y)
+        if hd == 2:
+            y = torch.sigmoid(y)
+        heads.append(y.view(num_obj, dims, n)[obj].transpose(0, 1))
+    return heads[0], heads[1], heads[2][:, 0]
+
+
+def quat_to_mat(q):
+    """q [..., 4] (w, x, y, z), normalised -> [..., 3, 3]."""
+    q = q / q.norm(dim=-1, keepdim=True)
+    w, x, y, z = q.unbind(-1)
+    return torch.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w),
+                        2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+                        2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1).view(*q.shape[:-1], 3, 3)
+
+
+# ----------------------------------------------------------------------------- data
+def snap(size, image_size):
+    for a, b in zip(BORDERS[:-1], BORDERS[1:]):
+        if a < size < b:
+            size = b
+            break
+    size = (size + 7) // 8 * 8
+    return min(size, image_size // 8 * 8)
+
+
+def place(lo, hi, size, limit):
+    c = (lo + hi) // 2
+    a, b = c - size // 2, c + size // 2
+    if a < 0:
+        a, b = 0, b - a
+    if b > limit:
+        a, b = a - (b - limit), limit
+    return a, b
+
+
+def crop_box(mask):
+    rows, cols = np.where(mask.any(1))[0], np.where(mask.any(0))[0]
+    rmin, rmax, cmin, cmax = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+    r = place(rmin, rmax, snap(rmax - rmin, mask.shape[0]), mask.shape[0])
+    c = place(cmin, cmax, snap(cmax - cmin, mask.shape[1]), mask.shape[1])
+    return r[0], r[1], c[0], c[1]
+
+
+def load_points(path):
+    return np.loadtxt(path, dtype=np.float32)
+
+
+def load_scene(root, min_visib=0.2, min_pixels=50):
+    """Samples of one `orpe synth` dataset: per frame and visible object, its crop and ground truth."""
+    scene = sorted(glob.glob(os.path.join(root, "test", "*")))[0]
+    gt = json.load(open(os.path.join(scene, "scene_gt.json")))
+    info = json.load(open(os.path.join(scene, "scene_gt_info.json")))
+    cams = json.load(open(os.path.join(scene, "scene_camera.json")))
+    samples = []
+    for im in sorted(gt, key=int):
+        rgb = cv2.cvtColor(cv2.imread(os.path.join(scene, "rgb", f"{int(im):06d}.png")), cv2.COLOR_BGR2RGB)
+        raw = cv2.imread(os.path.join(scene, "depth", f"{int(im):06d}.png"), cv2.IMREAD_UNCHANGED)
+        depth = raw.astype(np.float32) * float(cams[im]["depth_scale"]) / 1000.0  # metres
+        K = np.array(cams[im]["cam_K"], np.float64).reshape(3, 3)
+        for k, (g, inf) in enumerate(zip(gt[im], info[im])):
+            if inf["visib_fract"] < min_visib:
+                continue
+            mask = cv2.imread(os.path.join(scene, "mask_visib", f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_GRAYSCALE) > 0
+            valid = mask & (depth > 0)
+            if valid.sum() < min_pixels:
+                continue
+            rmin, rmax, cmin, cmax = crop_box(mask)
+            sub = valid[rmin:rmax, cmin:cmax].reshape(-1).nonzero()[0]
+            crop = (rgb[rmin:rmax, cmin:cmax].astype(np.float32) - MEAN) / STD
+            vs, us = np.divmod(sub, cmax - cmin)
+            z = depth[rmin:rmax, cmin:cmax].reshape(-1)[sub]
+            cloud = np.stack([(us + cmin - K[0, 2]) * z / K[0, 0], (vs + rmin - K[1, 2]) * z / K[1, 1], z], 1)
+            samples.append({"obj_id": g["obj_id"], "crop": np.ascontiguousarray(crop.transpose(2, 0, 1)),
+                            "choose_all": sub, "cloud_all": cloud.astype(np.float32),
+                            "R": np.array(g["cam_R_m2c"], np.float32).reshape(3, 3),
+                            "t": np.array(g["cam_t_m2c"], np.float32) / 1000.0, "frame": int(im)})
+    return samples
+
+
+def choose_points(s, n, rng):
+    m = len(s["choose_all"])
+    idx = np.sort(rng.choice(m, n, replace=False)) if m > n else np.arange(n) % m
+    return s["choose_all"][idx], s["cloud_all"][idx]
+
+
+def tensors(s, n, rng):
+    choose, cloud = choose_points(s, n, rng)
+    return (torch.from_numpy(s["crop"])[None], torch.from_numpy(cloud)[None],
+            torch.from_numpy(choose.astype(np.int64))[None])
+
+
+# ----------------------------------------------------------------------------- loss / metric
+def adds(pred_pts, gt_pts):
+    """Mean over predicted points of the distance to the nearest ground-truth point."""
+    return torch.cdist(pred_pts, gt_pts).min(-1)[0].mean(-1)
+
+
+def loss_fn(rot, trans, conf, cloud, model_pts, R, t, w=0.015):
+    Rs = quat_to_mat(rot)  # [n,3,3]
+    pred = torch.einsum("nij,mj->nmi", Rs, model_pts) + (cloud[0] + trans)[:, None, :]  # [n,m,3]
+    target = model_pts @ R.T + t
+    dis = adds(pred, target[None].expand(pred.shape[0], -1, -1))  # [n]
+    return (dis * conf - w * torch.log(conf)).mean(), dis
+
+
+def best_pose(rot, trans, conf, cloud):
+    i = int(torch.argmax(conf))
+    return quat_to_mat(rot[i]), cloud[0, i] + trans[i]
+
+
+def evaluate(P, num_obj, samples, models, index_of, n, seed=3):
+    rng = np.random.default_rng(seed)
+    out = {"adds": [], "centroid_adds": [], "per_obj": collections.defaultdict(list)}
+    with torch.no_grad():
+        for s in samples:
+            img, cloud, choose = tensors(s, n, rng)
+            obj = index_of[s["obj_id"]]
+            rot, trans, conf, _ = posenet(P, num_obj, img, cloud, choose, obj)
+            R, t = best_pose(rot, trans, conf, cloud)
+            m = models[s["obj_id"]]
+            gt = m @ torch.from_numpy(s["R"]).T + torch.from_numpy(s["t"])
+            d = float(adds((m @ R.T + t)[None], gt[None]))
+            c = float(adds((m + cloud[0].mean(0))[None], gt[None]))  # identity rotation at the centroid
+            out["adds"].append(d)
+            out["centroid_adds"].append(c)
+            out["per_obj"][s["obj_id"]].append(d)
+    return out
+
+
+def summary(name, ev):
+    a = np.array(ev["adds"])
+    c = np.array(ev["centroid_adds"])
+    per = ", ".join(f"obj {k}: {100 * np.mean(v):.1f} cm" for k, v in sorted(ev["per_obj"].items()))
+    return (f"{name}: ADD-S mean {100 * a.mean():.2f} cm, median {100 * np.median(a):.2f} cm, "
+            f"< 2 cm {100 * (a < 0.02).mean():.0f} %, < 1 cm {100 * (a < 0.01).mean():.0f} % ({per}); "
+            f"[baseline: identity rotation at the cloud centroid: mean {100 * c.mean():.2f} cm, "
+            f"< 2 cm {100 * (c < 0.02).mean():.0f} %] over {len(a)} views")
+
+
+# ----------------------------------------------------------------------------- file formats
+def save_orpe(state, path):
+    m = nn.Module()
+    for k, v in state.items():
+        m.register_buffer(k.replace(".", "__"), v.float().contiguous())
+    torch.jit.script(m).save(path)
+
+
+def load_orpe(path, plist):
+    m = torch.jit.load(path)
+    buffers = dict(m.named_buffers())
+    P = Params(plist)
+    with torch.no_grad():
+        for name, shape in plist:
+            P(name).copy_(buffers[name.replace(".", "__")])
+    return P
+
+
+def dataset_models(root):
+    models = {}
+    for f in sorted(glob.glob(os.path.join(root, "models", "obj_*_points.xyz"))):
+        models[int(os.path.basename(f)[4:10])] = torch.from_numpy(load_points(f))
+    return models
+
+
+# ----------------------------------------------------------------------------- commands
+def cmd_selfcheck(args):
+    fx = dict(torch.jit.load(args.fixture).named_buffers())
+    n, num_obj, h, w, obj, seed = [int(v) for v in fx["meta"].tolist()]
+    lines = [l.split() for l in open(os.path.splitext(args.fixture)[0] + ".names.txt") if l.strip()]
+    plist = posenet_parameters(num_obj)
+    assert [l[0] for l in lines[:len(plist)]] == [p[0] for p in plist], "parameter names differ"
+    P = Params(plist)
+    torch.manual_seed(seed)
+    with torch.no_grad():
+        for l in lines[:len(plist)]:  # the fixture's seeded weights, in the reference's order
+            p = P(l[0])
+            std = 1.0 / np.sqrt(p.numel() / p.shape[0]) if p.dim() > 1 else 0.1
+            p.normal_(0.0, float(std))
+        rot, trans, conf, emb = posenet(P, num_obj, fx["img"][None], fx["cloud"][None],
+                                        fx["choose"].long()[None], obj)
+    worst = 0.0
+    for name, ours in (("rotation", rot), ("translation", trans), ("confidence", conf), ("embedding", emb[0])):
+        ref = fx[name]
+        err = float(((ours - ref).abs() / ref.abs().clamp(min=1)).max())
+        worst = max(worst, err)
+        print(f"selfcheck {name}: max relative error {err:.2e}")
+    if worst > 1e-4:
+        sys.exit("selfcheck FAILED: the training network is not the reference's")
+    print("selfcheck ok: the training network equals the reference implementation on the fixture")
+
+
+def cmd_train(args):
+    torch.manual_seed(args.seed)
+    torch.set_num_threads(args.threads)
+    rng = np.random.default_rng(args.seed)
+    train_dirs = [d for d in args.train.split(",") if d]
+    models = dataset_models(train_dirs[0])
+    index_of = {obj_id: i for i, obj_id in enumerate(sorted(models))}
+    num_obj = len(models)
+    t0 = time.time()
+    train = [s for d in train_dirs for s in load_scene(d)]
+    if args.max_views and len(train) > args.max_views:
+        train = [train[i] for i in sorted(rng.choice(len(train), args.max_views, replace=False))]
+    test = load_scene(args.test)[:: args.test_stride]
+    print(f"data: {len(train)} training views from {len(train_dirs)} scenes, {len(test)} held-out views "
+          f"({time.time() - t0:.1f} s); {num_obj} objects", flush=True)
+    loss_models = {k: v[torch.from_numpy(rng.choice(len(v), args.loss_model_points, replace=False))]
+                   for k, v in models.items()}
+    P = Params(posenet_parameters(num_obj))
+    untrained = P.state()
+    save_orpe(untrained, args.out + "_untrained_posenet.pt")
+    ev0 = evaluate(P, num_obj, test, models, index_of, args.eval_points)
+    print(summary("untrained", ev0), flush=True)
+    if args.init:  # continue a run: its weights (the frozen CNN is the same initialisation)
+        P = load_orpe(args.init, posenet_parameters(num_obj))
+        print(summary("start (" + args.init + ")", evaluate(P, num_obj, test, models, index_of, args.eval_points)),
+              flush=True)
+    cnn = [p for name, p in P.p.items() if name.startswith("cnn__")]
+    if not args.train_cnn:  # the colour CNN stays at its initialisation: embeddings computed once
+        for p in cnn:
+            p.requires_grad_(False)
+        t0 = time.time()
+        cache = torch.load(args.cache) if args.cache and os.path.exists(args.cache) else None
+        with torch.no_grad():
+            for i, s in enumerate(train):
+                if cache is not None:
+                    s["pool_emb"], s["pool_cloud"] = cache[i]
+                    del s["crop"]
+                    continue
+                keep = rng.choice(len(s["choose_all"]), min(args.pool, len(s["choose_all"])), replace=False)
+                emb = pspnet(P, torch.from_numpy(s["crop"])[None]).view(32, -1)
+                s["pool_emb"] = emb[:, torch.from_numpy(s["choose_all"][keep].astype(np.int64))].clone()
+                s["pool_cloud"] = torch.from_numpy(s["cloud_all"][keep])
+                del s["crop"]
+        if args.cache and cache is None:
+            torch.save([(s["pool_emb"], s["pool_cloud"]) for s in train], args.cache)
+        print(f"colour embeddings of {len(train)} views (frozen CNN): {time.time() - t0:.0f} s", flush=True)
+    opt = torch.optim.Adam([p for p in P.parameters() if p.requires_grad], lr=args.lr)
+    log = open(args.out + "_loss.txt", "a" if args.init else "w")
+    if not args.init:
+        log.write("# step seconds loss mean_point_adds_m (running means over the last --log-every steps)\n")
+    step, start, acc_l, acc_d = 0, time.time(), 0.0, 0.0
+    while time.time() - start < 60 * args.minutes:
+        s = train[rng.integers(len(train))]
+        obj = index_of[s["obj_id"]]
+        if args.train_cnn:
+            img, cloud, choose = tensors(s, args.points, rng)
+            rot, trans, conf, _ = posenet(P, num_obj, img, cloud, choose, obj)
+        else:
+            m = s["pool_cloud"].shape[0]
+            idx = torch.from_numpy(rng.choice(m, args.points, replace=False) if m > args.points
+                                   else np.arange(args.points) % m)
+            cloud = s["pool_cloud"][idx][None]
+            rot, trans, conf = posenet_heads(P, num_obj, s["pool_emb"][:, idx][None], cloud, obj)
+        loss, dis = loss_fn(rot, trans, conf, cloud, loss_models[s["obj_id"]],
+                            torch.from_numpy(s["R"]), torch.from_numpy(s["t"]))
+        (loss / args.accumulate).backward()
+        step += 1
+        if step % args.accumulate == 0:
+            opt.step()
+            opt.zero_grad()
+        acc_l += float(loss)
+        acc_d += float(dis.mean())
+        if step % args.log_every == 0:
+            line = f"{step} {time.time() - start:.0f} {acc_l / args.log_every:.5f} {acc_d / args.log_every:.5f}"
+            print("step " + line, flush=True)
+            log.write(line + "\n")
+            log.flush()
+            acc_l = acc_d = 0.0
+    trained = P.state()
+    save_orpe(trained, args.out + "_posenet.pt")
+    torch.save(trained, args.out + "_pose_model.pth")
+    ev1 = evaluate(P, num_obj, test, models, index_of, args.eval_points)
+    print(f"trained {step} steps in {time.time() - start:.0f} s")
+    print(summary("untrained", ev0))
+    print(summary("trained", ev1))
+
+
+def cmd_eval(args):
+    models = dataset_models(args.test)
+    num_obj = len(models)
+    index_of = {obj_id: i for i, obj_id in enumerate(sorted(models))}
+    P = load_orpe(args.model, posenet_parameters(num_obj))
+    print(summary(args.model, evaluate(P, num_obj, load_scene(args.test)[:: args.test_stride], models,
+                                       index_of, args.points)))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("selfcheck")
+    c.add_argument("--fixture", default="tests/nets/data/densefusion_small.pt")
+    c.set_defaults(func=cmd_selfcheck)
+    t = sub.add_parser("train")
+    t.add_argument("--train", required=True, help="comma-separated `orpe synth` dataset folders")
+    t.add_argument("--test", required=True, help="held-out `orpe synth` dataset (same --models)")
+    t.add_argument("--out", required=True, help="output prefix")
+    t.add_argument("--minutes", type=float, default=8)
+    t.add_argument("--points", type=int, default=100, help="chosen points per view (pose.densefusion_num_points)")
+    t.add_argument("--train-cnn", action="store_true",
+                   help="train the colour CNN too (a GPU's job); default: frozen at its initialisation")
+    t.add_argument("--init", default="", help="start from this PoseNet file (continue a run)")
+    t.add_argument("--cache", default="", help="frozen CNN: file of the views' embeddings (written once, reused)")
+    t.add_argument("--pool", type=int, default=400, help="frozen CNN: pixels kept per view to choose from")
+    t.add_argument("--max-views", type=int, default=300, help="training views used (0 = all)")
+    t.add_argument("--eval-points", type=int, default=100, help="chosen points per held-out view")
+    t.add_argument("--loss-model-points", type=int, default=100)
+    t.add_argument("--lr", type=float, default=3e-4)
+    t.add_argument("--accumulate", type=int, default=4, help="views per optimiser step")
+    t.add_argument("--log-every", type=int, default=20)
+    t.add_argument("--test-stride", type=int, default=2)
+    t.add_argument("--threads", type=int, default=2)
+    t.add_argument("--seed", type=int, default=1)
+    t.set_defaults(func=cmd_train)
+    e = sub.add_parser("eval")
+    e.add_argument("--model", required=True)
+    e.add_argument("--test", required=True)
+    e.add_argument("--points", type=int, default=100)
+    e.add_argument("--test-stride", type=int, default=2)
+    e.set_defaults(func=cmd_eval)
+    args = p.parse_args()
+    args.func(args)
+
+
+if __name__ == "__main__":
+    main()

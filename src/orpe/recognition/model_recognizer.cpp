@@ -14,8 +14,6 @@
 #include <sstream>
 
 #include "orpe/core/error.h"
-#include "orpe/io/image_io.h"
-#include <cstdlib>
 #include "orpe/pose/model_search.h"
 
 namespace orpe {
@@ -56,6 +54,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("smooth_edge_max_colour_step must be in [0, 256]");
   if (normal_radius_cells < 1 || normal_radius_cells > 10)
     return fail("normal_radius_cells must be in [1, 10]");
+  if (!(resting_bonus >= 0) || !(resting_tolerance_m > 0))
+    return fail("resting_bonus must be >= 0 and resting_tolerance_m > 0");
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
@@ -148,6 +148,7 @@ struct Hypothesis {
   std::vector<int> explained;  // grid cells, sorted
   double support = 0, violation = 0;
   double fit = 0;  // sum over the explained points of 1 - (distance / inlier distance)^2
+  double lowest_m = 0;  // lowest model point's height over the support plane (inf: no plane)
   bool from_track = false;
   int track = -1;
   double rank = 0;
@@ -191,10 +192,13 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   const size_t n = model.points.size();
   const size_t step = std::max<size_t>(1, n / 400);
   int supported = 0, violated = 0, checked = 0, below = 0;
+  h.lowest_m = std::numeric_limits<double>::infinity();
   const float margin = static_cast<float>(p.free_space_margin_m);
   for (size_t k = 0; k < n; k += step) {
     const Vec3f q = R * model.points[k] + t;
     ++checked;
+    if (!g.planes.empty())
+      h.lowest_m = std::min(h.lowest_m, static_cast<double>(g.planes.front().signed_distance(q)));
     if (!g.planes.empty() &&
         g.planes.front().signed_distance(q) < -static_cast<float>(p.below_plane_margin_m)) {
       ++below;
@@ -269,7 +273,6 @@ bool same_colour(const SceneGrid& g, const ColorImage& im, int a, int b, double 
   return d.cwiseAbs().maxCoeff() < static_cast<float>(max_step);
 }
 
-std::vector<int>* g_dbg_leaks = nullptr;  // DEBUG
 struct OutlineTest {
   double leak = 0;     ///< fraction of the outline continuing (unexplained or seamless)
   int seam_with = -1;  ///< the neighbour whose shared edge is most seamless
@@ -351,10 +354,8 @@ OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
         // leans against this one there.
         if (!(p.concave_crease_stops_leak &&
               concave_link(g, normals, static_cast<int>(c), s[0], s[1], p.normal_radius_cells,
-                           crease_cos))) {
+                           crease_cos)))
           ++leaks;
-          if (g_dbg_leaks) g_dbg_leaks->push_back(n);
-        }
         continue;
       }
       const Vec3f& a = normals.at(static_cast<int>(c));
@@ -530,7 +531,11 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
   in.class_id = in.model->class_id;
   if (prior) in.T_cam_obj_prior = *prior;
   const SingleViewPose pose = (prior ? rec.refine_ : rec.search_).estimate(in);
-  if (!pose.valid) return false;
+  if (!pose.valid) {
+    spdlog::trace("recognition: {} on {} points at px {},{}: no pose ({})", in.model->name,
+                  cells.size(), g.pixel_u(cells.front()), g.pixel_v(cells.front()), pose.reason);
+    return false;
+  }
   out->model = mi;
   out->T_cam_obj = pose.T_cam_obj;
   verify(g, frame.depth, K, *in.model, p, *out);
@@ -591,9 +596,11 @@ void ModelRecognizer::Pass::search_regions() {
     for (size_t k = 0; k < tasks.size(); ++k) {
       if (!ok[k]) continue;
       spdlog::trace(
-          "recognition: {} on {} crop points: explains {}, support {:.2f}, violation {:.2f}",
-          rec.models_[found[k].model].name, tasks[k].second.size(), found[k].explained.size(),
-          found[k].support, found[k].violation);
+          "recognition: {} on {} crop points at px {},{}: explains {} (fit {:.0f}), support {:.2f}, "
+          "violation {:.2f}, lowest {:.3f}",
+          rec.models_[found[k].model].name, tasks[k].second.size(),
+          g.pixel_u(tasks[k].second.front()), g.pixel_v(tasks[k].second.front()),
+          found[k].explained.size(), found[k].fit, found[k].support, found[k].violation, found[k].lowest_m);
       hyps.push_back(std::move(found[k]));
     }
     searched.push_back({centroid_world});
@@ -606,7 +613,8 @@ void ModelRecognizer::Pass::search_regions() {
 void ModelRecognizer::Pass::select() {
   for (auto& h : hyps)
     h.rank = (p.rank_by_residual ? h.fit : static_cast<double>(h.explained.size())) *
-             h.support * (h.from_track ? p.track_bonus : 1.0);
+             h.support * (h.from_track ? p.track_bonus : 1.0) *
+             (std::abs(h.lowest_m) < p.resting_tolerance_m ? 1.0 + p.resting_bonus : 1.0);
   std::vector<int> order(hyps.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
@@ -649,21 +657,6 @@ void ModelRecognizer::Pass::reject_clutter() {
         worst_seam = t.seam;
         seam_drop = hyps[static_cast<size_t>(t.seam_with)].rank < hyps[i].rank ? t.seam_with : i;
       }
-    }
-    if (worst >= 0 && std::getenv("ORPE_DBG")) {  // DEBUG
-      std::vector<int> lk;
-      g_dbg_leaks = &lk;
-      boundary_leak(g, frame.color, explained_by, worst, p, normals);
-      g_dbg_leaks = nullptr;
-      ColorImage im(g.width, g.height, Rgb8{0, 0, 0});
-      for (size_t c = 0; c < explained_by.size(); ++c) {
-        if (g.kept[c]) im.at(c % g.width, c / g.width) = {80, 80, 80};
-        if (explained_by[c] >= 0) im.at(c % g.width, c / g.width) = {0, 0, 160};
-        if (explained_by[c] == worst) im.at(c % g.width, c / g.width) = {255, 255, 255};
-      }
-      for (int c : lk) im.at(c % g.width, c / g.width) = {255, 0, 0};
-      static int k = 0;
-      write_color_png(fmt::format("/tmp/r4s/dbg_{:03d}.png", k++), im);
     }
     const bool by_seam = worst < 0;
     if (worst < 0) worst = seam_drop;

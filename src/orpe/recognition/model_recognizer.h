@@ -50,12 +50,14 @@ struct RecognitionParams {
   int max_crops = 5;                  ///< per region and model
   // Verification.
   double inlier_distance_m = 0.01;
-  double inlier_distance_per_m2 = 0.012;  ///< at depth z: max(inlier_distance_m, this x z^2)
+  double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
   double min_support = 0.55;         ///< visible model points on the observed depth, fraction
   double max_violation = 0.15;       ///< model points in free space or below the support, fraction
   int min_explained_points = 25;     ///< grid points a hypothesis must newly explain
+  double resting_bonus = 0.1;         ///< rank x (1 + this) for an object resting on the support
+  double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;  ///< rank by sum of 1 - (d / inlier distance)^2, not the count
   double min_new_fraction = 0.6;     ///< of its explained points not explained by a kept one
   double min_inlier_fraction = 0.5;  ///< of the crop's points the fit explains
@@ -122,6 +124,15 @@ struct RecognitionParams {
       "support");
     v("min_explained_points", min_explained_points,
       "Grid points a hypothesis must newly explain to be kept");
+    v("resting_bonus", resting_bonus,
+      "Objects rest on something: a hypothesis whose lowest model point lies on the support "
+      "plane (within resting_tolerance_m) ranks this fraction higher than one hovering over it "
+      "(a can cut by the image border is explained as well by a 5 mm thinner can 12 mm shorter, "
+      "which floats 11 mm above the table); stacked objects, whose support is not the plane, are "
+      "not tested (they compete with hypotheses of their own points, which rarely reach the "
+      "plane without violating free space); 0 = off");
+    v("resting_tolerance_m", resting_tolerance_m,
+      "Distance (m) of the lowest model point from the support plane under which it rests on it");
     v("rank_by_residual", rank_by_residual,
       "Hypotheses are ranked by how closely they explain their points (sum over the explained "
       "points of 1 - (distance / inlier distance)^2, times the support): of two models of "

@@ -147,7 +147,7 @@ struct Hypothesis {
   SE3 T_cam_obj;
   std::vector<int> explained;  // grid cells, sorted
   double support = 0, violation = 0;
-  double fit = 0;  // sum over the explained points of 1 - (distance / inlier distance)^2
+  double fit = 0;       // sum over the explained points of 1 - (distance / inlier distance)^2
   double lowest_m = 0;  // lowest model point's height over the support plane (inf: no plane)
   bool from_track = false;
   int track = -1;
@@ -228,7 +228,8 @@ float cells_diameter(const SceneGrid& g, const std::vector<int>& cells) {
   for (size_t i = 0; i < cells.size(); i += step) pts.push_back(g.points[cells[i]]);
   float best = 0;
   for (size_t i = 0; i < pts.size(); ++i)
-    for (size_t j = i + 1; j < pts.size(); ++j) best = std::max(best, (pts[i] - pts[j]).squaredNorm());
+    for (size_t j = i + 1; j < pts.size(); ++j)
+      best = std::max(best, (pts[i] - pts[j]).squaredNorm());
   return std::sqrt(best);
 }
 
@@ -240,8 +241,7 @@ bool extents_compatible(const Vec3f& obs, float obs_diameter, const Vec3f& model
                         const ObjectModel& m, const RecognitionParams& p) {
   const float slack = static_cast<float>(p.extent_slack_m);
   if (obs[0] < p.min_extent_factor * model[0]) return false;
-  if (p.extent_test_by_diameter)
-    return obs_diameter <= p.max_extent_factor * m.diameter_m + slack;
+  if (p.extent_test_by_diameter) return obs_diameter <= p.max_extent_factor * m.diameter_m + slack;
   return obs[0] <= p.max_extent_factor * model[0] + slack &&
          obs[1] <= p.max_extent_factor * model[1] + slack;
 }
@@ -352,9 +352,8 @@ OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
       if (explained_by[n] < 0) {
         // Across a concave crease the surface does not continue: another object rests on or
         // leans against this one there.
-        if (!(p.concave_crease_stops_leak &&
-              concave_link(g, normals, static_cast<int>(c), s[0], s[1], p.normal_radius_cells,
-                           crease_cos)))
+        if (!(p.concave_crease_stops_leak && concave_link(g, normals, static_cast<int>(c), s[0],
+                                                          s[1], p.normal_radius_cells, crease_cos)))
           ++leaks;
         continue;
       }
@@ -430,8 +429,8 @@ std::vector<std::vector<int>> region_crops(const SceneGrid& g, const std::vector
     }
     if (static_cast<int>(crop.size()) >= p.min_explained_points &&
         extents_compatible(extents_of(crop),
-                           p.extent_test_by_diameter ? cells_diameter(g, crop) : 0.f,
-                           model_extents, model, p))
+                           p.extent_test_by_diameter ? cells_diameter(g, crop) : 0.f, model_extents,
+                           model, p))
       crops.push_back(std::move(crop));
     next = static_cast<size_t>(std::max_element(dist.begin(), dist.end()) - dist.begin());
     if (dist[next] < spacing) break;
@@ -596,11 +595,13 @@ void ModelRecognizer::Pass::search_regions() {
     for (size_t k = 0; k < tasks.size(); ++k) {
       if (!ok[k]) continue;
       spdlog::trace(
-          "recognition: {} on {} crop points at px {},{}: explains {} (fit {:.0f}), support {:.2f}, "
+          "recognition: {} on {} crop points at px {},{}: explains {} (fit {:.0f}), support "
+          "{:.2f}, "
           "violation {:.2f}, lowest {:.3f}",
           rec.models_[found[k].model].name, tasks[k].second.size(),
           g.pixel_u(tasks[k].second.front()), g.pixel_v(tasks[k].second.front()),
-          found[k].explained.size(), found[k].fit, found[k].support, found[k].violation, found[k].lowest_m);
+          found[k].explained.size(), found[k].fit, found[k].support, found[k].violation,
+          found[k].lowest_m);
       hyps.push_back(std::move(found[k]));
     }
     searched.push_back({centroid_world});
@@ -612,8 +613,8 @@ void ModelRecognizer::Pass::search_regions() {
 /// Greedy selection, best first: a hypothesis is kept when it newly explains enough points.
 void ModelRecognizer::Pass::select() {
   for (auto& h : hyps)
-    h.rank = (p.rank_by_residual ? h.fit : static_cast<double>(h.explained.size())) *
-             h.support * (h.from_track ? p.track_bonus : 1.0) *
+    h.rank = (p.rank_by_residual ? h.fit : static_cast<double>(h.explained.size())) * h.support *
+             (h.from_track ? p.track_bonus : 1.0) *
              (std::abs(h.lowest_m) < p.resting_tolerance_m ? 1.0 + p.resting_bonus : 1.0);
   std::vector<int> order(hyps.size());
   std::iota(order.begin(), order.end(), 0);

@@ -204,8 +204,8 @@ bool concave_link(const SceneGrid& g, GridNormals& normals, int a, int du, int d
                   float min_cos) {
   const int au = a % g.width - radius * du, av = a / g.width - radius * dv;
   const int bu = a % g.width + (radius + 1) * du, bv = a / g.width + (radius + 1) * dv;
-  if (au < 0 || av < 0 || bu < 0 || bv < 0 || au >= g.width || bu >= g.width ||
-      av >= g.height || bv >= g.height)
+  if (au < 0 || av < 0 || bu < 0 || bv < 0 || au >= g.width || bu >= g.width || av >= g.height ||
+      bv >= g.height)
     return false;
   const int ca = g.cell(au, av), cb = g.cell(bu, bv);
   if (!g.kept[ca] || !g.kept[cb]) return false;
@@ -265,7 +265,8 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
   };
   const bool creases = params.concave_edge_min_angle_deg > 0;
   GridNormals normals(g, params.concave_edge_radius_cells);
-  const float min_cos = static_cast<float>(std::cos(params.concave_edge_min_angle_deg * M_PI / 180));
+  const float min_cos =
+      static_cast<float>(std::cos(params.concave_edge_min_angle_deg * M_PI / 180));
   auto joined = [&](int a, int b, int du, int dv) {
     if (!near(a, b)) return false;
     if (!creases) return true;
@@ -277,7 +278,8 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
   // Cells the crease cut left in small fragments join a large region they touch (depth rule).
   std::vector<int> owner(comps.size(), -1);
   for (size_t i = 0; i < comps.size(); ++i)
-    if (static_cast<int>(comps[i].size()) >= params.min_region_points) owner[i] = static_cast<int>(i);
+    if (static_cast<int>(comps[i].size()) >= params.min_region_points)
+      owner[i] = static_cast<int>(i);
   if (creases) {
     std::vector<int> frontier;
     for (size_t c = 0; c < label.size(); ++c)

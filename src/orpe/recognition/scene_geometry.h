@@ -30,8 +30,9 @@ struct SceneGeometryParams {
       0.008;  ///< neighbours closer than this + region_distance_per_m * z join
   double region_distance_per_m = 0.006;
   int min_region_points = 150;  ///< smaller regions are dropped (grid points)
-  double concave_edge_min_angle_deg = 35;  ///< regions split at concave creases this sharp (0 = off)
-  int concave_edge_radius_cells = 3;       ///< normals and crease sides this many cells out
+  double concave_edge_min_angle_deg =
+      35;                             ///< regions split at concave creases this sharp (0 = off)
+  int concave_edge_radius_cells = 3;  ///< normals and crease sides this many cells out
   int seed = 7;
 
   template <class V>

@@ -220,6 +220,18 @@ bool concave_link(const SceneGrid& g, GridNormals& normals, int a, int du, int d
 
 namespace {
 
+/// Calls fn(n, du, dv) for each 4-neighbour n = c + (du, dv) of grid cell c inside the grid.
+template <class F>
+void for_each_neighbour(const SceneGrid& g, int c, F&& fn) {
+  const int gu = c % g.width, gv = c / g.width;
+  const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (const auto& d : nb) {
+    const int uu = gu + d[0], vv = gv + d[1];
+    if (uu < 0 || vv < 0 || uu >= g.width || vv >= g.height) continue;
+    fn(g.cell(uu, vv), d[0], d[1]);
+  }
+}
+
 /// 4-connected components of the kept cells under `joined`.
 std::vector<std::vector<int>> components(const SceneGrid& g,
                                          const std::function<bool(int, int, int, int)>& joined,
@@ -237,19 +249,37 @@ std::vector<std::vector<int>> components(const SceneGrid& g,
       const int c = stack.back();
       stack.pop_back();
       comps[id].push_back(c);
-      const int gu = c % g.width, gv = c / g.width;
-      const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-      for (const auto& d : nb) {
-        const int uu = gu + d[0], vv = gv + d[1];
-        if (uu < 0 || vv < 0 || uu >= g.width || vv >= g.height) continue;
-        const int n = g.cell(uu, vv);
-        if (label[n] >= 0 || !g.kept[n] || !joined(c, n, d[0], d[1])) continue;
+      for_each_neighbour(g, c, [&](int n, int du, int dv) {
+        if (label[n] >= 0 || !g.kept[n] || !joined(c, n, du, dv)) return;
         label[n] = id;
         stack.push_back(n);
-      }
+      });
     }
   }
   return comps;
+}
+
+/// The cells of components under min_region_points (`owner` -1) join the large component they
+/// touch under `near` (breadth first from every large component at once).
+void grow_into_fragments(const SceneGrid& g, const std::vector<int>& label,
+                         const std::vector<int>& owner, const std::function<bool(int, int)>& near,
+                         std::vector<std::vector<int>>& comps) {
+  std::vector<int> frontier;
+  for (size_t c = 0; c < label.size(); ++c)
+    if (label[c] >= 0 && owner[label[c]] >= 0) frontier.push_back(static_cast<int>(c));
+  std::vector<int> assigned(label.size(), -1);
+  for (int c : frontier) assigned[c] = owner[label[c]];
+  while (!frontier.empty()) {
+    std::vector<int> next;
+    for (int c : frontier)
+      for_each_neighbour(g, c, [&](int n, int, int) {
+        if (!g.kept[n] || assigned[n] >= 0 || !near(c, n)) return;
+        assigned[n] = assigned[c];
+        comps[static_cast<size_t>(assigned[c])].push_back(n);
+        next.push_back(n);
+      });
+    frontier = std::move(next);
+  }
 }
 
 }  // namespace
@@ -280,30 +310,7 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
   for (size_t i = 0; i < comps.size(); ++i)
     if (static_cast<int>(comps[i].size()) >= params.min_region_points)
       owner[i] = static_cast<int>(i);
-  if (creases) {
-    std::vector<int> frontier;
-    for (size_t c = 0; c < label.size(); ++c)
-      if (label[c] >= 0 && owner[label[c]] >= 0) frontier.push_back(static_cast<int>(c));
-    std::vector<int> assigned(label.size(), -1);
-    for (int c : frontier) assigned[c] = owner[label[c]];
-    while (!frontier.empty()) {
-      std::vector<int> next;
-      for (int c : frontier) {
-        const int gu = c % g.width, gv = c / g.width;
-        const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-        for (const auto& d : nb) {
-          const int uu = gu + d[0], vv = gv + d[1];
-          if (uu < 0 || vv < 0 || uu >= g.width || vv >= g.height) continue;
-          const int n = g.cell(uu, vv);
-          if (!g.kept[n] || assigned[n] >= 0 || !near(c, n)) continue;
-          assigned[n] = assigned[c];
-          comps[static_cast<size_t>(assigned[c])].push_back(n);
-          next.push_back(n);
-        }
-      }
-      frontier = std::move(next);
-    }
-  }
+  if (creases) grow_into_fragments(g, label, owner, near, comps);
   std::vector<SceneRegion> regions;
   for (size_t i = 0; i < comps.size(); ++i) {
     if (owner[i] < 0) continue;

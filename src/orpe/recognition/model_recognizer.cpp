@@ -33,6 +33,7 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(crop_radius_factor > 0) || !(crop_spacing_factor > 0))
     return fail("crop_radius_factor and crop_spacing_factor must be > 0");
   if (max_crops < 1) return fail("max_crops must be >= 1");
+  if (!(inlier_distance_per_m2 >= 0)) return fail("inlier_distance_per_m2 must be >= 0");
   if (!(inlier_distance_m > 0) || !(free_space_margin_m > 0) || !(below_plane_margin_m > 0))
     return fail("inlier_distance_m, free_space_margin_m, below_plane_margin_m must be > 0");
   for (double f :
@@ -44,6 +45,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("max_boundary_leak must be in [0, 1], boundary_continuation_m > 0");
   if (!(smooth_edge_max_angle_deg >= 0 && smooth_edge_max_angle_deg <= 90))
     return fail("smooth_edge_max_angle_deg must be in [0, 90]");
+  if (!(crease_min_angle_deg > 0 && crease_min_angle_deg < 180))
+    return fail("crease_min_angle_deg must be in (0, 180)");
   if (!(smooth_edge_max_step_m >= 0)) return fail("smooth_edge_max_step_m must be >= 0");
   if (!(max_seam_fraction >= 0 && max_seam_fraction <= 1) || min_seam_pairs < 1)
     return fail("max_seam_fraction must be in [0, 1], min_seam_pairs >= 1");
@@ -51,6 +54,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("smooth_edge_max_colour_step must be in [0, 256]");
   if (normal_radius_cells < 1 || normal_radius_cells > 10)
     return fail("normal_radius_cells must be in [1, 10]");
+  if (!(resting_bonus >= 0) || !(resting_tolerance_m > 0))
+    return fail("resting_bonus must be >= 0 and resting_tolerance_m > 0");
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
@@ -142,6 +147,8 @@ struct Hypothesis {
   SE3 T_cam_obj;
   std::vector<int> explained;  // grid cells, sorted
   double support = 0, violation = 0;
+  double fit = 0;       // sum over the explained points of 1 - (distance / inlier distance)^2
+  double lowest_m = 0;  // lowest model point's height over the support plane (inf: no plane)
   bool from_track = false;
   int track = -1;
   double rank = 0;
@@ -154,6 +161,11 @@ namespace {
 using recognition_detail::Hypothesis;
 using Vec3f = Eigen::Vector3f;
 
+/// The inlier distance at depth z: a triangulating sensor's depth error grows with z^2.
+float inlier_distance_at(const RecognitionParams& p, float z) {
+  return static_cast<float>(std::max(p.inlier_distance_m, p.inlier_distance_per_m2 * z * z));
+}
+
 /// A hypothesis against the whole scene: explained kept cells, support and violations.
 void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics& K,
             const ObjectModel& model, const RecognitionParams& p, Hypothesis& h) {
@@ -161,14 +173,18 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   const Eigen::Matrix3f R_oc = T_obj_cam.rotation().cast<float>();
   const Vec3f t_oc = T_obj_cam.translation().cast<float>();
   const Vec3f centre = (h.T_cam_obj * Vec3::Zero()).cast<float>();
-  const float reach = static_cast<float>(model.diameter_m + p.inlier_distance_m);
-  const float d2 = static_cast<float>(p.inlier_distance_m * p.inlier_distance_m);
+  const float reach = static_cast<float>(model.diameter_m + 2 * p.inlier_distance_m);
   h.explained.clear();
+  h.fit = 0;
   for (size_t c = 0; c < g.kept.size(); ++c) {
     if (!g.kept[c] || (g.points[c] - centre).squaredNorm() > reach * reach) continue;
     float dist2 = 0;
     model.search_index->nearest(R_oc * g.points[c] + t_oc, &dist2);
-    if (dist2 < d2) h.explained.push_back(static_cast<int>(c));
+    const float d_in = inlier_distance_at(p, g.points[c].z());
+    if (dist2 < d_in * d_in) {
+      h.explained.push_back(static_cast<int>(c));
+      h.fit += 1.0 - dist2 / (d_in * d_in);
+    }
   }
   // Visible model points against the observed depth; every model point against the support.
   const Eigen::Matrix3f R = h.T_cam_obj.rotation().cast<float>();
@@ -176,10 +192,13 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   const size_t n = model.points.size();
   const size_t step = std::max<size_t>(1, n / 400);
   int supported = 0, violated = 0, checked = 0, below = 0;
+  h.lowest_m = std::numeric_limits<double>::infinity();
   const float margin = static_cast<float>(p.free_space_margin_m);
   for (size_t k = 0; k < n; k += step) {
     const Vec3f q = R * model.points[k] + t;
     ++checked;
+    if (!g.planes.empty())
+      h.lowest_m = std::min(h.lowest_m, static_cast<double>(g.planes.front().signed_distance(q)));
     if (!g.planes.empty() &&
         g.planes.front().signed_distance(q) < -static_cast<float>(p.below_plane_margin_m)) {
       ++below;
@@ -202,54 +221,30 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
 }
 
-/// Whether observed points with extents `obs` can be a view of a model with extents `model`.
-bool extents_compatible(const Vec3f& obs, const Vec3f& model, const RecognitionParams& p) {
-  const float slack = static_cast<float>(p.extent_slack_m);
-  return obs[0] <= p.max_extent_factor * model[0] + slack &&
-         obs[1] <= p.max_extent_factor * model[1] + slack &&
-         obs[0] >= p.min_extent_factor * model[0];
+/// Largest distance between two of the cells' points (over an even subsample of at most 256).
+float cells_diameter(const SceneGrid& g, const std::vector<int>& cells) {
+  const size_t step = std::max<size_t>(1, cells.size() / 256);
+  std::vector<Vec3f> pts;
+  for (size_t i = 0; i < cells.size(); i += step) pts.push_back(g.points[cells[i]]);
+  float best = 0;
+  for (size_t i = 0; i < pts.size(); ++i)
+    for (size_t j = i + 1; j < pts.size(); ++j)
+      best = std::max(best, (pts[i] - pts[j]).squaredNorm());
+  return std::sqrt(best);
 }
 
-/// Unit normals of the grid's kept cells (plane fit over a window of kept cells within 1 cm of the
-/// centre's depth), computed on demand and cached; zero when the window has too few points.
-class GridNormals {
- public:
-  GridNormals(const SceneGrid& g, int radius)
-      : g_(g), r_(radius), n_(g.points.size()), done_(g.points.size(), 0) {}
-  const Vec3f& at(int c) {
-    if (!done_[c]) {
-      n_[c] = fit(c);
-      done_[c] = 1;
-    }
-    return n_[c];
-  }
-
- private:
-  Vec3f fit(int c) const {
-    const int gu = c % g_.width, gv = c / g_.width;
-    const Vec3f& p = g_.points[c];
-    Eigen::Matrix3f cov = Eigen::Matrix3f::Zero();
-    Vec3f sum = Vec3f::Zero();
-    int n = 0;
-    for (int v = std::max(0, gv - r_); v <= std::min(g_.height - 1, gv + r_); ++v)
-      for (int u = std::max(0, gu - r_); u <= std::min(g_.width - 1, gu + r_); ++u) {
-        const int k = g_.cell(u, v);
-        if (!g_.kept[k] || std::abs(g_.points[k].z() - p.z()) > 0.01f) continue;
-        sum += g_.points[k];
-        cov += g_.points[k] * g_.points[k].transpose();
-        ++n;
-      }
-    if (n < 6) return Vec3f::Zero();
-    const Vec3f mean = sum / static_cast<float>(n);
-    cov = cov / static_cast<float>(n) - mean * mean.transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> es(cov);
-    return es.eigenvectors().col(0).normalized();
-  }
-  const SceneGrid& g_;
-  int r_;
-  std::vector<Vec3f> n_;
-  std::vector<std::uint8_t> done_;
-};
+/// Whether observed points (extents `obs`, largest first, and diameter `obs_diameter`) can be a
+/// view of a model with extents `model`: with extent_test_by_diameter, the points fit in the
+/// model's diameter (any view of the model does, whatever its axes); else their principal extents
+/// fit the model's.
+bool extents_compatible(const Vec3f& obs, float obs_diameter, const Vec3f& model,
+                        const ObjectModel& m, const RecognitionParams& p) {
+  const float slack = static_cast<float>(p.extent_slack_m);
+  if (obs[0] < p.min_extent_factor * model[0]) return false;
+  if (p.extent_test_by_diameter) return obs_diameter <= p.max_extent_factor * m.diameter_m + slack;
+  return obs[0] <= p.max_extent_factor * model[0] + slack &&
+         obs[1] <= p.max_extent_factor * model[1] + slack;
+}
 
 /// Fraction of the outward neighbours (two cells out) of a kept object's explained cells that
 /// continue its surface (kept cells within boundary_continuation_m) without being explained by
@@ -337,6 +332,7 @@ OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
   const float reach = static_cast<float>(p.boundary_continuation_m);
   const float coplanar = static_cast<float>(p.smooth_edge_max_step_m);
   const float min_cos = static_cast<float>(std::cos(p.smooth_edge_max_angle_deg * M_PI / 180.0));
+  const float crease_cos = static_cast<float>(std::cos(p.crease_min_angle_deg * M_PI / 180.0));
   const int steps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
   const std::vector<std::uint8_t> outside = outside_of(g, explained_by, i, p.fill_outline_holes);
   for (size_t c = 0; c < explained_by.size(); ++c) {
@@ -354,7 +350,11 @@ OutlineTest boundary_leak(const SceneGrid& g, const ColorImage& colour,
       if (explained_by[n] >= 0) ++shared[explained_by[n]].first;
       if ((g.points[n] - g.points[c]).norm() >= reach) continue;
       if (explained_by[n] < 0) {
-        ++leaks;
+        // Across a concave crease the surface does not continue: another object rests on or
+        // leans against this one there.
+        if (!(p.concave_crease_stops_leak && concave_link(g, normals, static_cast<int>(c), s[0],
+                                                          s[1], p.normal_radius_cells, crease_cos)))
+          ++leaks;
         continue;
       }
       const Vec3f& a = normals.at(static_cast<int>(c));
@@ -405,8 +405,13 @@ std::vector<std::vector<int>> region_crops(const SceneGrid& g, const std::vector
   spdlog::trace("crops for {}: region extents {:.3f} {:.3f} {:.3f}, model {:.3f} {:.3f} {:.3f}",
                 model.name, whole[0], whole[1], whole[2], model_extents[0], model_extents[1],
                 model_extents[2]);
-  if (whole[0] <= p.max_extent_factor * model_extents[0] + p.extent_slack_m) {
-    if (extents_compatible(whole, model_extents, p)) crops.push_back(cells);
+  const float whole_diameter = p.extent_test_by_diameter ? cells_diameter(g, cells) : 0.f;
+  const bool fits_whole =
+      p.extent_test_by_diameter
+          ? whole_diameter <= p.max_extent_factor * model.diameter_m + p.extent_slack_m
+          : whole[0] <= p.max_extent_factor * model_extents[0] + p.extent_slack_m;
+  if (fits_whole) {
+    if (extents_compatible(whole, whole_diameter, model_extents, model, p)) crops.push_back(cells);
     return crops;
   }
   const double d = model.diameter_m;
@@ -423,7 +428,9 @@ std::vector<std::vector<int>> region_crops(const SceneGrid& g, const std::vector
       if (di < radius) crop.push_back(cells[i]);
     }
     if (static_cast<int>(crop.size()) >= p.min_explained_points &&
-        extents_compatible(extents_of(crop), model_extents, p))
+        extents_compatible(extents_of(crop),
+                           p.extent_test_by_diameter ? cells_diameter(g, crop) : 0.f, model_extents,
+                           model, p))
       crops.push_back(std::move(crop));
     next = static_cast<size_t>(std::max_element(dist.begin(), dist.end()) - dist.begin());
     if (dist[next] < spacing) break;
@@ -523,7 +530,11 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
   in.class_id = in.model->class_id;
   if (prior) in.T_cam_obj_prior = *prior;
   const SingleViewPose pose = (prior ? rec.refine_ : rec.search_).estimate(in);
-  if (!pose.valid) return false;
+  if (!pose.valid) {
+    spdlog::trace("recognition: {} on {} points at px {},{}: no pose ({})", in.model->name,
+                  cells.size(), g.pixel_u(cells.front()), g.pixel_v(cells.front()), pose.reason);
+    return false;
+  }
   out->model = mi;
   out->T_cam_obj = pose.T_cam_obj;
   verify(g, frame.depth, K, *in.model, p, *out);
@@ -584,9 +595,13 @@ void ModelRecognizer::Pass::search_regions() {
     for (size_t k = 0; k < tasks.size(); ++k) {
       if (!ok[k]) continue;
       spdlog::trace(
-          "recognition: {} on {} crop points: explains {}, support {:.2f}, violation {:.2f}",
-          rec.models_[found[k].model].name, tasks[k].second.size(), found[k].explained.size(),
-          found[k].support, found[k].violation);
+          "recognition: {} on {} crop points at px {},{}: explains {} (fit {:.0f}), support "
+          "{:.2f}, "
+          "violation {:.2f}, lowest {:.3f}",
+          rec.models_[found[k].model].name, tasks[k].second.size(),
+          g.pixel_u(tasks[k].second.front()), g.pixel_v(tasks[k].second.front()),
+          found[k].explained.size(), found[k].fit, found[k].support, found[k].violation,
+          found[k].lowest_m);
       hyps.push_back(std::move(found[k]));
     }
     searched.push_back({centroid_world});
@@ -598,8 +613,9 @@ void ModelRecognizer::Pass::search_regions() {
 /// Greedy selection, best first: a hypothesis is kept when it newly explains enough points.
 void ModelRecognizer::Pass::select() {
   for (auto& h : hyps)
-    h.rank =
-        static_cast<double>(h.explained.size()) * h.support * (h.from_track ? p.track_bonus : 1.0);
+    h.rank = (p.rank_by_residual ? h.fit : static_cast<double>(h.explained.size())) * h.support *
+             (h.from_track ? p.track_bonus : 1.0) *
+             (std::abs(h.lowest_m) < p.resting_tolerance_m ? 1.0 + p.resting_bonus : 1.0);
   std::vector<int> order(hyps.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
@@ -685,8 +701,7 @@ void ModelRecognizer::Pass::reject_clutter() {
 
 /// Per kept object, the pixels within the inlier distance of its model (nearest model wins).
 std::vector<Detection> ModelRecognizer::Pass::detections() {
-  const float d_in = static_cast<float>(p.inlier_distance_m);
-  Image<float> best(W, H, d_in);
+  Image<float> best(W, H, std::numeric_limits<float>::infinity());
   Image<int> owner(W, H, -1);
   for (int i : kept) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
@@ -707,7 +722,7 @@ std::vector<Detection> ModelRecognizer::Pass::detections() {
         float dist2 = 0;
         model.search_index->nearest(R * q + t, &dist2);
         const float dist = std::sqrt(dist2);
-        if (dist < best.at(u, v)) {
+        if (dist < inlier_distance_at(p, z) && dist < best.at(u, v)) {
           best.at(u, v) = dist;
           owner.at(u, v) = i;
         }

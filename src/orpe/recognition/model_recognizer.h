@@ -44,22 +44,29 @@ struct RecognitionParams {
   double min_extent_factor = 0.35;  ///< observed largest extent at least this x the model's
   double extent_slack_m = 0.01;
   bool min_area_extents = false;  ///< extents of the least-area rectangle, not the principal axes
-  double crop_radius_factor = 0.55;   ///< crops: region points within this x diameter of a seed
-  double crop_spacing_factor = 0.45;  ///< seeds this x diameter apart (farthest-point sampling)
-  int max_crops = 5;                  ///< per region and model
+  bool extent_test_by_diameter = true;  ///< points fit the model's diameter (any view does)
+  double crop_radius_factor = 0.55;     ///< crops: region points within this x diameter of a seed
+  double crop_spacing_factor = 0.45;    ///< seeds this x diameter apart (farthest-point sampling)
+  int max_crops = 5;                    ///< per region and model
   // Verification.
   double inlier_distance_m = 0.01;
+  double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
-  double min_support = 0.55;         ///< visible model points on the observed depth, fraction
-  double max_violation = 0.15;       ///< model points in free space or below the support, fraction
-  int min_explained_points = 25;     ///< grid points a hypothesis must newly explain
+  double min_support = 0.55;      ///< visible model points on the observed depth, fraction
+  double max_violation = 0.15;    ///< model points in free space or below the support, fraction
+  int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
+  double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
+  double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
+  bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count
   double min_new_fraction = 0.6;     ///< of its explained points not explained by a kept one
   double min_inlier_fraction = 0.5;  ///< of the crop's points the fit explains
   double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
   double max_boundary_leak = 0.25;   ///< outline fraction continuing into unexplained surface
   double boundary_continuation_m = 0.015;
   bool fill_outline_holes = true;  ///< holes enclosed by an object are no part of its outline
+  bool concave_crease_stops_leak = true;  ///< a concave crease at the outline is no continuation
+  double crease_min_angle_deg = 35;       ///< normals this far apart across it
   double smooth_edge_max_angle_deg = 20;  ///< a shared edge without a crease continues the surface
   double smooth_edge_max_step_m =
       0.004;  ///< and the far side within this of the near tangent plane
@@ -90,6 +97,11 @@ struct RecognitionParams {
       "Extents along the two dominant principal axes turned to the bounding rectangle of least "
       "area (on a face close to square the principal axes are the diagonals, whose extents exceed "
       "the sides); false = the principal axes' extents");
+    v("extent_test_by_diameter", extent_test_by_diameter,
+      "Size test of a region (crop) for a model: its diameter (largest distance between two of "
+      "its points) at most max_extent_factor x the model's (+ extent_slack_m), whatever the view "
+      "(a box seen by three faces has principal axes along no edge of it, and its principal "
+      "extents exceed the box's); false = its two largest principal extents against the model's");
     v("crop_radius_factor", crop_radius_factor,
       "Crop of a large region: its points within this x the model diameter of a seed");
     v("crop_spacing_factor", crop_spacing_factor,
@@ -97,6 +109,10 @@ struct RecognitionParams {
     v("max_crops", max_crops, "Crops per region and model");
     v("inlier_distance_m", inlier_distance_m,
       "An observed point within this distance (m) of the model surface is explained");
+    v("inlier_distance_per_m2", inlier_distance_per_m2,
+      "The inlier distance grows with the depth z as max(inlier_distance_m, this x z^2, m): a "
+      "triangulating sensor's depth error grows with z^2 (Kinect-type: quantisation step 2.9 mm "
+      "and noise sigma ~2 mm at 1 m, 3x and 2x at 1.3 m); 0 = inlier_distance_m everywhere");
     v("free_space_margin_m", free_space_margin_m,
       "A visible model point this far (m) in front of the observed depth is a violation");
     v("below_plane_margin_m", below_plane_margin_m,
@@ -108,6 +124,20 @@ struct RecognitionParams {
       "support");
     v("min_explained_points", min_explained_points,
       "Grid points a hypothesis must newly explain to be kept");
+    v("resting_bonus", resting_bonus,
+      "Objects rest on something: a hypothesis whose lowest model point lies on the support "
+      "plane (within resting_tolerance_m) ranks this fraction higher than one hovering over it "
+      "(a can cut by the image border is explained as well by a 5 mm thinner can 12 mm shorter, "
+      "which floats 11 mm above the table); stacked objects, whose support is not the plane, are "
+      "not tested (they compete with hypotheses of their own points, which rarely reach the "
+      "plane without violating free space); 0 = off");
+    v("resting_tolerance_m", resting_tolerance_m,
+      "Distance (m) of the lowest model point from the support plane under which it rests on it");
+    v("rank_by_residual", rank_by_residual,
+      "Hypotheses are ranked by how closely they explain their points (sum over the explained "
+      "points of 1 - (distance / inlier distance)^2, times the support): of two models of "
+      "nearly one size (cans whose radii differ by 4 mm) the one that fits the surface wins, not "
+      "the one whose inlier band happens to hold a few more points; false = the explained count");
     v("min_new_fraction", min_new_fraction,
       "Fraction of a hypothesis' explained points that no kept hypothesis explains");
     v("min_inlier_fraction", min_inlier_fraction,
@@ -125,6 +155,12 @@ struct RecognitionParams {
       "Outline test: cells enclosed by an object's explained cells (depth noise, dents or print "
       "the model does not have) are inside it, not outline; false = every unexplained neighbour "
       "is outline");
+    v("concave_crease_stops_leak", concave_crease_stops_leak,
+      "Outline test: where the surface beyond the outline folds inwards (a concave crease, the "
+      "normals crease_min_angle_deg or more apart), it does not continue the object (another "
+      "object rests on or leans against it there): no leak; false = such cells leak too");
+    v("crease_min_angle_deg", crease_min_angle_deg,
+      "Angle (deg) between the normals of the two sides of a concave crease (outline test)");
     v("smooth_edge_max_angle_deg", smooth_edge_max_angle_deg,
       "Outline test across two kept objects' shared edge: where the surface continues (within "
       "boundary_continuation_m) with normals within this angle (deg), no crease or depth step "

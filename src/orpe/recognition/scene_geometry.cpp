@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -31,6 +32,10 @@ bool SceneGeometryParams::IsValid(std::string* why) const {
   if (!(region_distance_m > 0) || !(region_distance_per_m >= 0))
     return fail("region_distance_m must be > 0 and region_distance_per_m >= 0");
   if (min_region_points < 1) return fail("min_region_points must be >= 1");
+  if (!(concave_edge_min_angle_deg >= 0 && concave_edge_min_angle_deg < 180))
+    return fail("concave_edge_min_angle_deg must be in [0, 180)");
+  if (concave_edge_radius_cells < 1 || concave_edge_radius_cells > 10)
+    return fail("concave_edge_radius_cells must be in [1, 10]");
   return true;
 }
 
@@ -163,19 +168,77 @@ void remove_support_planes(SceneGrid& g, const SceneGeometryParams& params) {
   }
 }
 
-std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& params) {
-  std::fill(g.region.begin(), g.region.end(), -1);
+GridNormals::GridNormals(const SceneGrid& g, int radius)
+    : g_(g), r_(radius), n_(g.points.size()), done_(g.points.size(), 0) {}
+
+const Eigen::Vector3f& GridNormals::at(int c) {
+  if (!done_[c]) {
+    n_[c] = fit(c);
+    done_[c] = 1;
+  }
+  return n_[c];
+}
+
+Eigen::Vector3f GridNormals::fit(int c) const {
+  const int gu = c % g_.width, gv = c / g_.width;
+  const Eigen::Vector3f& p = g_.points[c];
+  Eigen::Matrix3f cov = Eigen::Matrix3f::Zero();
+  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+  int n = 0;
+  for (int v = std::max(0, gv - r_); v <= std::min(g_.height - 1, gv + r_); ++v)
+    for (int u = std::max(0, gu - r_); u <= std::min(g_.width - 1, gu + r_); ++u) {
+      const int k = g_.cell(u, v);
+      if (!g_.kept[k] || std::abs(g_.points[k].z() - p.z()) > 0.01f) continue;
+      sum += g_.points[k];
+      cov += g_.points[k] * g_.points[k].transpose();
+      ++n;
+    }
+  if (n < 6) return Eigen::Vector3f::Zero();
+  const Eigen::Vector3f mean = sum / static_cast<float>(n);
+  cov = cov / static_cast<float>(n) - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> es(cov);
+  return es.eigenvectors().col(0).normalized();
+}
+
+bool concave_link(const SceneGrid& g, GridNormals& normals, int a, int du, int dv, int radius,
+                  float min_cos) {
+  const int au = a % g.width - radius * du, av = a / g.width - radius * dv;
+  const int bu = a % g.width + (radius + 1) * du, bv = a / g.width + (radius + 1) * dv;
+  if (au < 0 || av < 0 || bu < 0 || bv < 0 || au >= g.width || bu >= g.width || av >= g.height ||
+      bv >= g.height)
+    return false;
+  const int ca = g.cell(au, av), cb = g.cell(bu, bv);
+  if (!g.kept[ca] || !g.kept[cb]) return false;
+  Eigen::Vector3f na = normals.at(ca), nb = normals.at(cb);
+  if (na.isZero() || nb.isZero()) return false;
+  if (na.dot(g.points[ca]) > 0) na = -na;
+  if (nb.dot(g.points[cb]) > 0) nb = -nb;
+  if (na.dot(nb) > min_cos) return false;
+  const Eigen::Vector3f d = g.points[cb] - g.points[ca];
+  return (na - nb).dot(d) > 0.25f * d.norm();
+}
+
+namespace {
+
+/// Calls fn(n, du, dv) for each 4-neighbour n = c + (du, dv) of grid cell c inside the grid.
+template <class F>
+void for_each_neighbour(const SceneGrid& g, int c, F&& fn) {
+  const int gu = c % g.width, gv = c / g.width;
+  const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (const auto& d : nb) {
+    const int uu = gu + d[0], vv = gv + d[1];
+    if (uu < 0 || vv < 0 || uu >= g.width || vv >= g.height) continue;
+    fn(g.cell(uu, vv), d[0], d[1]);
+  }
+}
+
+/// 4-connected components of the kept cells under `joined`.
+std::vector<std::vector<int>> components(const SceneGrid& g,
+                                         const std::function<bool(int, int, int, int)>& joined,
+                                         std::vector<int>& label) {
   std::vector<std::vector<int>> comps;
   std::vector<int> stack;
-  auto joined = [&](int a, int b) {
-    if (!g.kept[b]) return false;
-    const float z = g.points[a].z();
-    const float tol =
-        static_cast<float>(params.region_distance_m + params.region_distance_per_m * z) *
-        static_cast<float>(g.stride) * 0.5f;
-    return (g.points[a] - g.points[b]).squaredNorm() < tol * tol;
-  };
-  std::vector<int> label(g.kept.size(), -1);
+  label.assign(g.kept.size(), -1);
   for (int start = 0; start < static_cast<int>(g.kept.size()); ++start) {
     if (!g.kept[start] || label[start] >= 0) continue;
     const int id = static_cast<int>(comps.size());
@@ -186,21 +249,72 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
       const int c = stack.back();
       stack.pop_back();
       comps[id].push_back(c);
-      const int gu = c % g.width, gv = c / g.width;
-      const int nb[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-      for (const auto& d : nb) {
-        const int uu = gu + d[0], vv = gv + d[1];
-        if (uu < 0 || vv < 0 || uu >= g.width || vv >= g.height) continue;
-        const int n = g.cell(uu, vv);
-        if (label[n] >= 0 || !joined(c, n)) continue;
+      for_each_neighbour(g, c, [&](int n, int du, int dv) {
+        if (label[n] >= 0 || !g.kept[n] || !joined(c, n, du, dv)) return;
         label[n] = id;
         stack.push_back(n);
-      }
+      });
     }
   }
+  return comps;
+}
+
+/// The cells of components under min_region_points (`owner` -1) join the large component they
+/// touch under `near` (breadth first from every large component at once).
+void grow_into_fragments(const SceneGrid& g, const std::vector<int>& label,
+                         const std::vector<int>& owner, const std::function<bool(int, int)>& near,
+                         std::vector<std::vector<int>>& comps) {
+  std::vector<int> frontier;
+  for (size_t c = 0; c < label.size(); ++c)
+    if (label[c] >= 0 && owner[label[c]] >= 0) frontier.push_back(static_cast<int>(c));
+  std::vector<int> assigned(label.size(), -1);
+  for (int c : frontier) assigned[c] = owner[label[c]];
+  while (!frontier.empty()) {
+    std::vector<int> next;
+    for (int c : frontier)
+      for_each_neighbour(g, c, [&](int n, int, int) {
+        if (!g.kept[n] || assigned[n] >= 0 || !near(c, n)) return;
+        assigned[n] = assigned[c];
+        comps[static_cast<size_t>(assigned[c])].push_back(n);
+        next.push_back(n);
+      });
+    frontier = std::move(next);
+  }
+}
+
+}  // namespace
+
+std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& params) {
+  std::fill(g.region.begin(), g.region.end(), -1);
+  auto near = [&](int a, int b) {
+    const float z = g.points[a].z();
+    const float tol =
+        static_cast<float>(params.region_distance_m + params.region_distance_per_m * z) *
+        static_cast<float>(g.stride) * 0.5f;
+    return (g.points[a] - g.points[b]).squaredNorm() < tol * tol;
+  };
+  const bool creases = params.concave_edge_min_angle_deg > 0;
+  GridNormals normals(g, params.concave_edge_radius_cells);
+  const float min_cos =
+      static_cast<float>(std::cos(params.concave_edge_min_angle_deg * M_PI / 180));
+  auto joined = [&](int a, int b, int du, int dv) {
+    if (!near(a, b)) return false;
+    if (!creases) return true;
+    // The link a-b is tested in its own direction; (du, dv) points from a to b.
+    return !concave_link(g, normals, a, du, dv, params.concave_edge_radius_cells, min_cos);
+  };
+  std::vector<int> label;
+  std::vector<std::vector<int>> comps = components(g, joined, label);
+  // Cells the crease cut left in small fragments join a large region they touch (depth rule).
+  std::vector<int> owner(comps.size(), -1);
+  for (size_t i = 0; i < comps.size(); ++i)
+    if (static_cast<int>(comps[i].size()) >= params.min_region_points)
+      owner[i] = static_cast<int>(i);
+  if (creases) grow_into_fragments(g, label, owner, near, comps);
   std::vector<SceneRegion> regions;
-  for (auto& cells : comps) {
-    if (static_cast<int>(cells.size()) < params.min_region_points) continue;
+  for (size_t i = 0; i < comps.size(); ++i) {
+    if (owner[i] < 0) continue;
+    std::vector<int>& cells = comps[i];
     SceneRegion r;
     std::sort(cells.begin(), cells.end());
     r.cells = std::move(cells);

@@ -30,6 +30,9 @@ struct SceneGeometryParams {
       0.008;  ///< neighbours closer than this + region_distance_per_m * z join
   double region_distance_per_m = 0.006;
   int min_region_points = 150;  ///< smaller regions are dropped (grid points)
+  double concave_edge_min_angle_deg =
+      35;                             ///< regions split at concave creases this sharp (0 = off)
+  int concave_edge_radius_cells = 3;  ///< normals and crease sides this many cells out
   int seed = 7;
 
   template <class V>
@@ -59,6 +62,14 @@ struct SceneGeometryParams {
     v("region_distance_per_m", region_distance_per_m,
       "Depth-proportional part of the region distance (m per m of depth)");
     v("min_region_points", min_region_points, "Regions with fewer grid points are dropped");
+    v("concave_edge_min_angle_deg", concave_edge_min_angle_deg,
+      "Regions are also split where the surface folds inwards (a concave crease, the normals of "
+      "its two sides at least this angle apart, deg): objects are mostly convex, and where one "
+      "rests on or leans against another the two surfaces meet in a concave crease without a "
+      "depth step; 0 = split at depth steps only");
+    v("concave_edge_radius_cells", concave_edge_radius_cells,
+      "Crease test: the two sides' normals (plane fits over (2 r + 1)^2 cells) taken this many "
+      "grid cells out from the link tested");
     v("seed", seed, "Seed of the RANSAC sampling");
   }
   bool IsValid(std::string* why) const;
@@ -86,13 +97,41 @@ struct SceneRegion {
   float extent_m = 0;  ///< diagonal of the axis-aligned box of its points
 };
 
+/// Unit normals of the grid's kept cells (plane fit over the (2 radius + 1)^2 window's kept cells
+/// within 1 cm of the centre's depth), computed on demand and cached; zero when the window has
+/// fewer than 6 such points. Sign arbitrary.
+class GridNormals {
+ public:
+  GridNormals(const SceneGrid& g, int radius);
+  const Eigen::Vector3f& at(int c);
+
+ private:
+  Eigen::Vector3f fit(int c) const;
+  const SceneGrid& g_;
+  int r_;
+  std::vector<Eigen::Vector3f> n_;
+  std::vector<std::uint8_t> done_;
+};
+
+/// Whether the link from cell a to its neighbour a + (du, dv) crosses a concave crease: the cells
+/// `radius` further out on either side (a - radius (du, dv), a + (radius + 1) (du, dv)), their
+/// normals turned towards the camera with a dot product under `min_cos`, and each side in front
+/// of the other's tangent plane (the surface folds towards the viewer, (n_a - n_b) . (p_b - p_a)
+/// > 0.25 |p_b - p_a|; a convex edge, such as a box's own, folds away). False when a side is
+/// off the grid, not kept or has no normal.
+bool concave_link(const SceneGrid& g, GridNormals& normals, int a, int du, int dv, int radius,
+                  float min_cos);
+
 /// Back-projects every stride-th pixel's depth.
 SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
                           const SceneGeometryParams& params);
 /// Finds and removes support planes (grid.kept, grid.planes). Deterministic.
 void remove_support_planes(SceneGrid& grid, const SceneGeometryParams& params);
-/// Connected regions of the kept cells (4-neighbourhood, split at depth discontinuities); fills
-/// grid.region. Regions under min_region_points are dropped. Sorted by size, largest first.
+/// Connected regions of the kept cells (4-neighbourhood, split at depth discontinuities and, with
+/// concave_edge_min_angle_deg > 0, at concave creases); fills grid.region. The cells next to a
+/// crease that the cut leaves in fragments under min_region_points join the region they touch
+/// (depth rule only); other regions under min_region_points are dropped. Sorted by size, largest
+/// first.
 std::vector<SceneRegion> split_regions(SceneGrid& grid, const SceneGeometryParams& params);
 
 /// Extents (m) of points along their principal axes, largest first. With `min_area`, the two

@@ -310,6 +310,13 @@ TEST(ColourScore, ColourFileRoundTripAndErrors) {
   TriangleMesh plain = mesh;
   plain.texture.reset();
   EXPECT_EQ(model_colour_from_mesh(plain), nullptr);  // nothing to take colour from
+  // One vertex colour everywhere (the YCB meshes without their texture image): no colour either.
+  plain.colors.assign(plain.vertices.size(), Rgb8{192, 192, 192});
+  EXPECT_EQ(model_colour_from_mesh(plain, 500), nullptr);
+  for (size_t i = 0; i < plain.colors.size(); i += 2) plain.colors[i] = Rgb8{40, 40, 40};
+  const auto varied = model_colour_from_mesh(plain, 500);
+  ASSERT_TRUE(varied);
+  EXPECT_EQ(varied->source, "vertex colours");
   ColourScoreParams bad;
   bad.weight = -1;
   EXPECT_FALSE(bad.IsValid(nullptr));

@@ -42,6 +42,7 @@ struct ModelRegistrationParams {
   int coarse_points = 100;
   int coarse_iterations = 8;
   double coarse_max_corr_factor = 0.3;
+  int coarse_grid_cells = 40;
   int refine_top_k = 5;
   int refine_iterations = 25;
   double refine_max_corr_factor = 0.1;
@@ -89,6 +90,10 @@ struct ModelRegistrationParams {
     v("coarse_iterations", coarse_iterations, "ICP iterations per hypothesis in the coarse stage");
     v("coarse_max_corr_factor", coarse_max_corr_factor,
       "Coarse stage: initial association distance as a fraction of the model diameter");
+    v("coarse_grid_cells", coarse_grid_cells,
+      "Coarse stage ICP: nearest model points looked up in a grid of this many cells across the "
+      "model diameter (the nearest point of the cell's centre; the score stays exact); 0 = the "
+      "exact kd-tree");
     v("refine_top_k", refine_top_k, "Distinct best coarse hypotheses refined on all points");
     v("refine_iterations", refine_iterations, "ICP iterations per refined hypothesis");
     v("refine_max_corr_factor", refine_max_corr_factor,

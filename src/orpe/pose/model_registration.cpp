@@ -727,8 +727,10 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
         params.translation_search_occlusion >= 0 && occluded >= params.translation_search_occlusion;
     search(params_, rotations_, reg, cloud, diameter, input, translation_search, refine);
   }
-  const int by_colour =
-      fixed_pose ? -1 : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
+  // The refined prior keeps the caller's mode: colour ranks the modes in the global search only.
+  const int by_colour = fixed_pose || out.from_prior
+                            ? -1
+                            : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
   const auto best =
       by_colour >= 0
           ? refine.begin() + by_colour

@@ -626,7 +626,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
             if (sv.colour_used)
               m.mode_weight =
                   mode_weight_from_colour(sv.colour_margin, params_.pose_ekf.colour_evidence_gain);
-            if (sv.from_prior) m.mode_weight *= pp.prior_mode_weight;  // not an independent vote
+            // A refined prior that inherited its mode is not an independent vote among modes.
+            if (sv.from_prior && !sv.prior_modes_compared) m.mode_weight *= pp.prior_mode_weight;
             const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
             est.ekf_accepted = o.accepted;
             ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);

@@ -534,6 +534,35 @@ void refine_turn_by_colour(const ModelRegistrationParams& params, const Registra
   h = turned;
 }
 
+/// Among `hyps` within colour_geometry_margin of `best_geometry`: each one's colour NCC, and the
+/// index of the best score + colour_weight * NCC; `out` gets the chosen pose's NCC and its lead
+/// over the best other (distinct) candidate.
+int choose_by_colour(const ColourScoreParams& cp, const ObjectModel& model,
+                     const SingleViewInput& input, std::vector<Hypothesis>& hyps,
+                     double best_geometry, SingleViewPose& out) {
+  int chosen = -1;
+  double chosen_rank = -1e9;
+  for (size_t i = 0; i < hyps.size(); ++i) {
+    Hypothesis& h = hyps[i];
+    if (h.score < best_geometry - cp.geometry_margin) continue;
+    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth, *input.mask,
+                                input.intrinsics, cp)
+                   .ncc;
+    const double rank = h.score + cp.weight * h.colour;
+    if (rank > chosen_rank) chosen_rank = rank, chosen = static_cast<int>(i);
+  }
+  const Hypothesis& c = hyps[static_cast<size_t>(chosen)];
+  double other = -1e9;
+  for (const auto& h : hyps)
+    if (h.score >= best_geometry - cp.geometry_margin &&
+        rotation_distance_rad(h.T_cam_obj.rotation(), c.T_cam_obj.rotation()) > 0.3)
+      other = std::max(other, h.colour);
+  out.colour_used = true;
+  out.colour_ncc = c.colour;
+  out.colour_margin = other > -1e8 ? c.colour - other : 0.0;
+  return chosen;
+}
+
 /// Adds the best hypothesis's confusable poses (refined and scored), scores every candidate's
 /// colour and returns the index of the chosen one, or -1 (no colour: keep the geometric choice).
 int rank_by_colour(const ModelRegistrationParams& params, const Registration& reg,
@@ -576,28 +605,7 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
       refine_turn_by_colour(params, reg, cloud, model, input, best_geometry, h);
     }
   }
-  int chosen = -1;
-  double chosen_rank = -1e9;
-  for (size_t i = 0; i < refine.size(); ++i) {
-    Hypothesis& h = refine[i];
-    if (h.score < best_geometry - cp.geometry_margin) continue;
-    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth, *input.mask,
-                                input.intrinsics, cp)
-                   .ncc;
-    const double rank = h.score + cp.weight * h.colour;
-    if (rank > chosen_rank) chosen_rank = rank, chosen = static_cast<int>(i);
-  }
-  // Lead of the chosen pose's colour over the best other (distinct) candidate.
-  const Hypothesis& c = refine[static_cast<size_t>(chosen)];
-  double other = -1e9;
-  for (const auto& h : refine)
-    if (h.score >= best_geometry - cp.geometry_margin &&
-        rotation_distance_rad(h.T_cam_obj.rotation(), c.T_cam_obj.rotation()) > 0.3)
-      other = std::max(other, h.colour);
-  out.colour_used = true;
-  out.colour_ncc = c.colour;
-  out.colour_margin = other > -1e8 ? c.colour - other : 0.0;
-  return chosen;
+  return choose_by_colour(cp, model, input, refine, best_geometry, out);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -617,6 +625,31 @@ bool refine_from_prior(const ModelRegistrationParams& p, const Registration& reg
   *out = h;
   return h.inliers >= p.prior_min_inlier_fraction &&
          h.violation <= p.prior_max_free_space_violation && h.score >= p.prior_min_score;
+}
+
+/// prior_flips: the refined prior's three 180-degree turns about the model's principal axes, each
+/// refined and scored like the prior (in parallel); appended to `hyps`. Then the best is chosen by
+/// score + colour_weight * NCC among those within colour_geometry_margin when the model has colour,
+/// else by score. Returns the index of the chosen hypothesis.
+int compare_prior_modes(const ModelRegistrationParams& p, const Registration& reg,
+                        const SegmentedCloud& cloud, const ObjectModel& model,
+                        const SingleViewInput& input, std::vector<Hypothesis>& hyps,
+                        SingleViewPose& out) {
+  std::vector<SE3> turns = confusable_poses(model, hyps.front().T_cam_obj);
+  turns.resize(std::min<size_t>(turns.size(), 3));  // the principal flips, not the axis turns
+  std::vector<Hypothesis> extra(turns.size());
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < static_cast<int>(turns.size()); ++i)
+    refine_from_prior(p, reg, cloud, model.diameter_m, turns[static_cast<size_t>(i)],
+                      &extra[static_cast<size_t>(i)]);
+  hyps.insert(hyps.end(), extra.begin(), extra.end());
+  int best = 0;
+  for (int i = 1; i < static_cast<int>(hyps.size()); ++i)
+    if (hyps[static_cast<size_t>(i)].score > hyps[static_cast<size_t>(best)].score) best = i;
+  out.prior_modes_compared = true;
+  const ColourScoreParams& cp = p.colour;
+  if (!input.color || input.color->empty() || !has_usable_colour(model, cp)) return best;
+  return choose_by_colour(cp, model, input, hyps, hyps[static_cast<size_t>(best)].score, out);
 }
 
 }  // namespace
@@ -727,10 +760,14 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
         params.translation_search_occlusion >= 0 && occluded >= params.translation_search_occlusion;
     search(params_, rotations_, reg, cloud, diameter, input, translation_search, refine);
   }
-  // The refined prior keeps the caller's mode: colour ranks the modes in the global search only.
-  const int by_colour = fixed_pose || out.from_prior
-                            ? -1
-                            : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
+  // The refined prior keeps the caller's mode (colour ranks the modes in the global search), unless
+  // prior_flips compares it with its turns.
+  const int by_colour =
+      fixed_pose       ? -1
+      : out.from_prior ? (params.prior_flips
+                              ? compare_prior_modes(params_, reg, cloud, *model, input, refine, out)
+                              : -1)
+                       : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
   const auto best =
       by_colour >= 0
           ? refine.begin() + by_colour

@@ -74,6 +74,7 @@ struct ModelRegistrationParams {
   double prior_min_inlier_fraction = 0.7;
   double prior_max_free_space_violation = 0.15;
   double prior_min_score = 0.8;
+  bool prior_flips = false;
 
   template <class V>
   void visit(V&& v) {
@@ -145,6 +146,10 @@ struct ModelRegistrationParams {
       "The refined prior fits when at least this fraction of the points are inliers, ...");
     v("prior_max_free_space_violation", prior_max_free_space_violation,
       "... at most this fraction of the model points violate free space, ...");
+    v("prior_flips", prior_flips,
+      "Fast path: also refine the refined prior turned 180 degrees about each principal axis "
+      "(the modes geometry confuses) the same way and keep the best (score, then colour): the "
+      "choice among those modes is made anew on every view");
     v("prior_min_score", prior_min_score,
       "... and its score reaches this; else the global search runs (prior as one hypothesis)");
   }

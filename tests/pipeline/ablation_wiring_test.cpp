@@ -3,6 +3,10 @@
 // colour. With a recording estimator double (pipeline_test_util.h) on a small synthetic scene.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <map>
 #include <set>
 
 #include "orpe/core/error.h"
@@ -387,6 +391,101 @@ TEST(AblationWiring, SkipRuleSkipsConfidentUnchangedObjectsAndStillReportsThem) 
   EXPECT_EQ(skip.rows, off.rows);  // skipped objects are reported (their fused pose)
   // At most 2 skips in a row: at least a third of the estimates after the first 3 views remain.
   EXPECT_LE(skip.skipped, 2 * (off.calls - skip.skipped) + 2);
+}
+
+/// A single-view double with a prior fast path: given a prior it returns it (from_prior), else it
+/// runs a "global search" whose first `wrong_globals` answers per class are the object turned 180
+/// degrees (a near-symmetric mode), the later ones the truth.
+class PriorModeEstimator final : public SingleViewPoseEstimator {
+ public:
+  struct Shared {
+    std::function<SE3()> T_world_cam;
+    std::map<int, SE3> truth_T_world_obj;
+    int wrong_globals = 2;
+    std::map<int, int> globals;  // per class
+    int from_prior = 0;
+    int longest_prior_run = 0;
+    std::map<int, int> prior_run;  // per class
+  };
+  explicit PriorModeEstimator(std::shared_ptr<Shared> s) : s_(std::move(s)) {}
+  std::string name() const override { return "prior-mode double"; }
+  SingleViewPose estimate(const SingleViewInput& in) const override {
+    SingleViewPose out;
+    out.valid = true;
+    out.score = 0.9;
+    out.mu_m = 0.005;
+    out.num_points = 100;
+    int& run = s_->prior_run[in.class_id];
+    if (in.T_cam_obj_prior) {
+      out.T_cam_obj = *in.T_cam_obj_prior;
+      out.from_prior = true;
+      ++s_->from_prior;
+      s_->longest_prior_run = std::max(s_->longest_prior_run, ++run);
+      return out;
+    }
+    run = 0;
+    const SE3 truth = s_->T_world_cam().inverse() * s_->truth_T_world_obj.at(in.class_id);
+    const bool wrong = s_->globals[in.class_id]++ < s_->wrong_globals;
+    out.T_cam_obj = wrong ? truth * SE3(so3_exp(Vec3(0, 0, M_PI)), Vec3::Zero()) : truth;
+    return out;
+  }
+
+ private:
+  std::shared_ptr<Shared> s_;
+};
+
+TEST(AblationWiring, PriorFastPathLeavesAWrongModeBecauseGlobalSearchesRecurAndPriorsDoNotVote) {
+  // Object-RPE whose first two global searches per object return the object turned 180 degrees,
+  // the later ones the truth. With the rule (pipeline.prior_max_consecutive 2, prior_mode_weight 0)
+  // every third estimate is a global search and the prior-refined ones do not vote, so the filter
+  // ends in the true mode. Without recurring global searches, or with prior estimates voting for
+  // the mode they were refined from, it stays turned.
+  const std::string dir =
+      test::synthetic_scene("prior_modes", test::small_scene_params(160, 120, 16, 3, 5));
+  const auto reader = open_dataset(dir, DatasetParams{});
+  struct Run {
+    int from_prior = 0, longest_prior_run = 0, objects = 0, right_side_at_end = 0;
+  };
+  auto run = [&](int max_consecutive, double mode_weight) {
+    ObjectRpeParams params = wiring_params({"Object-RPE"});
+    params.pipeline.ekf_init_views = 1;
+    params.pipeline.skip_min_fused_views = 0;
+    params.pipeline.ekf_symmetry = "none";  // the turned pose is another mode, never snapped
+    params.pipeline.ekf_prior_hypothesis = true;
+    params.pipeline.prior_max_consecutive = max_consecutive;
+    params.pipeline.prior_mode_weight = mode_weight;
+    ObjectRpePipeline pipeline(params, reader->info());
+    auto shared = std::make_shared<PriorModeEstimator::Shared>();
+    shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
+    pipeline.set_single_view_estimator(std::make_unique<PriorModeEstimator>(shared), false);
+    RgbdFrame last;
+    for (size_t i = 0; i < reader->size(); ++i) {
+      last = reader->read(i);
+      if (i == 0)
+        for (const auto& g : last.objects_gt)
+          shared->truth_T_world_obj[g.class_id] = *last.T_world_cam_gt * g.T_cam_obj;
+      pipeline.process(last);
+    }
+    Run r;
+    r.from_prior = shared->from_prior;
+    r.longest_prior_run = shared->longest_prior_run;
+    for (const auto& row : pipeline.pose_rows(0)) {
+      if (row.im_id != last.index) continue;
+      ++r.objects;
+      const SE3 truth =
+          pipeline.slam().T_world_cam().inverse() * shared->truth_T_world_obj.at(row.obj_id);
+      r.right_side_at_end += (truth.inverse() * row.T_cam_obj).rotation_angle_deg() < 10;
+    }
+    return r;
+  };
+  const Run rule = run(2, 0.0), no_recurring_global = run(1000, 0.0), voting = run(2, 1.0);
+  EXPECT_GT(rule.from_prior, 10);
+  EXPECT_EQ(rule.longest_prior_run, 2);
+  ASSERT_GT(rule.objects, 0);
+  EXPECT_EQ(rule.right_side_at_end, rule.objects);
+  EXPECT_GT(no_recurring_global.longest_prior_run, 2);
+  EXPECT_EQ(no_recurring_global.right_side_at_end, 0);
+  EXPECT_EQ(voting.right_side_at_end, 0);
 }
 
 TEST(AblationWiring, ProjectedMasksRecoverObjectsTheDetectorMissed) {

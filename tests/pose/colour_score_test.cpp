@@ -153,6 +153,36 @@ TEST(ColourScore, EstimatorPicksThePrintedSideAndNotWithoutColour) {
   EXPECT_LT(right_without, n);
 }
 
+TEST(ColourScore, PriorFlipsLetTheFastPathLeaveAFlippedPrior) {
+  // The prior is the box turned 180 degrees (geometrically the same box: the refined prior fits).
+  // Without pose_registration.prior_flips the fast path keeps it (wrong side); with it the prior's
+  // turns are refined too and the print picks the front.
+  const TriangleMesh mesh = printed_box();
+  const ObjectModel model = box_model(mesh, true);
+  ModelRegistrationParams flips;
+  flips.prior_flips = true;
+  const ModelRegistrationEstimator plain, with_flips(flips);
+  int kept_wrong = 0, right = 0, n = 0;
+  for (double yaw : {-0.4, 0.3})
+    for (double pitch : {-0.3, 0.35}) {
+      const SE3 T = front_view(yaw, pitch);
+      const View v = render(mesh, T);
+      SingleViewInput in = input_of(v, model);
+      const std::vector<SE3> turned = confusable_poses(model, T);
+      in.T_cam_obj_prior = turned.front();
+      const SingleViewPose a = plain.estimate(in), b = with_flips.estimate(in);
+      ASSERT_TRUE(a.valid && b.valid);
+      ++n;
+      if (a.from_prior && add_m(model, a.T_cam_obj, T) > 0.03) ++kept_wrong;
+      EXPECT_FALSE(a.prior_modes_compared);
+      EXPECT_TRUE(b.from_prior) << b.report();
+      EXPECT_TRUE(b.prior_modes_compared);
+      right += add_m(model, b.T_cam_obj, T) < 0.01;
+    }
+  EXPECT_EQ(right, n);
+  EXPECT_GT(kept_wrong, 0) << "without the flips the fast path keeps the prior's side";
+}
+
 /// A can (radius 4 cm, 12 cm tall) whose label is the six-tile atlas wrapped around its side.
 TriangleMesh labelled_can() {
   TriangleMesh mesh = make_cylinder(0.04f, 0.12f, 72, 0.01f, UvRect{0.0f, 0.0f, 1.0f, 1.0f},
@@ -310,6 +340,13 @@ TEST(ColourScore, ColourFileRoundTripAndErrors) {
   TriangleMesh plain = mesh;
   plain.texture.reset();
   EXPECT_EQ(model_colour_from_mesh(plain), nullptr);  // nothing to take colour from
+  // One vertex colour everywhere (the YCB meshes without their texture image): no colour either.
+  plain.colors.assign(plain.vertices.size(), Rgb8{192, 192, 192});
+  EXPECT_EQ(model_colour_from_mesh(plain, 500), nullptr);
+  for (size_t i = 0; i < plain.colors.size(); i += 2) plain.colors[i] = Rgb8{40, 40, 40};
+  const auto varied = model_colour_from_mesh(plain, 500);
+  ASSERT_TRUE(varied);
+  EXPECT_EQ(varied->source, "vertex colours");
   ColourScoreParams bad;
   bad.weight = -1;
   EXPECT_FALSE(bad.IsValid(nullptr));

@@ -108,6 +108,31 @@ TEST(ObjectModel, SearchIndexMatchesBruteForce) {
   }
 }
 
+TEST(ObjectModel, GridNearestIsWithinOneCellOfTheExactNearest) {
+  const test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.006f);
+  const ModelSearchIndex index(s.points);
+  const float cell = 0.004f, margin = 0.02f;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-0.08f, 0.08f);
+  int inside = 0, exact = 0;
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Vector3f q(u(rng), u(rng), u(rng));
+    float best = 0, d2 = 0;
+    index.nearest(q, &best);
+    const std::uint32_t j = index.nearest_approx(q, &d2, cell, margin);
+    EXPECT_FLOAT_EQ(d2, (s.points[j] - q).squaredNorm());  // the query's own distance
+    EXPECT_GE(d2, best - 1e-9f);
+    // The returned point is the nearest of the cell's centre, at most half a diagonal away.
+    EXPECT_LE(std::sqrt(d2), std::sqrt(best) + std::sqrt(3.0f) * cell + 1e-6f);
+    const bool in_box = std::abs(q.x()) < 0.03f + margin && std::abs(q.y()) < 0.03f + margin &&
+                        q.z() > -0.04f - margin && q.z() < 0.04f + margin;
+    inside += in_box;
+    exact += d2 == best;
+  }
+  EXPECT_GT(inside, 100);
+  EXPECT_GT(exact, 250);  // most cells have the query's own nearest point
+}
+
 TEST(ObjectModel, DetectsCylinderBoxAndNoSymmetry) {
   const ObjectModel cyl = test::make_model(test::sample_cylinder(0.035f, 0.10f, 0.004f), true);
   EXPECT_EQ(cyl.symmetry.kind(), SymmetryKind::kContinuous) << cyl.symmetry.describe();

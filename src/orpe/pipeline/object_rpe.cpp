@@ -137,7 +137,8 @@ struct ObjectRpePipeline::Track {
   double best_score = -1e9;
   SE3 best_T_world_obj;
   int valid_views = 0;
-  SkipState skip;  // EKF variants
+  SkipState skip;          // EKF variants
+  int prior_in_a_row = 0;  // estimates in a row from the prior (pipeline.prior_max_consecutive)
 };
 
 struct ObjectRpePipeline::VariantState {
@@ -570,8 +571,9 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         }
         track = &t;
       }
-      const bool use_prior =
-          cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf && track->ekf->has_estimate();
+      const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
+                             track->ekf->has_estimate() &&
+                             track->prior_in_a_row < pp.prior_max_consecutive;
       const bool learned = track && track->colour && track->colour->model();
       const auto key =
           std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,
@@ -579,7 +581,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
                           use_prior || learned ? static_cast<int>(vi) : -1);
       auto cached = cache.find(key);
       // The skip rule needs a fused pose, not the prior hypothesis: it holds with
-      // ekf_prior_hypothesis off (the default).
+      // ekf_prior_hypothesis off too.
       const bool fused = cfg.ekf && track && track->ekf && track->ekf->has_estimate();
       const bool skip = fused && !c.report_only &&
                         skip_estimate(track->skip, track->ekf->accepted(), T_world_cam, pp);
@@ -610,6 +612,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
         ++stats_.single_view_estimates;
         stats_.single_view_valid += est.single_view.valid;
         stats_.single_view_from_prior += est.single_view.from_prior;
+        if (track)
+          track->prior_in_a_row = est.single_view.from_prior ? track->prior_in_a_row + 1 : 0;
         cache.emplace(key, est.single_view);
       }
       const SingleViewPose& sv = est.single_view;
@@ -629,6 +633,8 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
             if (sv.colour_used)
               m.mode_weight =
                   mode_weight_from_colour(sv.colour_margin, params_.pose_ekf.colour_evidence_gain);
+            // A refined prior that inherited its mode is not an independent vote among modes.
+            if (sv.from_prior && !sv.prior_modes_compared) m.mode_weight *= pp.prior_mode_weight;
             const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
             est.ekf_accepted = o.accepted;
             ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);

@@ -40,6 +40,9 @@ bool PipelineParams::IsValid(std::string* why) const {
   if (!(skip_max_translation_m >= 0) || !(skip_max_rotation_deg >= 0))
     return fail("skip_max_translation_m and skip_max_rotation_deg must be >= 0");
   if (skip_max_consecutive < 0) return fail("skip_max_consecutive must be >= 0");
+  if (prior_max_consecutive < 0) return fail("prior_max_consecutive must be >= 0");
+  if (!(prior_mode_weight >= 0 && prior_mode_weight <= 10))
+    return fail("prior_mode_weight must be in [0, 10]");
   if (segmentation_delay_frames < 0 || segmentation_delay_frames > 1000)
     return fail("segmentation_delay_frames must be in [0, 1000]");
   if (render_margin_px < 0 || render_margin_px > 10000)

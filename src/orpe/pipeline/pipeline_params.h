@@ -55,13 +55,19 @@ struct PipelineParams {
   /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
   /// object_fusion.h); 1 = from the first measurement (the paper).
   int ekf_init_views = 5;
-  /// Give the single-view estimator the EKF's current pose (moved into the camera) as one more
-  /// hypothesis; with pose_registration.prior_refinement the estimator then refines the prior
-  /// locally and runs the global search only when it does not fit (~30x faster per object). Off by
-  /// default, as in the paper (independent single-view estimates): on, the local refinement keeps
-  /// the mode the filter holds, and Object-RPE's ADD(-S) AUC on the YCB clips fell from 55.1 to
-  /// 47.9 (docs/PIPELINE.md). Turn it on for speed where modes are not ambiguous.
+  /// Prior fast path (EKF variants; a deviation, docs/PIPELINE.md): an object whose filter has a
+  /// state gives the single-view estimator its fused pose, moved into the camera, as the prior;
+  /// with pose_registration.prior_refinement the estimator refines it locally and runs the global
+  /// search only when it does not fit. Rule that keeps the filter's modes honest: at most
+  /// prior_max_consecutive estimates in a row per object come from the prior (the next one is a
+  /// global search, an independent vote), and a prior-refined measurement counts
+  /// prior_mode_weight times a global one in the competition of the filter's modes (0: it refines
+  /// the mode it came from and never votes for it). false = every estimate is a global search (the
+  /// paper). Off by default: on the three YCB clips it lowered Object-RPE's ADD(-S) AUC (per frame
+  /// 66.4 -> 62.9, final 65.4 -> 63.0; one ambiguous box kept its first mode; docs/PIPELINE.md).
   bool ekf_prior_hypothesis = false;
+  int prior_max_consecutive = 2;
+  double prior_mode_weight = 0.0;
   /// Skip rule (EKF variants; a deviation, docs/PIPELINE.md): an object is not re-estimated on an
   /// evaluated frame when its filter has fused at least skip_min_fused_views views, its last
   /// single-view estimate passed the gate, the camera moved less than skip_max_translation_m and
@@ -126,6 +132,12 @@ struct PipelineParams {
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,
       "Give the single-view estimator the EKF pose as a prior: refined locally, the global "
       "search only when it does not fit (pose_registration.prior_*; paper: off)");
+    v("prior_max_consecutive", prior_max_consecutive,
+      "Prior fast path: at most this many estimates in a row per object from the prior; the next "
+      "is a global search (0 = never from the prior)");
+    v("prior_mode_weight", prior_mode_weight,
+      "Prior fast path: weight of a prior-refined measurement in the competition of the EKF's "
+      "modes, relative to a global search's (0 = refines its mode, never votes)");
     v("skip_min_fused_views", skip_min_fused_views,
       "EKF: skip the single-view estimate of an object whose filter fused at least this many "
       "views, whose last estimate passed the gate and whose view barely changed (0 = never skip)");

@@ -141,6 +141,11 @@ std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, in
     out->grey.push_back(grey_of(colours[i]));
     out->weight.push_back(1.0f);
   }
+  // One grey level everywhere (a YCB mesh whose OBJ gives every vertex the same colour, its texture
+  // image not shipped): no evidence about the pose, and it would keep the colour learned from the
+  // map from being used.
+  const auto [lo, hi] = std::minmax_element(out->grey.begin(), out->grey.end());
+  if (lo == out->grey.end() || *hi - *lo < kUniformGreyRange) return nullptr;
   return out;
 }
 

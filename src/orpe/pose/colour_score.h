@@ -93,14 +93,19 @@ inline float grey_of(const Rgb8& c) {
   return (0.299f * c.r + 0.587f * c.g + 0.114f * c.b) / 255.0f;
 }
 
+/// Grey levels of a model colour spanning less than this are one colour (no evidence).
+constexpr float kUniformGreyRange = 2.0f / 255.0f;
+
 /// Samples `samples` points on the textured or vertex-coloured mesh (object frame, metres), with
-/// outward normals from the triangles. nullptr when the mesh has neither texture nor colours.
+/// outward normals from the triangles. nullptr when the mesh has neither texture nor colours, or
+/// when its samples all have the same grey level (within kUniformGreyRange: a mesh with one vertex
+/// colour everywhere says nothing about the pose).
 std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, int samples = 20000,
                                                     unsigned seed = 11);
 
 /// Loads a mesh file (OBJ/PLY, render/mesh_io.h) with its texture and samples its colour as above;
-/// nullptr when the mesh has neither texture nor vertex colours (a missing texture is no warning:
-/// most YCB meshes ship without theirs). Throws IoError for an unreadable mesh.
+/// nullptr when the mesh has neither texture nor varying vertex colours (a missing texture is no
+/// warning: most YCB meshes ship without theirs). Throws IoError for an unreadable mesh.
 std::shared_ptr<ModelColour> load_mesh_colour(const std::string& mesh_path, double metres_per_unit,
                                               int samples = 20000);
 

@@ -29,6 +29,8 @@ bool ModelRegistrationParams::IsValid(std::string* why) const {
   if (coarse_max_corr_factor <= 0 || refine_max_corr_factor <= 0)
     return fail("association distance factors must be > 0");
   if (refine_top_k < 1) return fail("refine_top_k must be >= 1");
+  if (coarse_grid_cells < 0 || coarse_grid_cells > 200)
+    return fail("coarse_grid_cells must be in [0, 200]");
   if (translation_search_occlusion > 1) return fail("translation_search_occlusion must be <= 1");
   if (translation_search_step_factor <= 0 || translation_search_step_factor > 1)
     return fail("translation_search_step_factor must be in (0, 1]");
@@ -160,6 +162,32 @@ float min_depth_at(const ScoringContext& ctx, int u, int v) {
   return std::isfinite(m) ? m : 0.0f;
 }
 
+/// Sums of the point-to-point terms w |p + delta x p + dt - m|^2 (Jacobian [I, -hat(p)] per point),
+/// added to the normal equations at once: J^T J = [[I, -hat p], [hat p, |p|^2 I - p p^T]] and
+/// J^T e = [e; p x e] are linear in w, w p, w p p^T, w e and w p x e.
+struct PointToPointSums {
+  double w = 0;
+  Eigen::Vector3d wp = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d wpp = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d we = Eigen::Vector3d::Zero();
+  Eigen::Vector3d wpxe = Eigen::Vector3d::Zero();
+  void add(double wi, const Eigen::Vector3d& p, const Eigen::Vector3d& e) {
+    w += wi;
+    wp += wi * p;
+    wpp.noalias() += wi * p * p.transpose();
+    we += wi * e;
+    wpxe += wi * p.cross(e);
+  }
+  void add_to(Mat6& H, Vec6& g) const {
+    H.topLeftCorner<3, 3>().diagonal().array() += w;
+    H.topRightCorner<3, 3>() -= hat(wp);
+    H.bottomLeftCorner<3, 3>() += hat(wp);
+    H.bottomRightCorner<3, 3>() += wpp.trace() * Eigen::Matrix3d::Identity() - wpp;
+    g.head<3>() += we;
+    g.tail<3>() += wpxe;
+  }
+};
+
 class Registration {
  public:
   Registration(const ModelRegistrationParams& p, const ObjectModel& model,
@@ -172,15 +200,19 @@ class Registration {
           double corr_end, bool coarse) const {
     const std::vector<Vec3f>& model_subset = coarse ? ctx_.coarse_model_subset : ctx_.model_subset;
     SE3 A = T_cam_obj.inverse();  // T_obj_cam: update A <- exp(delta) A
+    const bool grid = coarse && p_.coarse_grid_cells > 0;
+    const float cell = static_cast<float>(model_.diameter_m / std::max(1, p_.coarse_grid_cells));
+    const float margin = static_cast<float>(p_.coarse_max_corr_factor * model_.diameter_m) + cell;
     for (int it = 0; it < iterations; ++it) {
       const double frac = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
       const double corr = corr_start * std::pow(corr_end / corr_start, frac);
       const float corr2 = static_cast<float>(corr * corr);
       const Mat3f R = A.rotation().cast<float>();
       const Vec3f t = A.translation().cast<float>();
-      const Vec3f cam = t;  // camera centre in the object frame
-      Mat6 H = Mat6::Zero();
+      const Vec3f cam = t;    // camera centre in the object frame
+      Mat6 H = Mat6::Zero();  // point-to-plane part: upper triangle only, mirrored below
       Vec6 g = Vec6::Zero();
+      PointToPointSums p2p;
       int used = 0;
       const double delta = p_.huber_delta_m;
       const double lambda = p_.point_to_point_weight;
@@ -188,7 +220,8 @@ class Registration {
       for (const auto& q : obs) {
         const Vec3f pt = R * q + t;
         float d2 = 0;
-        const std::uint32_t j = index_.nearest(pt, &d2);
+        const std::uint32_t j =
+            grid ? index_.nearest_approx(pt, &d2, cell, margin) : index_.nearest(pt, &d2);
         if (d2 > corr2) continue;
         const Vec3f& n = model_.normals[j];
         const Vec3f& m = model_.points[j];
@@ -204,7 +237,7 @@ class Registration {
         Vec6 J;
         J.head<3>() = nd;
         J.tail<3>() = pd.cross(nd);
-        H.noalias() += w * J * J.transpose();
+        H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
         g.noalias() += w * r * J;
         if (lambda > 0) {
           // Tangential offset beyond half the model's sample spacing: pulls points that overhang
@@ -214,12 +247,7 @@ class Registration {
           if (etn > half_spacing) {
             const Eigen::Vector3d ed = et * (1.0 - half_spacing / etn);
             const double edn = ed.norm();
-            const double w2 = lambda * (edn <= delta ? 1.0 : delta / edn);
-            Eigen::Matrix<double, 3, 6> Jp;
-            Jp.leftCols<3>().setIdentity();
-            Jp.rightCols<3>() = -hat(pd);
-            H.noalias() += w2 * Jp.transpose() * Jp;
-            g.noalias() += w2 * Jp.transpose() * ed;
+            p2p.add(lambda * (edn <= delta ? 1.0 : delta / edn), pd, ed);
           }
         }
         ++used;
@@ -239,15 +267,12 @@ class Registration {
           const Eigen::Vector3d pd = pt.cast<double>();
           const Eigen::Vector3d e = (pt - m).cast<double>();
           const double en = e.norm();
-          const double w = wf * (en <= delta ? 1.0 : delta / en);
-          Eigen::Matrix<double, 3, 6> Jp;
-          Jp.leftCols<3>().setIdentity();
-          Jp.rightCols<3>() = -hat(pd);
-          H.noalias() += w * Jp.transpose() * Jp;
-          g.noalias() += w * Jp.transpose() * e;
+          p2p.add(wf * (en <= delta ? 1.0 : delta / en), pd, e);
         }
       }
       if (used < 6) break;
+      H.triangularView<Eigen::StrictlyLower>() = H.transpose();
+      p2p.add_to(H, g);
       H.diagonal().array() += 1e-6 * (H.diagonal().maxCoeff() + 1e-12);
       const Vec6 step = -H.ldlt().solve(g);
       if (!step.allFinite()) break;
@@ -509,6 +534,35 @@ void refine_turn_by_colour(const ModelRegistrationParams& params, const Registra
   h = turned;
 }
 
+/// Among `hyps` within colour_geometry_margin of `best_geometry`: each one's colour NCC, and the
+/// index of the best score + colour_weight * NCC; `out` gets the chosen pose's NCC and its lead
+/// over the best other (distinct) candidate.
+int choose_by_colour(const ColourScoreParams& cp, const ObjectModel& model,
+                     const SingleViewInput& input, std::vector<Hypothesis>& hyps,
+                     double best_geometry, SingleViewPose& out) {
+  int chosen = -1;
+  double chosen_rank = -1e9;
+  for (size_t i = 0; i < hyps.size(); ++i) {
+    Hypothesis& h = hyps[i];
+    if (h.score < best_geometry - cp.geometry_margin) continue;
+    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth, *input.mask,
+                                input.intrinsics, cp)
+                   .ncc;
+    const double rank = h.score + cp.weight * h.colour;
+    if (rank > chosen_rank) chosen_rank = rank, chosen = static_cast<int>(i);
+  }
+  const Hypothesis& c = hyps[static_cast<size_t>(chosen)];
+  double other = -1e9;
+  for (const auto& h : hyps)
+    if (h.score >= best_geometry - cp.geometry_margin &&
+        rotation_distance_rad(h.T_cam_obj.rotation(), c.T_cam_obj.rotation()) > 0.3)
+      other = std::max(other, h.colour);
+  out.colour_used = true;
+  out.colour_ncc = c.colour;
+  out.colour_margin = other > -1e8 ? c.colour - other : 0.0;
+  return chosen;
+}
+
 /// Adds the best hypothesis's confusable poses (refined and scored), scores every candidate's
 /// colour and returns the index of the chosen one, or -1 (no colour: keep the geometric choice).
 int rank_by_colour(const ModelRegistrationParams& params, const Registration& reg,
@@ -551,28 +605,7 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
       refine_turn_by_colour(params, reg, cloud, model, input, best_geometry, h);
     }
   }
-  int chosen = -1;
-  double chosen_rank = -1e9;
-  for (size_t i = 0; i < refine.size(); ++i) {
-    Hypothesis& h = refine[i];
-    if (h.score < best_geometry - cp.geometry_margin) continue;
-    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth, *input.mask,
-                                input.intrinsics, cp)
-                   .ncc;
-    const double rank = h.score + cp.weight * h.colour;
-    if (rank > chosen_rank) chosen_rank = rank, chosen = static_cast<int>(i);
-  }
-  // Lead of the chosen pose's colour over the best other (distinct) candidate.
-  const Hypothesis& c = refine[static_cast<size_t>(chosen)];
-  double other = -1e9;
-  for (const auto& h : refine)
-    if (h.score >= best_geometry - cp.geometry_margin &&
-        rotation_distance_rad(h.T_cam_obj.rotation(), c.T_cam_obj.rotation()) > 0.3)
-      other = std::max(other, h.colour);
-  out.colour_used = true;
-  out.colour_ncc = c.colour;
-  out.colour_margin = other > -1e8 ? c.colour - other : 0.0;
-  return chosen;
+  return choose_by_colour(cp, model, input, refine, best_geometry, out);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -592,6 +625,31 @@ bool refine_from_prior(const ModelRegistrationParams& p, const Registration& reg
   *out = h;
   return h.inliers >= p.prior_min_inlier_fraction &&
          h.violation <= p.prior_max_free_space_violation && h.score >= p.prior_min_score;
+}
+
+/// prior_flips: the refined prior's three 180-degree turns about the model's principal axes, each
+/// refined and scored like the prior (in parallel); appended to `hyps`. Then the best is chosen by
+/// score + colour_weight * NCC among those within colour_geometry_margin when the model has colour,
+/// else by score. Returns the index of the chosen hypothesis.
+int compare_prior_modes(const ModelRegistrationParams& p, const Registration& reg,
+                        const SegmentedCloud& cloud, const ObjectModel& model,
+                        const SingleViewInput& input, std::vector<Hypothesis>& hyps,
+                        SingleViewPose& out) {
+  std::vector<SE3> turns = confusable_poses(model, hyps.front().T_cam_obj);
+  turns.resize(std::min<size_t>(turns.size(), 3));  // the principal flips, not the axis turns
+  std::vector<Hypothesis> extra(turns.size());
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int i = 0; i < static_cast<int>(turns.size()); ++i)
+    refine_from_prior(p, reg, cloud, model.diameter_m, turns[static_cast<size_t>(i)],
+                      &extra[static_cast<size_t>(i)]);
+  hyps.insert(hyps.end(), extra.begin(), extra.end());
+  int best = 0;
+  for (int i = 1; i < static_cast<int>(hyps.size()); ++i)
+    if (hyps[static_cast<size_t>(i)].score > hyps[static_cast<size_t>(best)].score) best = i;
+  out.prior_modes_compared = true;
+  const ColourScoreParams& cp = p.colour;
+  if (!input.color || input.color->empty() || !has_usable_colour(model, cp)) return best;
+  return choose_by_colour(cp, model, input, hyps, hyps[static_cast<size_t>(best)].score, out);
 }
 
 }  // namespace
@@ -702,8 +760,14 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
         params.translation_search_occlusion >= 0 && occluded >= params.translation_search_occlusion;
     search(params_, rotations_, reg, cloud, diameter, input, translation_search, refine);
   }
+  // The refined prior keeps the caller's mode (colour ranks the modes in the global search), unless
+  // prior_flips compares it with its turns.
   const int by_colour =
-      fixed_pose ? -1 : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
+      fixed_pose       ? -1
+      : out.from_prior ? (params.prior_flips
+                              ? compare_prior_modes(params_, reg, cloud, *model, input, refine, out)
+                              : -1)
+                       : rank_by_colour(params_, reg, cloud, *model, input, refine, out);
   const auto best =
       by_colour >= 0
           ? refine.begin() + by_colour

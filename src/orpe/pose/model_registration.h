@@ -42,6 +42,7 @@ struct ModelRegistrationParams {
   int coarse_points = 100;
   int coarse_iterations = 8;
   double coarse_max_corr_factor = 0.3;
+  int coarse_grid_cells = 40;
   int refine_top_k = 5;
   int refine_iterations = 25;
   double refine_max_corr_factor = 0.1;
@@ -73,6 +74,7 @@ struct ModelRegistrationParams {
   double prior_min_inlier_fraction = 0.7;
   double prior_max_free_space_violation = 0.15;
   double prior_min_score = 0.8;
+  bool prior_flips = false;
 
   template <class V>
   void visit(V&& v) {
@@ -89,6 +91,10 @@ struct ModelRegistrationParams {
     v("coarse_iterations", coarse_iterations, "ICP iterations per hypothesis in the coarse stage");
     v("coarse_max_corr_factor", coarse_max_corr_factor,
       "Coarse stage: initial association distance as a fraction of the model diameter");
+    v("coarse_grid_cells", coarse_grid_cells,
+      "Coarse stage ICP: nearest model points looked up in a grid of this many cells across the "
+      "model diameter (the nearest point of the cell's centre; the score stays exact); 0 = the "
+      "exact kd-tree");
     v("refine_top_k", refine_top_k, "Distinct best coarse hypotheses refined on all points");
     v("refine_iterations", refine_iterations, "ICP iterations per refined hypothesis");
     v("refine_max_corr_factor", refine_max_corr_factor,
@@ -140,6 +146,10 @@ struct ModelRegistrationParams {
       "The refined prior fits when at least this fraction of the points are inliers, ...");
     v("prior_max_free_space_violation", prior_max_free_space_violation,
       "... at most this fraction of the model points violate free space, ...");
+    v("prior_flips", prior_flips,
+      "Fast path: also refine the refined prior turned 180 degrees about each principal axis "
+      "(the modes geometry confuses) the same way and keep the best (score, then colour): the "
+      "choice among those modes is made anew on every view");
     v("prior_min_score", prior_min_score,
       "... and its score reaches this; else the global search runs (prior as one hypothesis)");
   }

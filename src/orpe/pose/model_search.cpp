@@ -1,5 +1,7 @@
 #include "orpe/pose/model_search.h"
 
+#include <algorithm>
+#include <cmath>
 #include <nanoflann.hpp>
 
 namespace orpe {
@@ -39,6 +41,44 @@ std::uint32_t ModelSearchIndex::nearest(const Eigen::Vector3f& query, float* dis
   tree_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams(32, 0.0f, false));
   if (distance_sq) *distance_sq = d2;
   return index;
+}
+
+std::uint32_t ModelSearchIndex::nearest_approx(const Eigen::Vector3f& query, float* distance_sq,
+                                               float cell_m, float margin_m) const {
+  std::call_once(grid_once_, [&] {
+    Eigen::Vector3f lo = points_.front(), hi = points_.front();
+    for (const auto& p : points_) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    const float cell = std::max(cell_m, 1e-4f);
+    const Eigen::Vector3f size = hi - lo + Eigen::Vector3f::Constant(2 * margin_m);
+    // At most ~2M cells (8 MB): a coarser cell for a huge margin.
+    float c = cell;
+    while ((size / c).array().ceil().prod() > 2e6f) c *= 1.25f;
+    Grid g;
+    g.origin = lo - Eigen::Vector3f::Constant(margin_m);
+    g.inv_cell = 1.0f / c;
+    g.nx = std::max(1, static_cast<int>(std::ceil(size.x() / c)));
+    g.ny = std::max(1, static_cast<int>(std::ceil(size.y() / c)));
+    g.nz = std::max(1, static_cast<int>(std::ceil(size.z() / c)));
+    g.nearest.resize(static_cast<size_t>(g.nx) * g.ny * g.nz);
+#pragma omp parallel for schedule(static)
+    for (int z = 0; z < g.nz; ++z)
+      for (int y = 0; y < g.ny; ++y)
+        for (int x = 0; x < g.nx; ++x) {
+          const Eigen::Vector3f centre =
+              g.origin + c * Eigen::Vector3f(x + 0.5f, y + 0.5f, z + 0.5f);
+          float d2 = 0;
+          g.nearest[(static_cast<size_t>(z) * g.ny + y) * g.nx + x] = nearest(centre, &d2);
+        }
+    grid_ = std::move(g);
+  });
+  const Eigen::Vector3f r = (query - grid_.origin) * grid_.inv_cell;
+  const int x = static_cast<int>(std::floor(r.x())), y = static_cast<int>(std::floor(r.y())),
+            z = static_cast<int>(std::floor(r.z()));
+  if (x < 0 || y < 0 || z < 0 || x >= grid_.nx || y >= grid_.ny || z >= grid_.nz)
+    return nearest(query, distance_sq);
+  const std::uint32_t j = grid_.nearest[(static_cast<size_t>(z) * grid_.ny + y) * grid_.nx + x];
+  if (distance_sq) *distance_sq = (points_[j] - query).squaredNorm();
+  return j;
 }
 
 int ModelSearchIndex::knn(const Eigen::Vector3f& query, int k, std::uint32_t* indices,

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 namespace orpe {
@@ -22,6 +23,14 @@ class ModelSearchIndex {
   /// Up to k nearest points, closest first; returns how many were found.
   int knn(const Eigen::Vector3f& query, int k, std::uint32_t* indices, float* distances_sq) const;
 
+  /// Approximate nearest point, for the coarse stages of a search: the nearest point of the centre
+  /// of the query's cell in a grid of cubic cells of `cell_m` over the points' bounding box grown
+  /// by `margin_m` (built on the first call, in parallel; later calls keep the first call's grid).
+  /// A query outside that box gets the exact nearest point. The squared distance is the query's own
+  /// to the returned point (>= the true nearest distance, by at most the cell's diagonal).
+  std::uint32_t nearest_approx(const Eigen::Vector3f& query, float* distance_sq, float cell_m,
+                               float margin_m) const;
+
   size_t size() const { return points_.size(); }
   const std::vector<Eigen::Vector3f>& points() const { return points_; }
 
@@ -29,6 +38,14 @@ class ModelSearchIndex {
   struct Tree;
   std::vector<Eigen::Vector3f> points_;
   std::unique_ptr<Tree> tree_;
+  struct Grid {
+    Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+    float inv_cell = 0;
+    int nx = 0, ny = 0, nz = 0;
+    std::vector<std::uint32_t> nearest;  ///< per cell (x fastest)
+  };
+  mutable std::once_flag grid_once_;
+  mutable Grid grid_;
 };
 
 }  // namespace orpe

@@ -59,6 +59,9 @@ struct SingleViewPose {
   double colour_margin = 0;
   /// The estimate is a local refinement of SingleViewInput::T_cam_obj_prior (no global search).
   bool from_prior = false;
+  /// ... which also refined the prior's near-symmetric turns and took the best: the choice among
+  /// the modes geometry (or colour) confuses was made anew, not inherited from the prior.
+  bool prior_modes_compared = false;
   std::string report() const;
 };
 

@@ -128,6 +128,29 @@ std::vector<int> segment_components(const std::vector<Eigen::Vector3f>& points, 
   return out;
 }
 
+namespace {
+
+std::vector<Eigen::Vector3f> positions(const slam::SurfelMap& map,
+                                       const std::vector<std::int32_t>& idx) {
+  std::vector<Eigen::Vector3f> pts;
+  pts.reserve(idx.size());
+  for (const auto i : idx) pts.push_back(map.position_world[i]);
+  return pts;
+}
+
+/// Surfels touch when closer than the sum of their radii: on a coarse map (low resolution, far
+/// surfaces) the link grows from link_m to twice the median radius of the surfels `idx`.
+float segment_link_m(const slam::SurfelMap& map, const std::vector<std::int32_t>& idx,
+                     float link_m) {
+  std::vector<float> radius;
+  radius.reserve(idx.size());
+  for (const auto i : idx) radius.push_back(map.radius_m[i]);
+  std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
+  return std::max(link_m, 2.0f * radius[radius.size() / 2]);
+}
+
+}  // namespace
+
 int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_fraction,
                              const SE3* T_cam_world, bool clear_always_active) {
   std::map<std::int32_t, std::vector<std::int32_t>> members;
@@ -141,16 +164,8 @@ int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_frac
   }
   int released = 0;
   for (const auto& [id, idx] : members) {
-    std::vector<Eigen::Vector3f> pts;
-    pts.reserve(idx.size());
-    for (const auto i : idx) pts.push_back(map.position_world[i]);
-    // Surfels touch when closer than the sum of their radii: on a coarse map (low resolution, far
-    // surfaces) the link grows to twice the segment's median radius.
-    std::vector<float> radius;
-    radius.reserve(idx.size());
-    for (const auto i : idx) radius.push_back(map.radius_m[i]);
-    std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
-    const float link = std::max(link_m, 2.0f * radius[radius.size() / 2]);
+    const std::vector<Eigen::Vector3f> pts = positions(map, idx);
+    const float link = segment_link_m(map, idx, link_m);
     const std::vector<int> comp = segment_components(pts, link);
     const int n_comp = comp.empty() ? 0 : *std::max_element(comp.begin(), comp.end()) + 1;
     if (n_comp <= 1) continue;
@@ -173,9 +188,7 @@ int release_detached_surfels(slam::SurfelMap& map, float link_m, double min_frac
         if (o != c && !drop[o] && size[o] >= keep && z_min[c] > z_max[o] + link) drop[c] = 1;
     for (size_t k = 0; k < idx.size(); ++k) {
       if (!drop[comp[k]]) continue;
-      map.instance_id[idx[k]] = 0;
-      map.boundary_counter[idx[k]] = 0;
-      if (clear_always_active) map.always_active[idx[k]] = 0;
+      release_surfel(map, idx[k], clear_always_active);
       ++released;
     }
   }
@@ -245,9 +258,7 @@ int release_support_plane_surfels(slam::SurfelMap& map, const std::vector<Suppor
   for (const auto& [id, idx] : on_plane) {
     if (2 * idx.size() >= members.at(id)) continue;  // the instance itself lies flat on the plane
     for (const auto i : idx) {
-      map.instance_id[i] = 0;
-      map.boundary_counter[i] = 0;
-      if (clear_always_active) map.always_active[i] = 0;
+      release_surfel(map, i, clear_always_active);
       ++released;
     }
   }
@@ -303,17 +314,11 @@ int release_unconfirmed_surfels(slam::SurfelMap& map, float link_m, bool clear_a
   for (const auto& [id, idx] : once) {
     const auto c = confirmed.find(id);
     if (c == confirmed.end()) continue;
-    std::vector<Eigen::Vector3f> pts;
-    std::vector<float> radius;
-    for (const auto i : c->second)
-      pts.push_back(map.position_world[i]), radius.push_back(map.radius_m[i]);
-    std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
-    const NearQuery confirmed_surface(pts, std::max(link_m, 2.0f * radius[radius.size() / 2]));
+    const std::vector<Eigen::Vector3f> pts = positions(map, c->second);
+    const NearQuery confirmed_surface(pts, segment_link_m(map, c->second, link_m));
     for (const auto i : idx) {
       if (!confirmed_surface.near(map.position_world[i])) continue;  // new surface: kept
-      map.instance_id[i] = 0;
-      map.boundary_counter[i] = 0;
-      if (clear_always_active) map.always_active[i] = 0;
+      release_surfel(map, i, clear_always_active);
       ++released;
     }
   }

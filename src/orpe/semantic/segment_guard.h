@@ -13,9 +13,8 @@
 //    within the plane's own noise and oriented like it, are released (the table just past a
 //    small object's silhouette is continuous in depth with it, so neither guard above sees it).
 //  - release_unconfirmed_surfels: a surfel fused in one frame only, next to the instance's
-//  confirmed
-//    surface, is a measurement that disagreed with that surface (else it would have been fused into
-//    it); at the end of a run it does not count as part of the object's segment.
+//    confirmed surface, is a measurement that disagreed with that surface (else it would have been
+//    fused into it); at the end of a run it does not count as part of the object's segment.
 #pragma once
 
 #include <cstdint>
@@ -27,6 +26,14 @@
 #include "orpe/slam/surfel_map.h"
 
 namespace orpe {
+
+/// Surfel i leaves its instance (background again): label and boundary count cleared, and
+/// always_active too when `clear_always_active`. Every guard and instance removal releases so.
+inline void release_surfel(slam::SurfelMap& map, size_t i, bool clear_always_active) {
+  map.instance_id[i] = 0;
+  map.boundary_counter[i] = 0;
+  if (clear_always_active) map.always_active[i] = 0;
+}
 
 /// For every label L > 0 of `labels`: a pixel of L within `band_px` (Chebyshev) of a pixel that is
 /// not L, with valid depth z, is dropped (label 0, probability 0) when some pixel of L within

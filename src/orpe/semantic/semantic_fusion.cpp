@@ -221,11 +221,7 @@ std::map<int, InstanceInfo> SemanticFusion::confirmed_instances() const {
 
 void SemanticFusion::remove_instance(int id, slam::SurfelMap& map) {
   for (size_t i = 0; i < map.size(); ++i)
-    if (map.instance_id[i] == id) {
-      map.instance_id[i] = 0;
-      map.boundary_counter[i] = 0;
-      if (params_.always_active_objects) map.always_active[i] = 0;
-    }
+    if (map.instance_id[i] == id) release_surfel(map, i, params_.always_active_objects);
   instances_.erase(id);
 }
 

@@ -2,7 +2,8 @@
 // PoseNet, 2 refiner passes, mu) on YCB-Video frames with ground-truth masks, beside the `model`
 // back-end (ModelRegistrationEstimator, no prior) on the same inputs in the same run. Seeded
 // untrained DenseFusion weights (21 classes): the time does not depend on their values.
-//   orpe_bench_densefusion_backend_speed [--data DIR] [--video 0000] [--frames 2]
+//   orpe_bench_densefusion_backend_speed [--data DIR (the shared data root)] [--video 0000]
+//   [--frames 2]
 //       [--points 1000] [--iterations 2]
 #include <algorithm>
 #include <chrono>
@@ -28,22 +29,13 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data = orpe::bench::shared_data_dir() + "/ycbv", video = "0000";
-  int frames = 2, points = 1000, iterations = 2;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string a = argv[i], v = argv[i + 1];
-    if (a == "--data")
-      data = v;
-    else if (a == "--video")
-      video = v;
-    else if (a == "--frames")
-      frames = std::stoi(v);
-    else if (a == "--points")
-      points = std::stoi(v);
-    else if (a == "--iterations")
-      iterations = std::stoi(v);
-  }
   try {
+    const orpe::bench::BenchArgs args = orpe::bench::parse_bench_args(
+        argc, argv, {"--video", "--frames", "--points", "--iterations"});
+    const std::string data = args.data + "/ycbv", video = args.get("--video", "0000");
+    const int frames = static_cast<int>(args.number("--frames", 2));
+    const int points = static_cast<int>(args.number("--points", 1000));
+    const int iterations = static_cast<int>(args.number("--iterations", 2));
     orpe::DatasetParams dp;
     dp.format = "ycbv";
     dp.scene = video;

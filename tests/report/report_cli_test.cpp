@@ -56,7 +56,7 @@ TEST(ReportCli, SyntheticRunGivesAPageABrowserShows) {
       << "see " << dir << "/run.log";
   const std::string text = check_report(run, "--keyframes 3", 4 + 3 * 2);
   for (const char* section : {"Camera trajectory", "ADD-S accuracy-threshold curve", "Tracking state",
-                              "Reconstruction error per object", "Provenance", "orpe run --dataset"})
+                              "Reconstruction error per object", "Provenance", " run --dataset "})
     EXPECT_NE(text.find(section), std::string::npos) << section;
   ORPE_REQUIRE_BROWSER();
   check_in_browser(run + "/report/index.html", test::image_sources(run + "/report/index.html").size());

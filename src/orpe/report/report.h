@@ -22,8 +22,8 @@ struct ReportOptions {
   std::string dataset;         ///< the dataset; empty = summary.json's dataset.path
   std::string out_dir;         ///< empty = RUN/report
   int max_keyframes = 6;       ///< keyframe pictures: at most this many, spread over the run
-  int view_width_px = 800;     ///< size of the map pictures
-  int view_height_px = 600;
+  int view_width_px = 640;     ///< size of the map pictures (two side by side on a wide screen)
+  int view_height_px = 480;
 };
 
 struct ReportResult {

@@ -37,20 +37,27 @@ std::vector<WorldLabel> instance_labels(const PointCloudData& cloud, const Repor
 
 /// Two views of one map (from the first camera's side and from higher up), with the path drawn.
 std::string map_views(ReportContext& c, const slam::SurfelMap& map, const std::string& name,
-                      const std::string& what, const std::vector<WorldLabel>& labels) {
+                      const std::string& what, const std::vector<WorldLabel>& labels,
+                      bool include_path) {
   const SE3 first = c.run.trajectory.front().T_world_cam;
+  std::vector<Vec3> cameras;
+  if (include_path)
+    for (const auto& p : c.run.trajectory) cameras.push_back(p.T_world_cam.translation());
   std::string s = "<div class=\"row\">\n";
   const std::pair<double, const char*> views[] = {{25, "side"}, {65, "high"}};
   for (const auto& [elevation, tag] : views) {
-    const SceneView view = framing_view(map, first, elevation, c.options.view_width_px, c.options.view_height_px);
+    // The high view also holds the camera path; the side view is the closest view of the map.
+    const SceneView view = framing_view(map, first, elevation, c.options.view_width_px,
+                                        c.options.view_height_px,
+                                        elevation > 45 ? cameras : std::vector<Vec3>{});
     const std::string src = c.save_image(fmt::format("{}_{}.png", name, tag), render_scene(map, view));
     std::string svg = camera_path_svg(c.run.trajectory, view);
     svg += labels_svg(labels, view);
     s += overlaid_image_html(src, svg, view,
                              fmt::format("{} seen from {} ({} deg above the first camera's view "
-                                         "direction); camera path in blue, start green, end red",
+                                         "direction{}); camera path in blue, start green, end red",
                                          what, tag == std::string("side") ? "the first camera's side" : "higher up",
-                                         elevation));
+                                         elevation, include_path && elevation > 45 ? ", framing the camera path too" : ""));
   }
   return s + "</div>\n";
 }
@@ -62,13 +69,16 @@ std::string maps_section(ReportContext& c) {
   if (!c.run.has("map.ply")) return note_html("the run has no map.ply");
   const PointCloudData cloud = read_point_cloud_ply(c.run.file("map.ply"));
   if (cloud.size() == 0) return note_html("map.ply holds no surfel");
-  s += map_views(c, surfel_map_from_cloud(cloud, false), "map", "Surfel map (map.ply)", {});
+  s += map_views(c, surfel_map_from_cloud(cloud, false), "map", "Surfel map (map.ply)",
+                {}, true);
   if (!c.run.has("semantic_map.ply")) return s + note_html("no semantic map (mode slam)");
   const PointCloudData sem = read_semantic_map_ply(c.run.file("semantic_map.ply"));
   slam::SurfelMap smap = surfel_map_from_cloud(sem, true);
   colour_by_instance(smap);
-  s += map_views(c, smap, "semantic", "Semantic map, instances in colour (framed on the objects)",
-                 instance_labels(sem, c));
+  s += map_views(c, smap, "semantic",
+                 "Semantic map (semantic_map.ply), each instance in its own colour, framed on the "
+                 "objects",
+                 instance_labels(sem, c), false);
   return s;
 }
 

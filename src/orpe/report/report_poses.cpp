@@ -90,11 +90,14 @@ std::string keyframe_pictures(ReportContext& c, ModelMeshes& meshes, size_t pos,
   }
   std::string s = "<div class=\"row\">\n";
   const std::string base = fmt::format("frame_{:06d}", frame.index);
+  const int shown_width = std::max(480, frame.color.width());  // small synthetic frames enlarged
   s += html_image(c.save_image(base + "_estimate.png", draw_model_overlays(frame.color, frame.intrinsics, est)),
-                  fmt::format("frame {}: {} estimated poses (poses.csv)", frame.index, est.size()));
+                  fmt::format("frame {}: {} estimated poses (poses.csv)", frame.index, est.size()),
+                  shown_width);
   if (!frame.objects_gt.empty())
     s += html_image(c.save_image(base + "_ground_truth.png", draw_model_overlays(frame.color, frame.intrinsics, gt)),
-                    fmt::format("frame {}: ground truth ({} objects in view)", frame.index, gt.size()));
+                    fmt::format("frame {}: ground truth ({} objects in view)", frame.index, gt.size()),
+                    shown_width);
   return s + "</div>\n";
 }
 

@@ -141,6 +141,7 @@ std::string stage_time_svg(const std::vector<FrameLogRecord>& frames) {
   o.x_label = "frame";
   o.y_label = "ms";
   o.y_min = 0;
+  o.width_px = 800;
   return svg_plot(s, o);
 }
 

@@ -48,12 +48,14 @@ void colour_by_instance(slam::SurfelMap& map) {
 }
 
 SceneView framing_view(const slam::SurfelMap& map, const SE3& first_camera, double elevation_deg,
-                       int width_px, int height_px) {
+                       int width_px, int height_px, const std::vector<Vec3>& also_include) {
   SceneView v;
   v.K.width = width_px, v.K.height = height_px;
   v.K.fx = v.K.fy = 0.8 * width_px;
   v.K.cx = (width_px - 1) / 2.0, v.K.cy = (height_px - 1) / 2.0;
-  const Eigen::AlignedBox3d box = slam::map_focus_box(map, 0.0f);
+  Eigen::AlignedBox3d box = slam::map_focus_box(map, 0.0f);
+  if (!box.isEmpty())
+    for (const auto& p : also_include) box.extend(p);
   v.T_world_cam = box.isEmpty() ? slam::overview_pose(map, first_camera, 0.0f, 1.5, 0.6)
                                 : slam::framing_pose(box, first_camera, v.K, elevation_deg);
   return v;

@@ -32,10 +32,11 @@ slam::SurfelMap surfel_map_from_cloud(const PointCloudData& cloud, bool keep_ins
 void colour_by_instance(slam::SurfelMap& map);
 
 /// A view of the map's focus box (slam::map_focus_box: the objects' surfels when there are any,
-/// else the whole map) from the side of `first_camera`, `elevation_deg` above its viewing direction.
+/// else the whole map), grown to hold `also_include` (e.g. the camera centres, so that the path is
+/// in the picture), from the side of `first_camera`, `elevation_deg` above its viewing direction.
 /// Falls back to a view from behind the first camera for a map too small to have a box.
 SceneView framing_view(const slam::SurfelMap& map, const SE3& first_camera, double elevation_deg,
-                       int width_px, int height_px);
+                       int width_px, int height_px, const std::vector<Vec3>& also_include = {});
 
 /// The map as seen from `view` (surfel colours, headlight shading, white background).
 ColorImage render_scene(const slam::SurfelMap& map, const SceneView& view);

@@ -146,18 +146,30 @@ std::string series_svg(const PlotSeries& s, const Frame& f) {
   return out;
 }
 
-std::string legend_svg(const std::vector<PlotSeries>& series, const Frame& f) {
+std::vector<const PlotSeries*> named_series(const std::vector<PlotSeries>& series) {
   std::vector<const PlotSeries*> named;
   for (const auto& s : series)
     if (!s.name.empty()) named.push_back(&s);
-  if (named.empty()) return {};
+  return named;
+}
+
+/// Width of the legend box (px), 0 without named series.
+double legend_width(const std::vector<PlotSeries>& series) {
   size_t longest = 0;
+  const auto named = named_series(series);
   for (const auto* s : named) longest = std::max(longest, s->name.size());
-  const double w = 30 + 6.5 * static_cast<double>(longest), h = 16.0 * named.size() + 6;
-  const double x0 = kLeft + f.w - w - 6, y0 = kTop + 6;
+  return named.empty() ? 0 : 30 + 6.2 * static_cast<double>(longest);
+}
+
+/// The legend, right of the plot area (so that it never hides data).
+std::string legend_svg(const std::vector<PlotSeries>& series, const Frame& f) {
+  const auto named = named_series(series);
+  if (named.empty()) return {};
+  const double w = legend_width(series), h = 16.0 * named.size() + 6;
+  const double x0 = kLeft + f.w + 8, y0 = kTop;
   std::string out = fmt::format(
       "<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" fill=\"white\" "
-      "fill-opacity=\"0.85\" stroke=\"#bbb\"/>\n",
+      "stroke=\"#bbb\"/>\n",
       x0, y0, w, h);
   for (size_t i = 0; i < named.size(); ++i) {
     const double y = y0 + 14 + 16.0 * i;
@@ -165,7 +177,8 @@ std::string legend_svg(const std::vector<PlotSeries>& series, const Frame& f) {
         "<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" stroke=\"{}\" "
         "stroke-width=\"3\"{}/><text x=\"{:.1f}\" y=\"{:.1f}\">{}</text>\n",
         x0 + 5, y - 4, x0 + 22, y - 4, css_colour(named[i]->colour),
-        named[i]->dashed ? " stroke-dasharray=\"5 3\"" : "", x0 + 26, y, html_escape(named[i]->name));
+        named[i]->dashed ? " stroke-dasharray=\"5 3\"" : "", x0 + 26, y,
+        html_escape(named[i]->name));
   }
   return out;
 }
@@ -190,8 +203,8 @@ std::vector<double> nice_ticks(double lo, double hi, int count) {
       break;
     }
   std::vector<double> ticks;
-  for (double v = std::ceil(lo / step - 1e-9) * step; v <= hi + step * 1e-9; v += step)
-    ticks.push_back(v);
+  const double first = std::ceil(lo / step - 1e-9);
+  for (double k = first; k * step <= hi + step * 1e-9; k += 1) ticks.push_back(k == 0 ? 0.0 : k * step);
   return ticks;
 }
 
@@ -206,7 +219,8 @@ std::string css_colour(Rgb8 c) { return fmt::format("#{:02x}{:02x}{:02x}", c.r, 
 
 std::string svg_plot(const std::vector<PlotSeries>& series, const PlotOptions& o) {
   Frame f;
-  f.w = std::max(40.0, o.width_px - kLeft - kRight);
+  const double legend = legend_width(series);
+  f.w = std::max(40.0, o.width_px - kLeft - kRight - (legend > 0 ? legend + 8 : 0));
   f.h = std::max(40.0, o.height_px - kTop - kBottom);
   f.x = axis_range(series, true, o.x_min, o.x_max);
   f.y = axis_range(series, false, o.y_min, o.y_max);

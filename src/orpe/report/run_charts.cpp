@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 
+#include "orpe/io/point_cloud_io.h"
 #include "orpe/report/svg_plot.h"
 
 namespace orpe::report {
@@ -113,8 +114,8 @@ std::string accuracy_curves_svg(const PoseEvaluation& ev, bool add_or_adds, doub
     }
     series.push_back(p);
   };
-  for (size_t i = 0; i < ev.classes.size(); ++i)
-    curve(ev.classes[i].class_id, ev.classes[i].name, series_colour(static_cast<int>(i)));
+  // Class colours as in the keyframe pictures and the objects table (label_color of the class id).
+  for (const auto& cls : ev.classes) curve(cls.class_id, cls.name, label_color(cls.class_id));
   curve(-1, "ALL", {0, 0, 0});
   series.back().width_px = 2.6;
   PlotOptions o;

@@ -158,7 +158,7 @@ double legend_width(const std::vector<PlotSeries>& series) {
   size_t longest = 0;
   const auto named = named_series(series);
   for (const auto* s : named) longest = std::max(longest, s->name.size());
-  return named.empty() ? 0 : 30 + 6.2 * static_cast<double>(longest);
+  return named.empty() ? 0 : 32 + 6.8 * static_cast<double>(longest);
 }
 
 /// The legend, right of the plot area (so that it never hides data).

@@ -4,12 +4,14 @@
 #include <spdlog/spdlog.h>
 
 #include <filesystem>
+#include <set>
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 #include "orpe/io/image_io.h"
 #include "orpe/report/html.h"
 #include "orpe/report/report_context.h"
+#include "orpe/report/svg_plot.h"
 
 namespace orpe::report {
 namespace fs = std::filesystem;
@@ -46,7 +48,25 @@ std::string ReportContext::class_name(int class_id) const {
   return std::to_string(class_id);
 }
 
+Rgb8 ReportContext::class_colour(int class_id) const {
+  const auto it = class_colours.find(class_id);
+  return it != class_colours.end() ? it->second : Rgb8{128, 128, 128};
+}
+
 namespace {
+
+/// ReportContext::class_colours from every class the run or the ground truth mentions.
+void assign_class_colours(ReportContext& c) {
+  std::set<int> ids;
+  for (const auto& r : c.run.poses) ids.insert(r.obj_id);
+  for (const auto& f : c.annotations)
+    for (const auto& o : f.objects_gt) ids.insert(o.class_id);
+  if (c.run.objects.is_object())
+    for (const auto& o : c.run.objects.value("objects", nlohmann::json::array()))
+      ids.insert(o.value("class_id", 0));
+  int i = 0;
+  for (int id : ids) c.class_colours[id] = series_colour(i++);
+}
 
 /// Opens the run's dataset with its configuration; on failure a note, and no reader.
 void open_run_dataset(ReportContext& c) {
@@ -86,7 +106,8 @@ ReportResult write_run_report(const ReportOptions& options) {
   if (ec) throw IoError(c.out_dir, "cannot create the report folder: " + ec.message());
   c.config = run_config(c.run, (fs::path(c.out_dir) / "config.json").string());
   open_run_dataset(c);
-  HtmlPage page(fmt::format("orpe report: {}", fs::path(options.run_dir).lexically_normal().string()));
+  assign_class_colours(c);
+  HtmlPage page(fmt::format("orpe report: {}", fs::absolute(options.run_dir).lexically_normal().string()));
   // The pose scores feed the summary: sections are computed first, then laid out.
   const std::string maps = maps_section(c), trajectory = trajectory_section(c);
   const std::string poses = pose_section(c), keyframes = keyframe_section(c);

@@ -1,6 +1,7 @@
 // Internal to src/orpe/report: what the sections of the page share while it is written.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,6 +21,9 @@ struct ReportContext {
   std::unique_ptr<DatasetReader> reader;  ///< null when the dataset could not be opened
   std::vector<RgbdFrame> annotations;     ///< reader->read_annotations(i) for every frame
   std::unique_ptr<PoseEvaluation> poses;  ///< poses.csv scored on the evaluated frames
+  /// One colour per class of the run (estimated, ground truth, objects), well apart: the i-th
+  /// class id in increasing order takes series_colour(i).
+  std::map<int, Rgb8> class_colours;
   ReportResult result;
 
   /// Writes `image` to images/NAME and returns its path relative to the page.
@@ -27,6 +31,7 @@ struct ReportContext {
   void note(const std::string& text);  ///< a warning on stderr and on the page
   /// Class name of a class id (the dataset's, else from objects.json, else the id).
   std::string class_name(int class_id) const;
+  Rgb8 class_colour(int class_id) const;
 };
 
 // The sections, each returning its HTML body.

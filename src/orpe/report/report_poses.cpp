@@ -34,7 +34,7 @@ std::string class_table(const PoseEvaluation& ev) {
   return t.html();
 }
 
-std::string objects_table(const nlohmann::json& objects) {
+std::string objects_table(const nlohmann::json& objects, const ReportContext& c) {
   HtmlTable t;
   t.caption = "Objects (objects.json: final poses in the map)";
   t.header = {"instance", "class", "pose", "source", "views fused", "rejected", "position (m)"};
@@ -45,7 +45,7 @@ std::string objects_table(const nlohmann::json& objects) {
       pos = fmt::format("{:.3f} {:.3f} {:.3f}", tm[0].get<double>(), tm[1].get<double>(), tm[2].get<double>());
     }
     t.rows.push_back({std::to_string(o.value("instance_id", 0)),
-                      "<span class=\"swatch\" style=\"background:" + css_colour(label_color(o.value("class_id", 0))) + "\"></span>" +
+                      "<span class=\"swatch\" style=\"background:" + css_colour(c.class_colour(o.value("class_id", 0))) + "\"></span>" +
                           html_escape(o.value("class_name", std::string())),
                       o.value("valid", false) ? "yes" : "no", html_escape(o.value("source", std::string())),
                       std::to_string(o.value("num_views", 0)), std::to_string(o.value("num_rejected", 0)), pos});
@@ -69,7 +69,7 @@ std::string legend_html(const std::set<int>& classes, const ReportContext& c) {
   std::string s = "<p>";
   for (int id : classes)
     s += fmt::format("<span class=\"swatch\" style=\"background:{}\"></span>{} &nbsp; ",
-                     css_colour(label_color(id)), html_escape(c.class_name(id)));
+                     css_colour(c.class_colour(id)), html_escape(c.class_name(id)));
   return s + "</p>\n";
 }
 
@@ -80,12 +80,12 @@ std::string keyframe_pictures(ReportContext& c, ModelMeshes& meshes, size_t pos,
   std::vector<OverlayObject> est, gt;
   for (const auto& r : c.run.poses)
     if (r.im_id == frame.index && r.scene_id == scene) {
-      est.push_back({meshes.get(r.obj_id), r.T_cam_obj, label_color(r.obj_id)});
+      est.push_back({meshes.get(r.obj_id), r.T_cam_obj, c.class_colour(r.obj_id)});
       classes.insert(r.obj_id);
     }
   for (const auto& o : frame.objects_gt) {
     if (o.visible_fraction == 0) continue;
-    gt.push_back({meshes.get(o.class_id), o.T_cam_obj, label_color(o.class_id)});
+    gt.push_back({meshes.get(o.class_id), o.T_cam_obj, c.class_colour(o.class_id)});
     classes.insert(o.class_id);
   }
   std::string s = "<div class=\"row\">\n";
@@ -105,7 +105,7 @@ std::string keyframe_pictures(ReportContext& c, ModelMeshes& meshes, size_t pos,
 
 std::string pose_section(ReportContext& c) {
   std::string s;
-  if (c.run.objects.is_object()) s += objects_table(c.run.objects);
+  if (c.run.objects.is_object()) s += objects_table(c.run.objects, c);
   if (c.run.poses.empty()) return s + note_html("no poses.csv (mode full writes one): no pose scores");
   if (!c.reader) return s + note_html("no dataset: the poses are not scored");
   bool has_gt = false;
@@ -121,8 +121,8 @@ std::string pose_section(ReportContext& c) {
     return s;
   }
   const double max_m = c.config.eval_pose.auc_max_distance_m;
-  return s + class_table(*c.poses) + "<div class=\"row\">" + accuracy_curves_svg(*c.poses, false, max_m) +
-         accuracy_curves_svg(*c.poses, true, max_m) + "</div>\n";
+  return s + class_table(*c.poses) + "<div class=\"row\">" + accuracy_curves_svg(*c.poses, false, max_m, c.class_colours) +
+         accuracy_curves_svg(*c.poses, true, max_m, c.class_colours) + "</div>\n";
 }
 
 std::string keyframe_section(ReportContext& c) {

@@ -8,7 +8,6 @@
 #include <functional>
 #include <limits>
 
-#include "orpe/io/point_cloud_io.h"
 #include "orpe/report/svg_plot.h"
 
 namespace orpe::report {
@@ -97,7 +96,8 @@ std::string trajectory_error_svg(const std::vector<StampedPose>& gt,
   return svg_plot(series, o);
 }
 
-std::string accuracy_curves_svg(const PoseEvaluation& ev, bool add_or_adds, double max_m) {
+std::string accuracy_curves_svg(const PoseEvaluation& ev, bool add_or_adds, double max_m,
+                                const std::map<int, Rgb8>& colours) {
   std::vector<PlotSeries> series;
   auto curve = [&](int class_id, const std::string& name, Rgb8 colour) {
     std::vector<double> d;
@@ -114,8 +114,10 @@ std::string accuracy_curves_svg(const PoseEvaluation& ev, bool add_or_adds, doub
     }
     series.push_back(p);
   };
-  // Class colours as in the keyframe pictures and the objects table (label_color of the class id).
-  for (const auto& cls : ev.classes) curve(cls.class_id, cls.name, label_color(cls.class_id));
+  for (const auto& cls : ev.classes) {
+    const auto it = colours.find(cls.class_id);
+    curve(cls.class_id, cls.name, it != colours.end() ? it->second : Rgb8{128, 128, 128});
+  }
   curve(-1, "ALL", {0, 0, 0});
   series.back().width_px = 2.6;
   PlotOptions o;

@@ -61,9 +61,10 @@ std::string trajectory_top_view_svg(const std::vector<StampedPose>& gt,
     e.push_back(ev ? ev->ate.alignment.apply(p.T_world_cam.translation())
                    : Vec3(p.T_world_cam.translation()));
   const auto axes = widest_axes(g.empty() ? e : g);
+  // The ground truth last, dashed, so that it stays visible where the estimate lies on it.
   std::vector<PlotSeries> series;
-  if (!g.empty()) series.push_back(path_series(g, axes, "ground truth", {60, 60, 60}, true));
   series.push_back(path_series(e, axes, ev ? "estimate (aligned)" : "estimate", series_colour(0), false));
+  if (!g.empty()) series.push_back(path_series(g, axes, "ground truth", {40, 40, 40}, true));
   PlotOptions o;
   o.title = "Camera path, top view";
   o.x_label = fmt::format("{} (m)", kAxisNames[axes[0]]);

@@ -86,6 +86,24 @@ TEST(ReportCli, TheBrowserCheckCatchesAMissingPicture) {
   EXPECT_EQ(b.broken, "nothing_here.png");
 }
 
+TEST(ReportCli, TheScriptsReportPageConvertsTablesAndDrawsCharts) {
+  if (std::system("/usr/bin/python3 -c '' 2> /dev/null") != 0) GTEST_SKIP() << "no /usr/bin/python3";
+  const std::string dir = test::scratch_dir("page");
+  const std::string scripts = std::string(ORPE_SOURCE_DIR) + "/scripts";
+  ASSERT_EQ(std::system(("/usr/bin/python3 " + scripts + "/report_page.py --selftest > " + dir + "/log 2>&1").c_str()), 0)
+      << test::read_text(dir + "/log");
+  const std::string page = dir + "/report.html";
+  const std::string code = "import sys; sys.path.insert(0, '" + scripts + "'); import report_page as r; "
+                           "r.write('" + page + "', 't', '| a | b |\\n| --- | --- |\\n| x | 1.5 |\\n', "
+                           "[r.bar_chart('c', ['g'], {'s': [1.0]}, 'v')], [('run', '" + dir + "/run/report/index.html')])";
+  ASSERT_EQ(std::system(("/usr/bin/python3 -c \"" + code + "\" >> " + dir + "/log 2>&1").c_str()), 0)
+      << test::read_text(dir + "/log");
+  const std::string text = test::read_text(page);
+  EXPECT_NE(text.find("<td class=\"num\">1.5</td>"), std::string::npos) << text;
+  EXPECT_NE(text.find("<svg"), std::string::npos);
+  EXPECT_NE(text.find("href=\"run/report/index.html\""), std::string::npos) << "links relative to the page";
+}
+
 TEST(ReportCli, ANonRunFolderIsRefusedNamingTheFile) {
   const std::string dir = test::scratch_dir("empty");
   const std::string log = dir + "/log";

@@ -1,4 +1,5 @@
-// OUT/frames.csv (pipeline/frame_log.h): written and read back; a malformed line names file and line.
+// OUT/frames.csv (pipeline/frame_log.h): written and read back; a malformed line names file and
+// line.
 #include <gtest/gtest.h>
 
 #include <fstream>

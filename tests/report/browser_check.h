@@ -1,5 +1,6 @@
-// Opening an HTML page in a real browser (Debian's chromium, headless) from a test: whether it loads,
-// and whether every <img> it has decoded (complete, natural width > 0), as the browser saw it.
+// Opening an HTML page in a real browser (Debian's chromium, headless) from a test: whether it
+// loads, and whether every <img> it has decoded (complete, natural width > 0), as the browser saw
+// it.
 //
 // The page itself has no script; the check loads a copy of it with one appended script that, after
 // the load event, writes the number of images and the broken ones into the title, read back with
@@ -31,23 +32,23 @@ inline bool browser_required() {
 }
 
 /// Skips the test when chromium is absent (fails when ORPE_REQUIRE_BROWSER=1).
-#define ORPE_REQUIRE_BROWSER()                                                               \
-  do {                                                                                       \
-    if (::orpe::test::chromium_binary().empty()) {                                           \
-      if (::orpe::test::browser_required())                                                  \
-        FAIL() << "chromium is not installed (ORPE_REQUIRE_BROWSER=1): "                     \
-                  "apt-get install chromium, or bash scripts/install-deps.sh";               \
+#define ORPE_REQUIRE_BROWSER()                                                                 \
+  do {                                                                                         \
+    if (::orpe::test::chromium_binary().empty()) {                                             \
+      if (::orpe::test::browser_required())                                                    \
+        FAIL() << "chromium is not installed (ORPE_REQUIRE_BROWSER=1): "                       \
+                  "apt-get install chromium, or bash scripts/install-deps.sh";                 \
       GTEST_SKIP() << "chromium is not installed (bash scripts/install-deps.sh installs it): " \
-                      "the page is not opened in a browser";                                 \
-    }                                                                                        \
+                      "the page is not opened in a browser";                                   \
+    }                                                                                          \
   } while (0)
 
 struct BrowserCheck {
-  int status = -1;         ///< of the --dump-dom run (0 = the page loaded)
-  int images = -1;         ///< <img> elements the browser found
-  std::string broken;      ///< srcs of images that did not decode, space-separated
-  bool screenshot = false; ///< the screenshot was written and is not empty
-  std::string log;         ///< where chromium's output went
+  int status = -1;          ///< of the --dump-dom run (0 = the page loaded)
+  int images = -1;          ///< <img> elements the browser found
+  std::string broken;       ///< srcs of images that did not decode, space-separated
+  bool screenshot = false;  ///< the screenshot was written and is not empty
+  std::string log;          ///< where chromium's output went
 };
 
 inline std::string read_text(const std::string& path) {
@@ -80,11 +81,13 @@ inline BrowserCheck open_in_browser(const std::string& html, const std::string& 
   fs::remove(probe);
   std::smatch m;
   const std::string out = read_text(dom);
-  if (std::regex_search(out, m, std::regex("<title>CHECK images=(\\d+) broken=(\\d+) ?([^<]*)</title>")))
+  if (std::regex_search(out, m,
+                        std::regex("<title>CHECK images=(\\d+) broken=(\\d+) ?([^<]*)</title>")))
     r.images = std::stoi(m[1]), r.broken = m[3];
-  [[maybe_unused]] const int shot = std::system(("timeout 120 " + chromium_binary() + flags + "--window-size=1400,2400 --screenshot='" +
-               screenshot_png + "' 'file://" + page.string() + "' >> '" + r.log + "' 2>&1")
-                  .c_str());
+  [[maybe_unused]] const int shot = std::system(
+      ("timeout 120 " + chromium_binary() + flags + "--window-size=1400,2400 --screenshot='" +
+       screenshot_png + "' 'file://" + page.string() + "' >> '" + r.log + "' 2>&1")
+          .c_str());
   r.screenshot = fs::exists(screenshot_png) && fs::file_size(screenshot_png) > 0;
   return r;
 }
@@ -94,7 +97,8 @@ inline std::set<std::string> image_sources(const std::string& html) {
   std::set<std::string> srcs;
   const std::string text = read_text(html);
   const std::regex img("<img[^>]*\\ssrc=\"([^\"]+)\"");
-  for (auto it = std::sregex_iterator(text.begin(), text.end(), img); it != std::sregex_iterator(); ++it)
+  for (auto it = std::sregex_iterator(text.begin(), text.end(), img); it != std::sregex_iterator();
+       ++it)
     srcs.insert((*it)[1]);
   return srcs;
 }

@@ -1,9 +1,9 @@
 // Models drawn over a camera image (report/pose_overlays.h) and the surfel-map pictures.
 #include <gtest/gtest.h>
 
+#include "orpe/render/primitives.h"
 #include "orpe/report/pose_overlays.h"
 #include "orpe/report/scene_views.h"
-#include "orpe/render/primitives.h"
 
 namespace orpe::report {
 namespace {
@@ -31,7 +31,8 @@ TEST(PoseOverlays, AnOutlineInTheClassColourAroundTheModelAndTheRestUntouched) {
   EXPECT_GE(outline, 2) << "both edges on the centre row";
   EXPECT_LE(outline, 8);
   // A model behind the camera draws nothing.
-  const ColorImage none = draw_model_overlays(image, camera(), {{&box, SE3(Mat3::Identity(), Vec3(0, 0, -1)), red}});
+  const ColorImage none =
+      draw_model_overlays(image, camera(), {{&box, SE3(Mat3::Identity(), Vec3(0, 0, -1)), red}});
   EXPECT_EQ(none.at(80, 60), (Rgb8{100, 100, 100}));
 }
 
@@ -39,7 +40,8 @@ TEST(SceneViews, TheFramingViewSeesTheWholeMapAndThePathProjects) {
   PointCloudData cloud;
   for (int i = 0; i < 40; ++i)
     for (int j = 0; j < 40; ++j) {
-      cloud.positions_m.emplace_back(-0.5f + i * 0.025f, 0.3f, 1.5f + j * 0.025f);  // a floor, y down
+      cloud.positions_m.emplace_back(-0.5f + i * 0.025f, 0.3f,
+                                     1.5f + j * 0.025f);  // a floor, y down
       cloud.normals.emplace_back(0, -1, 0);
       cloud.radii_m.push_back(0.02f);  // discs overlapping as in a fused map
     }

@@ -17,7 +17,8 @@ MachineInfo describe_machine() {
   for (std::string line; std::getline(cpuinfo, line);)
     if (line.rfind("model name", 0) == 0) {
       const size_t colon = line.find(':');
-      if (colon != std::string::npos) m.cpu_model = line.substr(line.find_first_not_of(' ', colon + 1));
+      if (colon != std::string::npos)
+        m.cpu_model = line.substr(line.find_first_not_of(' ', colon + 1));
       break;
     }
   m.logical_cpus = std::thread::hardware_concurrency();

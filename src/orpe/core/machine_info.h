@@ -9,11 +9,11 @@ namespace orpe {
 
 struct MachineInfo {
   std::string hostname;
-  std::string cpu_model;    ///< /proc/cpuinfo "model name" (empty when unknown)
+  std::string cpu_model;      ///< /proc/cpuinfo "model name" (empty when unknown)
   unsigned logical_cpus = 0;  ///< std::thread::hardware_concurrency
-  std::string os;           ///< uname: sysname release machine
-  double load_1min = -1;    ///< getloadavg, at the time of the call; -1 when unavailable
-  double memory_gb = 0;     ///< physical memory
+  std::string os;             ///< uname: sysname release machine
+  double load_1min = -1;      ///< getloadavg, at the time of the call; -1 when unavailable
+  double memory_gb = 0;       ///< physical memory
 };
 
 MachineInfo describe_machine();

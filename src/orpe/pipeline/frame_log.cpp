@@ -26,7 +26,8 @@ std::vector<std::string> split_csv(const std::string& line) {
 
 FrameLogRecord parse_record(const std::vector<std::string>& c, const std::string& path, int line) {
   const std::string where = fmt::format("line {}", line);
-  if (c.size() != 17) throw IoError(path, fmt::format("{}: {} fields, expected 17", where, c.size()));
+  if (c.size() != 17)
+    throw IoError(path, fmt::format("{}: {} fields, expected 17", where, c.size()));
   auto num = [&](size_t i) {
     return parse_finite_field(c[i], path, fmt::format("{}, field {}", where, i + 1));
   };
@@ -51,7 +52,8 @@ double resident_memory_mb() {
   std::ifstream is("/proc/self/statm");
   long pages_total = 0, pages_resident = 0;
   if (!(is >> pages_total >> pages_resident)) return 0;
-  return static_cast<double>(pages_resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / 1048576.0;
+  return static_cast<double>(pages_resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) /
+         1048576.0;
 }
 
 void FrameLog::add(const PipelineFrameResult& r, double read_ms, size_t surfels, size_t map_bytes) {
@@ -74,11 +76,12 @@ void FrameLog::write(const std::string& path) const {
   write_file_atomic(path, [&](std::ostream& os) {
     os << kHeader << "\n";
     for (const auto& r : records_)
-      os << fmt::format("{},{:.6f},{},{},{},{},{},{},{:.3f},{:.1f},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f},{:.3f},{:.2f}\n",
-                        r.frame, r.timestamp_s, r.status, r.keyframe ? 1 : 0, r.evaluated ? 1 : 0,
-                        r.detections, r.instances, r.surfels, r.map_mb, r.rss_mb, r.read_ms,
-                        r.slam_ms, r.semantic_ms, r.render_ms, r.single_view_ms, r.ekf_ms,
-                        r.total_ms);
+      os << fmt::format(
+          "{},{:.6f},{},{},{},{},{},{},{:.3f},{:.1f},{:.2f},{:.2f},{:.2f},{:.2f},{:.2f},{:.3f},{:."
+          "2f}\n",
+          r.frame, r.timestamp_s, r.status, r.keyframe ? 1 : 0, r.evaluated ? 1 : 0, r.detections,
+          r.instances, r.surfels, r.map_mb, r.rss_mb, r.read_ms, r.slam_ms, r.semantic_ms,
+          r.render_ms, r.single_view_ms, r.ekf_ms, r.total_ms);
   });
 }
 
@@ -87,7 +90,8 @@ std::vector<FrameLogRecord> read_frame_log(const std::string& path) {
   if (!is) throw IoError(path, "cannot open the frame log");
   std::string line;
   if (!std::getline(is, line) || line != kHeader)
-    throw IoError(path, "line 1: not a frames.csv header (expected '" + std::string(kHeader) + "')");
+    throw IoError(path,
+                  "line 1: not a frames.csv header (expected '" + std::string(kHeader) + "')");
   std::vector<FrameLogRecord> records;
   for (int n = 2; std::getline(is, line); ++n) {
     if (line.empty()) continue;

@@ -4,10 +4,10 @@
 //   frame,timestamp_s,status,keyframe,evaluated,detections,instances,surfels,map_mb,rss_mb,
 //   read_ms,slam_ms,semantic_ms,render_ms,single_view_ms,ekf_ms,total_ms
 //
-// status: OK | DEGRADED | LOST (slam::TrackingStatus); keyframe / evaluated: 0 or 1 (this call fused
-// a keyframe's detections / estimated poses); map_mb: the surfel arrays (SurfelMap::bytes) after the
-// frame; rss_mb: the process's resident memory after the frame (/proc/self/statm); times: wall
-// milliseconds of this frame's call (read = decoding the frame's files).
+// status: OK | DEGRADED | LOST (slam::TrackingStatus); keyframe / evaluated: 0 or 1 (this call
+// fused a keyframe's detections / estimated poses); map_mb: the surfel arrays (SurfelMap::bytes)
+// after the frame; rss_mb: the process's resident memory after the frame (/proc/self/statm); times:
+// wall milliseconds of this frame's call (read = decoding the frame's files).
 #pragma once
 
 #include <string>

@@ -16,7 +16,9 @@ bool numeric_cell(const std::string& cell) {
   return std::isdigit(static_cast<unsigned char>(cell.front())) || cell.front() == '-';
 }
 
-std::string anchor(size_t i) { return fmt::format("s{}", i + 1); }
+std::string anchor(size_t i) {
+  return fmt::format("s{}", i + 1);
+}
 
 constexpr const char* kStyle = R"(
 body{font-family:sans-serif;margin:1.5em auto;max-width:1400px;padding:0 1em;color:#222}
@@ -42,12 +44,23 @@ std::string html_escape(std::string_view text) {
   std::string out;
   out.reserve(text.size());
   for (char c : text) switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
     }
   return out;
 }
@@ -60,7 +73,8 @@ std::string HtmlTable::html() const {
   s += "</tr>\n";
   for (const auto& row : rows) {
     s += "<tr>";
-    for (const auto& cell : row) s += (numeric_cell(cell) ? "<td class=\"num\">" : "<td>") + cell + "</td>";
+    for (const auto& cell : row)
+      s += (numeric_cell(cell) ? "<td class=\"num\">" : "<td>") + cell + "</td>";
     s += "</tr>\n";
   }
   return s + "</table>\n";
@@ -83,7 +97,8 @@ std::string HtmlPage::html() const {
       "<style>{1}</style>\n</head>\n<body>\n<h1>{0}</h1>\n<nav><ul>\n",
       html_escape(title_), kStyle);
   for (size_t i = 0; i < sections_.size(); ++i)
-    s += fmt::format("<li><a href=\"#{}\">{}</a></li>\n", anchor(i), html_escape(sections_[i].first));
+    s += fmt::format("<li><a href=\"#{}\">{}</a></li>\n", anchor(i),
+                     html_escape(sections_[i].first));
   s += "</ul></nav>\n";
   for (size_t i = 0; i < sections_.size(); ++i)
     s += fmt::format("<section id=\"{}\">\n<h2>{}</h2>\n{}</section>\n", anchor(i),

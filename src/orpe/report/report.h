@@ -1,6 +1,6 @@
 // `orpe report --run OUT [--dataset D] [--out DIR]`: one HTML page that shows what a run did, for a
-// person to look at (docs/REPORT.md). DIR/index.html, with its pictures in DIR/images/ and the run's
-// configuration in DIR/config.json; no script, no network access, any browser.
+// person to look at (docs/REPORT.md). DIR/index.html, with its pictures in DIR/images/ and the
+// run's configuration in DIR/config.json; no script, no network access, any browser.
 //
 // Sections: summary; the surfel map and the semantic map rendered from viewpoints that frame the
 // scene, with the camera path and the instances' class names drawn over them; the camera trajectory
@@ -18,11 +18,11 @@
 namespace orpe::report {
 
 struct ReportOptions {
-  std::string run_dir;         ///< an `orpe run --out` folder
-  std::string dataset;         ///< the dataset; empty = summary.json's dataset.path
-  std::string out_dir;         ///< empty = RUN/report
-  int max_keyframes = 6;       ///< keyframe pictures: at most this many, spread over the run
-  int view_width_px = 640;     ///< size of the map pictures (two side by side on a wide screen)
+  std::string run_dir;      ///< an `orpe run --out` folder
+  std::string dataset;      ///< the dataset; empty = summary.json's dataset.path
+  std::string out_dir;      ///< empty = RUN/report
+  int max_keyframes = 6;    ///< keyframe pictures: at most this many, spread over the run
+  int view_width_px = 640;  ///< size of the map pictures (two side by side on a wide screen)
   int view_height_px = 480;
 };
 

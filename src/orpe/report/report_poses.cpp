@@ -18,10 +18,11 @@ namespace {
 
 std::string class_table(const PoseEvaluation& ev) {
   HtmlTable t;
-  t.caption = "poses.csv on the evaluated frames (AUC up to 10 cm as the YCB-Video toolbox; "
-              "docs/EVALUATION.md)";
-  t.header = {"class", "instances", "estimated", "ADD-S AUC", "ADD(-S) AUC", "ADD-S &lt; 2 cm (%)",
-              "mean ADD-S (mm)"};
+  t.caption =
+      "poses.csv on the evaluated frames (AUC up to 10 cm as the YCB-Video toolbox; "
+      "docs/EVALUATION.md)";
+  t.header = {"class",       "instances",           "estimated",      "ADD-S AUC",
+              "ADD(-S) AUC", "ADD-S &lt; 2 cm (%)", "mean ADD-S (mm)"};
   auto row = [&](const PoseClassSummary& s) {
     t.rows.push_back({html_escape(s.name) + (s.symmetric ? " (symmetric)" : ""),
                       std::to_string(s.instances), std::to_string(s.estimated),
@@ -42,13 +43,16 @@ std::string objects_table(const nlohmann::json& objects, const ReportContext& c)
     std::string pos = "-";
     if (o.contains("T_world_obj") && o["T_world_obj"].is_object()) {
       const auto& tm = o["T_world_obj"]["t_m"];
-      pos = fmt::format("{:.3f} {:.3f} {:.3f}", tm[0].get<double>(), tm[1].get<double>(), tm[2].get<double>());
+      pos = fmt::format("{:.3f} {:.3f} {:.3f}", tm[0].get<double>(), tm[1].get<double>(),
+                        tm[2].get<double>());
     }
-    t.rows.push_back({std::to_string(o.value("instance_id", 0)),
-                      "<span class=\"swatch\" style=\"background:" + css_colour(c.class_colour(o.value("class_id", 0))) + "\"></span>" +
-                          html_escape(o.value("class_name", std::string())),
-                      o.value("valid", false) ? "yes" : "no", html_escape(o.value("source", std::string())),
-                      std::to_string(o.value("num_views", 0)), std::to_string(o.value("num_rejected", 0)), pos});
+    t.rows.push_back(
+        {std::to_string(o.value("instance_id", 0)),
+         "<span class=\"swatch\" style=\"background:" +
+             css_colour(c.class_colour(o.value("class_id", 0))) + "\"></span>" +
+             html_escape(o.value("class_name", std::string())),
+         o.value("valid", false) ? "yes" : "no", html_escape(o.value("source", std::string())),
+         std::to_string(o.value("num_views", 0)), std::to_string(o.value("num_rejected", 0)), pos});
   }
   return t.html();
 }
@@ -59,8 +63,10 @@ std::vector<int> sample_frames(const std::vector<std::pair<int, int>>& evaluated
   const int m = static_cast<int>(evaluated.size());
   const int k = std::min(n, m);
   for (int i = 0; i < k; ++i) {
-    const int idx = k == 1 ? 0 : static_cast<int>(std::lround(static_cast<double>(i) * (m - 1) / (k - 1)));
-    if (frames.empty() || frames.back() != evaluated[idx].second) frames.push_back(evaluated[idx].second);
+    const int idx =
+        k == 1 ? 0 : static_cast<int>(std::lround(static_cast<double>(i) * (m - 1) / (k - 1)));
+    if (frames.empty() || frames.back() != evaluated[idx].second)
+      frames.push_back(evaluated[idx].second);
   }
   return frames;
 }
@@ -74,7 +80,8 @@ std::string legend_html(const std::set<int>& classes, const ReportContext& c) {
 }
 
 /// The estimated and the ground-truth picture of one frame (position `pos` in the reader).
-std::string keyframe_pictures(ReportContext& c, ModelMeshes& meshes, size_t pos, std::set<int>& classes) {
+std::string keyframe_pictures(ReportContext& c, ModelMeshes& meshes, size_t pos,
+                              std::set<int>& classes) {
   const RgbdFrame frame = c.reader->read(pos);
   const int scene = c.reader->info().scene_id;
   std::vector<OverlayObject> est, gt;
@@ -91,13 +98,16 @@ std::string keyframe_pictures(ReportContext& c, ModelMeshes& meshes, size_t pos,
   std::string s = "<div class=\"row\">\n";
   const std::string base = fmt::format("frame_{:06d}", frame.index);
   const int shown_width = std::max(480, frame.color.width());  // small synthetic frames enlarged
-  s += html_image(c.save_image(base + "_estimate.png", draw_model_overlays(frame.color, frame.intrinsics, est)),
-                  fmt::format("frame {}: {} estimated poses (poses.csv)", frame.index, est.size()),
-                  shown_width);
+  s += html_image(
+      c.save_image(base + "_estimate.png", draw_model_overlays(frame.color, frame.intrinsics, est)),
+      fmt::format("frame {}: {} estimated poses (poses.csv)", frame.index, est.size()),
+      shown_width);
   if (!frame.objects_gt.empty())
-    s += html_image(c.save_image(base + "_ground_truth.png", draw_model_overlays(frame.color, frame.intrinsics, gt)),
-                    fmt::format("frame {}: ground truth ({} objects in view)", frame.index, gt.size()),
-                    shown_width);
+    s += html_image(
+        c.save_image(base + "_ground_truth.png",
+                     draw_model_overlays(frame.color, frame.intrinsics, gt)),
+        fmt::format("frame {}: ground truth ({} objects in view)", frame.index, gt.size()),
+        shown_width);
   return s + "</div>\n";
 }
 
@@ -106,28 +116,32 @@ std::string keyframe_pictures(ReportContext& c, ModelMeshes& meshes, size_t pos,
 std::string pose_section(ReportContext& c) {
   std::string s;
   if (c.run.objects.is_object()) s += objects_table(c.run.objects, c);
-  if (c.run.poses.empty()) return s + note_html("no poses.csv (mode full writes one): no pose scores");
+  if (c.run.poses.empty())
+    return s + note_html("no poses.csv (mode full writes one): no pose scores");
   if (!c.reader) return s + note_html("no dataset: the poses are not scored");
   bool has_gt = false;
   for (const auto& f : c.annotations) has_gt = has_gt || !f.objects_gt.empty();
-  if (!has_gt) return s + note_html("the dataset has no object ground truth: the poses are not scored");
+  if (!has_gt)
+    return s + note_html("the dataset has no object ground truth: the poses are not scored");
   FrameSet frames;
   for (const auto& [scene, frame] : c.run.evaluated) frames.insert({scene, frame});
   try {
-    c.poses = std::make_unique<PoseEvaluation>(
-        evaluate_pose_results(*c.reader, c.run.poses, c.config.eval_pose, frames.empty() ? nullptr : &frames));
+    c.poses = std::make_unique<PoseEvaluation>(evaluate_pose_results(
+        *c.reader, c.run.poses, c.config.eval_pose, frames.empty() ? nullptr : &frames));
   } catch (const std::exception& e) {
     c.note(fmt::format("poses.csv could not be scored: {}", e.what()));
     return s;
   }
   const double max_m = c.config.eval_pose.auc_max_distance_m;
-  return s + class_table(*c.poses) + "<div class=\"row\">" + accuracy_curves_svg(*c.poses, false, max_m, c.class_colours) +
+  return s + class_table(*c.poses) + "<div class=\"row\">" +
+         accuracy_curves_svg(*c.poses, false, max_m, c.class_colours) +
          accuracy_curves_svg(*c.poses, true, max_m, c.class_colours) + "</div>\n";
 }
 
 std::string keyframe_section(ReportContext& c) {
   if (!c.reader) return note_html("no dataset: no keyframe pictures");
-  if (c.run.evaluated.empty()) return note_html("the run has no evaluated frames (mode full writes poses)");
+  if (c.run.evaluated.empty())
+    return note_html("the run has no evaluated frames (mode full writes poses)");
   std::map<int, size_t> position;  // frame index -> reader position
   for (size_t i = 0; i < c.annotations.size(); ++i) position[c.annotations[i].index] = i;
   ModelMeshes meshes(c.reader->info());
@@ -141,15 +155,17 @@ std::string keyframe_section(ReportContext& c) {
     }
     pictures += keyframe_pictures(c, meshes, it->second, classes);
   }
-  return note_html(fmt::format("{} of the {} evaluated frames; each model outlined (amodal silhouette) "
-                               "and its visible part tinted in its class colour:",
-                               std::min<size_t>(c.run.evaluated.size(), c.options.max_keyframes),
-                               c.run.evaluated.size())) +
+  return note_html(
+             fmt::format("{} of the {} evaluated frames; each model outlined (amodal silhouette) "
+                         "and its visible part tinted in its class colour:",
+                         std::min<size_t>(c.run.evaluated.size(), c.options.max_keyframes),
+                         c.run.evaluated.size())) +
          legend_html(classes, c) + pictures;
 }
 
 std::string reconstruction_section(ReportContext& c) {
-  if (!c.reader || !c.run.has("semantic_map.ply")) return note_html("needs a semantic map and the dataset");
+  if (!c.reader || !c.run.has("semantic_map.ply"))
+    return note_html("needs a semantic map and the dataset");
   try {
     auto objects = ground_truth_objects_in_map(*c.reader, c.run.trajectory);
     if (objects.empty()) return note_html("the dataset has no object ground truth");
@@ -157,22 +173,30 @@ std::string reconstruction_section(ReportContext& c) {
     std::map<int, const ModelSurface*> ptrs;
     for (const auto& o : objects)
       if (!surfaces.count(o.class_id))
-        ptrs[o.class_id] = &surfaces.emplace(o.class_id, load_model_surface(c.reader->info(), o.class_id)).first->second;
-    const ReconstructionEvaluation ev = evaluate_reconstruction(
-        read_semantic_map_ply(c.run.file("semantic_map.ply")), objects, ptrs, c.reader->info().class_names);
+        ptrs[o.class_id] =
+            &surfaces.emplace(o.class_id, load_model_surface(c.reader->info(), o.class_id))
+                 .first->second;
+    const ReconstructionEvaluation ev =
+        evaluate_reconstruction(read_semantic_map_ply(c.run.file("semantic_map.ply")), objects,
+                                ptrs, c.reader->info().class_names);
     HtmlTable t;
-    t.caption = "Surfels of each object against its model at the ground-truth pose (orpe eval recon; "
-                "completeness: run orpe eval recon)";
-    t.header = {"object", "class", "surfels", "mean (mm)", "median (mm)", "RMS (mm)", "&gt; 1 cm (%)", "&gt; 2 cm (%)"};
+    t.caption =
+        "Surfels of each object against its model at the ground-truth pose (orpe eval recon; "
+        "completeness: run orpe eval recon)";
+    t.header = {"object",      "class",    "surfels",       "mean (mm)",
+                "median (mm)", "RMS (mm)", "&gt; 1 cm (%)", "&gt; 2 cm (%)"};
     for (const auto& o : ev.objects)
       t.rows.push_back({std::to_string(o.object_id), html_escape(o.name), std::to_string(o.surfels),
                         o.surfels ? fmt::format("{:.1f}", 1000 * o.mean_m) : "-",
                         o.surfels ? fmt::format("{:.1f}", 1000 * o.median_m) : "-",
                         o.surfels ? fmt::format("{:.1f}", 1000 * o.rms_m) : "-",
-                        fmt::format("{:.0f}", 100 * o.far_near_fraction), fmt::format("{:.0f}", 100 * o.far_fraction)});
-    return t.html() + (ev.objects_measured ? note_html(fmt::format("mean over the {} objects with surfels: {:.1f} mm",
-                                                                    ev.objects_measured, 1000 * ev.mean_m))
-                                           : std::string());
+                        fmt::format("{:.0f}", 100 * o.far_near_fraction),
+                        fmt::format("{:.0f}", 100 * o.far_fraction)});
+    return t.html() +
+           (ev.objects_measured
+                ? note_html(fmt::format("mean over the {} objects with surfels: {:.1f} mm",
+                                        ev.objects_measured, 1000 * ev.mean_m))
+                : std::string());
   } catch (const std::exception& e) {
     c.note(fmt::format("reconstruction error not computed: {}", e.what()));
     return note_html("not computed (see the notes)");

@@ -12,9 +12,10 @@ namespace orpe::report {
 namespace {
 
 std::string error_stats_row(const std::string& name, const ErrorStats& e, double scale) {
-  return fmt::format("<tr><td>{}</td><td class=\"num\">{:.2f}</td><td class=\"num\">{:.2f}</td>"
-                     "<td class=\"num\">{:.2f}</td><td class=\"num\">{:.2f}</td><td class=\"num\">{}</td></tr>\n",
-                     html_escape(name), e.rmse * scale, e.mean * scale, e.median * scale, e.max * scale, e.count);
+  return fmt::format(
+      "<tr><td>{}</td><td class=\"num\">{:.2f}</td><td class=\"num\">{:.2f}</td>"
+      "<td class=\"num\">{:.2f}</td><td class=\"num\">{:.2f}</td><td class=\"num\">{}</td></tr>\n",
+      html_escape(name), e.rmse * scale, e.mean * scale, e.median * scale, e.max * scale, e.count);
 }
 
 std::string trajectory_table(const TrajectoryEvaluation& ev) {
@@ -23,8 +24,10 @@ std::string trajectory_table(const TrajectoryEvaluation& ev) {
       "docs/EVALUATION.md)</caption>\n<tr><th></th><th>RMSE</th><th>mean</th><th>median</th>"
       "<th>max</th><th>pairs</th></tr>\n";
   s += error_stats_row("ATE (mm)", ev.ate.translation_m, 1000);
-  s += error_stats_row(fmt::format("RPE over {} frame (mm)", ev.rpe.delta_frames), ev.rpe.translation_m, 1000);
-  s += error_stats_row(fmt::format("RPE over {} frame (deg)", ev.rpe.delta_frames), ev.rpe.rotation_deg, 1);
+  s += error_stats_row(fmt::format("RPE over {} frame (mm)", ev.rpe.delta_frames),
+                       ev.rpe.translation_m, 1000);
+  s += error_stats_row(fmt::format("RPE over {} frame (deg)", ev.rpe.delta_frames),
+                       ev.rpe.rotation_deg, 1);
   return s + "</table>\n";
 }
 
@@ -35,8 +38,8 @@ std::vector<std::vector<std::string>> state_intervals(const std::vector<FrameLog
     size_t j = i;
     while (j + 1 < frames.size() && frames[j + 1].status == frames[i].status) ++j;
     if (frames[i].status != "OK")
-      rows.push_back({frames[i].status, std::to_string(frames[i].frame), std::to_string(frames[j].frame),
-                      std::to_string(j - i + 1)});
+      rows.push_back({frames[i].status, std::to_string(frames[i].frame),
+                      std::to_string(frames[j].frame), std::to_string(j - i + 1)});
     i = j + 1;
   }
   return rows;
@@ -45,12 +48,14 @@ std::vector<std::vector<std::string>> state_intervals(const std::vector<FrameLog
 }  // namespace
 
 std::string trajectory_section(ReportContext& c) {
-  const std::vector<StampedPose> gt = c.reader ? c.reader->ground_truth_trajectory() : std::vector<StampedPose>{};
+  const std::vector<StampedPose> gt =
+      c.reader ? c.reader->ground_truth_trajectory() : std::vector<StampedPose>{};
   if (gt.empty()) {
     return trajectory_top_view_svg({}, c.run.trajectory, nullptr) +
            note_html("no ground-truth camera trajectory in the dataset: the estimate alone");
   }
-  const TrajectoryEvaluation ev = evaluate_trajectory(gt, c.run.trajectory, c.config.eval_trajectory);
+  const TrajectoryEvaluation ev =
+      evaluate_trajectory(gt, c.run.trajectory, c.config.eval_trajectory);
   if (ev.matches.empty())
     return trajectory_top_view_svg(gt, c.run.trajectory, nullptr) +
            note_html("no estimated pose is associated with a ground-truth pose (timestamps)");
@@ -60,9 +65,12 @@ std::string trajectory_section(ReportContext& c) {
 
 std::string timeline_section(ReportContext& c) {
   const auto& f = c.run.frames;
-  if (f.empty()) return note_html("the run has no frames.csv (runs made before orpe run wrote it): nothing to plot over time");
-  std::string s = stage_time_svg(f) + "<div class=\"row\">" + surfel_count_svg(f) + memory_svg(f) + "</div>\n" +
-                  tracking_state_svg(f);
+  if (f.empty())
+    return note_html(
+        "the run has no frames.csv (runs made before orpe run wrote it): nothing to plot over "
+        "time");
+  std::string s = stage_time_svg(f) + "<div class=\"row\">" + surfel_count_svg(f) + memory_svg(f) +
+                  "</div>\n" + tracking_state_svg(f);
   std::map<std::string, int> counts{{"OK", 0}, {"DEGRADED", 0}, {"LOST", 0}};
   for (const auto& r : f) ++counts[r.status];
   HtmlTable t;

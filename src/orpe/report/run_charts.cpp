@@ -63,7 +63,8 @@ std::string trajectory_top_view_svg(const std::vector<StampedPose>& gt,
   const auto axes = widest_axes(g.empty() ? e : g);
   // The ground truth last, dashed, so that it stays visible where the estimate lies on it.
   std::vector<PlotSeries> series;
-  series.push_back(path_series(e, axes, ev ? "estimate (aligned)" : "estimate", series_colour(0), false));
+  series.push_back(
+      path_series(e, axes, ev ? "estimate (aligned)" : "estimate", series_colour(0), false));
   if (!g.empty()) series.push_back(path_series(g, axes, "ground truth", {40, 40, 40}, true));
   PlotOptions o;
   o.title = "Camera path, top view";
@@ -156,9 +157,10 @@ std::string surfel_count_svg(const std::vector<FrameLogRecord>& frames) {
   o.y_label = "surfels";
   o.y_min = 0;
   o.width_px = 520;
-  return svg_plot({frame_series(frames, "", 0,
-                                [](const FrameLogRecord& f) { return static_cast<double>(f.surfels); })},
-                  o);
+  return svg_plot(
+      {frame_series(frames, "", 0,
+                    [](const FrameLogRecord& f) { return static_cast<double>(f.surfels); })},
+      o);
 }
 
 std::string memory_svg(const std::vector<FrameLogRecord>& frames) {
@@ -168,10 +170,11 @@ std::string memory_svg(const std::vector<FrameLogRecord>& frames) {
   o.y_label = "MB";
   o.y_min = 0;
   o.width_px = 520;
-  return svg_plot({frame_series(frames, "surfel map", 0, [](const FrameLogRecord& f) { return f.map_mb; }),
-                   frame_series(frames, "process resident", 3,
-                                [](const FrameLogRecord& f) { return f.rss_mb; })},
-                  o);
+  return svg_plot(
+      {frame_series(frames, "surfel map", 0, [](const FrameLogRecord& f) { return f.map_mb; }),
+       frame_series(frames, "process resident", 3,
+                    [](const FrameLogRecord& f) { return f.rss_mb; })},
+      o);
 }
 
 std::string tracking_state_svg(const std::vector<FrameLogRecord>& frames) {

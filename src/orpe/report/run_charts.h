@@ -25,8 +25,9 @@ std::string trajectory_error_svg(const std::vector<StampedPose>& gt,
                                  const TrajectoryEvaluation& ev);
 
 /// Accuracy-threshold curves: the share of ground-truth instances (misses included) whose ADD-S
-/// (`add_or_adds` false) or ADD(-S) distance is below a threshold from 0 to `max_m`, one curve per class
-/// and one for all instances pooled (black). `colours`: per class (grey for a class not in it).
+/// (`add_or_adds` false) or ADD(-S) distance is below a threshold from 0 to `max_m`, one curve per
+/// class and one for all instances pooled (black). `colours`: per class (grey for a class not in
+/// it).
 std::string accuracy_curves_svg(const PoseEvaluation& ev, bool add_or_adds, double max_m,
                                 const std::map<int, Rgb8>& colours);
 

@@ -55,7 +55,8 @@ bool RunRecord::has(const std::string& name) const {
 RunRecord read_run(const std::string& dir) {
   RunRecord run;
   run.dir = dir;
-  if (!std::filesystem::is_directory(dir)) throw IoError(dir, "not a folder (an `orpe run --out` folder)");
+  if (!std::filesystem::is_directory(dir))
+    throw IoError(dir, "not a folder (an `orpe run --out` folder)");
   if (!run.has("summary.json"))
     throw IoError(run.file("summary.json"), "missing: not an `orpe run` output folder");
   run.summary = read_json_file(run.file("summary.json"));

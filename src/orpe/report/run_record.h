@@ -17,16 +17,16 @@ namespace orpe::report {
 struct RunRecord {
   std::string dir;
   nlohmann::json summary;
-  std::string mode;                           ///< slam | semantic | full
-  std::vector<StampedPose> trajectory;        ///< trajectory.txt
-  std::vector<FrameLogRecord> frames;         ///< frames.csv; empty for runs without one
-  std::vector<PoseResultRow> poses;           ///< poses.csv (full mode), camera-frame estimates
+  std::string mode;                            ///< slam | semantic | full
+  std::vector<StampedPose> trajectory;         ///< trajectory.txt
+  std::vector<FrameLogRecord> frames;          ///< frames.csv; empty for runs without one
+  std::vector<PoseResultRow> poses;            ///< poses.csv (full mode), camera-frame estimates
   std::vector<std::pair<int, int>> evaluated;  ///< evaluated_frames.txt: (scene, frame)
-  nlohmann::json objects;                     ///< objects.json; null when absent
-  nlohmann::json instances;                   ///< instances.json; null when absent
+  nlohmann::json objects;                      ///< objects.json; null when absent
+  nlohmann::json instances;                    ///< instances.json; null when absent
 
   std::string file(const std::string& name) const;  ///< dir / name
-  bool has(const std::string& name) const;           ///< that file exists
+  bool has(const std::string& name) const;          ///< that file exists
 };
 
 /// Reads the run in `dir`. Throws IoError naming the file when summary.json or trajectory.txt is

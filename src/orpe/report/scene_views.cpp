@@ -84,11 +84,13 @@ std::string camera_path_svg(const std::vector<StampedPose>& trajectory, const Sc
       flush();
   }
   flush();
-  const std::pair<size_t, const char*> ends[] = {{0, "#20a020"}, {trajectory.size() - 1, "#d02020"}};
+  const std::pair<size_t, const char*> ends[] = {{0, "#20a020"},
+                                                 {trajectory.size() - 1, "#d02020"}};
   for (const auto& [i, colour] : ends)
     if (!trajectory.empty() && project(view, trajectory[i].T_world_cam.translation(), &uv))
-      s += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"5\" fill=\"{}\" stroke=\"white\"/>\n",
-                       uv.x(), uv.y(), colour);
+      s += fmt::format(
+          "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"5\" fill=\"{}\" stroke=\"white\"/>\n", uv.x(),
+          uv.y(), colour);
   return s;
 }
 

@@ -1,6 +1,6 @@
 // The 3D pictures of `orpe report`: the surfel map and the semantic map rendered by the project's
-// surfel renderer (slam/map_renderer.h) from viewpoints that frame the scene, and SVG overlays drawn
-// over them in the page (the camera path, the instances' class names).
+// surfel renderer (slam/map_renderer.h) from viewpoints that frame the scene, and SVG overlays
+// drawn over them in the page (the camera path, the instances' class names).
 #pragma once
 
 #include <string>

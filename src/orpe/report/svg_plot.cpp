@@ -204,18 +204,21 @@ std::vector<double> nice_ticks(double lo, double hi, int count) {
     }
   std::vector<double> ticks;
   const double first = std::ceil(lo / step - 1e-9);
-  for (double k = first; k * step <= hi + step * 1e-9; k += 1) ticks.push_back(k == 0 ? 0.0 : k * step);
+  for (double k = first; k * step <= hi + step * 1e-9; k += 1)
+    ticks.push_back(k == 0 ? 0.0 : k * step);
   return ticks;
 }
 
 Rgb8 series_colour(int i) {
-  static const Rgb8 kPalette[] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},  {214, 39, 40},
-                                  {148, 103, 189}, {140, 86, 75}, {227, 119, 194}, {127, 127, 127},
+  static const Rgb8 kPalette[] = {{31, 119, 180},  {255, 127, 14}, {44, 160, 44},   {214, 39, 40},
+                                  {148, 103, 189}, {140, 86, 75},  {227, 119, 194}, {127, 127, 127},
                                   {188, 189, 34},  {23, 190, 207}};
   return kPalette[((i % 10) + 10) % 10];
 }
 
-std::string css_colour(Rgb8 c) { return fmt::format("#{:02x}{:02x}{:02x}", c.r, c.g, c.b); }
+std::string css_colour(Rgb8 c) {
+  return fmt::format("#{:02x}{:02x}{:02x}", c.r, c.g, c.b);
+}
 
 std::string svg_plot(const std::vector<PlotSeries>& series, const PlotOptions& o) {
   Frame f;

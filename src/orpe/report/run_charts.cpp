@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <utility>
 
 #include "orpe/report/svg_plot.h"
 
@@ -48,6 +49,17 @@ PlotSeries frame_series(const std::vector<FrameLogRecord>& frames, std::string n
   s.colour = series_colour(colour);
   for (const auto& f : frames) s.x.push_back(f.frame), s.y.push_back(field(f));
   return s;
+}
+
+/// Options of a chart over the frames: x = frame number, y from 0.
+PlotOptions over_frames(std::string title, std::string y_label, int width_px) {
+  PlotOptions o;
+  o.title = std::move(title);
+  o.x_label = "frame";
+  o.y_label = std::move(y_label);
+  o.y_min = 0;
+  o.width_px = width_px;
+  return o;
 }
 
 }  // namespace
@@ -141,40 +153,22 @@ std::string stage_time_svg(const std::vector<FrameLogRecord>& frames) {
       frame_series(frames, "single view", 3, [](const R& f) { return f.single_view_ms; }),
       frame_series(frames, "ekf", 4, [](const R& f) { return f.ekf_ms; }),
       frame_series(frames, "pipeline total", 5, [](const R& f) { return f.total_ms; })};
-  PlotOptions o;
-  o.title = "Time per stage per frame (wall clock)";
-  o.x_label = "frame";
-  o.y_label = "ms";
-  o.y_min = 0;
-  o.width_px = 800;
-  return svg_plot(s, o);
+  return svg_plot(s, over_frames("Time per stage per frame (wall clock)", "ms", 800));
 }
 
 std::string surfel_count_svg(const std::vector<FrameLogRecord>& frames) {
-  PlotOptions o;
-  o.title = "Surfels in the map";
-  o.x_label = "frame";
-  o.y_label = "surfels";
-  o.y_min = 0;
-  o.width_px = 520;
   return svg_plot(
       {frame_series(frames, "", 0,
                     [](const FrameLogRecord& f) { return static_cast<double>(f.surfels); })},
-      o);
+      over_frames("Surfels in the map", "surfels", 520));
 }
 
 std::string memory_svg(const std::vector<FrameLogRecord>& frames) {
-  PlotOptions o;
-  o.title = "Memory";
-  o.x_label = "frame";
-  o.y_label = "MB";
-  o.y_min = 0;
-  o.width_px = 520;
   return svg_plot(
       {frame_series(frames, "surfel map", 0, [](const FrameLogRecord& f) { return f.map_mb; }),
        frame_series(frames, "process resident", 3,
                     [](const FrameLogRecord& f) { return f.rss_mb; })},
-      o);
+      over_frames("Memory", "MB", 520));
 }
 
 std::string tracking_state_svg(const std::vector<FrameLogRecord>& frames) {

@@ -17,14 +17,14 @@ namespace {
 namespace fs = std::filesystem;
 
 /// Runs `orpe report`, then checks the files and the browser. Returns the page's text.
-std::string check_report(const std::string& run, const std::string& extra, size_t min_images) {
+std::string check_report(const std::string& run, const std::string& extra, size_t images) {
   const std::string log = run + ".report.log";
   EXPECT_EQ(test::run_cli("report --run " + run + " " + extra + " > " + log + " 2>&1"), 0)
       << "see " << log;
   const std::string html = run + "/report/index.html";
   EXPECT_TRUE(fs::is_regular_file(html)) << html;
   const auto srcs = test::image_sources(html);
-  EXPECT_GE(srcs.size(), min_images);
+  EXPECT_EQ(srcs.size(), images) << "4 map pictures, 2 per sampled keyframe (--keyframes)";
   for (const auto& src : srcs) {
     const fs::path p = fs::path(run) / "report" / src;
     EXPECT_TRUE(fs::is_regular_file(p)) << p;
@@ -65,6 +65,14 @@ TEST(ReportCli, SyntheticRunGivesAPageABrowserShows) {
        {"Camera trajectory", "ADD-S accuracy-threshold curve", "Tracking state",
         "Reconstruction error per object", "Provenance", " run --dataset "})
     EXPECT_NE(text.find(section), std::string::npos) << section;
+  // A dataset that cannot be opened removes the sections that need it, with a note; the rest stays.
+  const std::string moved = dir + "/moved";
+  ASSERT_EQ(test::run_cli("report --run " + run + " --dataset " + dir + "/nowhere --out " + moved +
+                          " > " + moved + ".log 2>&1"),
+            0);
+  const std::string page = test::read_text(moved + "/index.html");
+  EXPECT_NE(page.find("the dataset could not be opened"), std::string::npos);
+  EXPECT_EQ(test::image_sources(moved + "/index.html").size(), 4u) << "the maps, no keyframes";
   ORPE_REQUIRE_BROWSER();
   check_in_browser(run + "/report/index.html",
                    test::image_sources(run + "/report/index.html").size());

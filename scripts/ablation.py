@@ -14,8 +14,10 @@ runs `orpe run` once per configuration instead (same results, slower). Besides t
 has "Object-RPE (final)": the final fused world pose of each object moved into every evaluated frame
 (poses_final.csv) -- what the whole sequence says, not a causal per-frame estimate.
 
-Writes OUT/ablation.md (the tables), OUT/ablation.json (all figures), per scene OUT/<scene>/ (run outputs)
-and per configuration OUT/eval/<name>.json. Python 3 standard library only.
+Writes OUT/ablation.md (the tables), OUT/ablation.json (all figures), OUT/report.html (the tables, bar charts
+of the pooled and per-class scores, and links to the `orpe report` page of each scene's run: report_page.py),
+per scene OUT/<scene>/ (run outputs) and per configuration OUT/eval/<name>.json. Python 3 standard library
+only.
 """
 import argparse
 import json
@@ -23,6 +25,9 @@ import os
 import subprocess
 import sys
 import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import report_page  # noqa: E402
 
 CONFIGS = ["DF", "DF-PM", "DF-PM-PD", "DF-PM-PD-PC", "Object-RPE"]
 FINAL = "Object-RPE (final)"
@@ -225,7 +230,24 @@ def main():
         json.dump({"dataset": args.dataset, "scenes": scenes, "sets": args.sets,
                    "pose": {c: {k: results[c][k] for k in ("all", "classes")} for c in cols},
                    "reconstruction": recon_rows}, f, indent=1)
+    write_report(args, orpe, common, text, results, cols, names, run_dirs)
     print(text)
+
+
+def write_report(args, orpe, common, text, results, cols, names, run_dirs):
+    """OUT/report.html: the tables, bar charts of the scores, and each scene run's `orpe report` page."""
+    pooled = report_page.bar_chart(
+        "Pooled over the evaluated frames (percent)", ["ADD-S AUC", "ADD(-S) AUC", "ADD-S < 2 cm"],
+        {c: [results[c]["all"]["adds_auc"], results[c]["all"]["add_s_auc"], results[c]["all"]["adds_below"] * 100]
+         for c in cols}, "percent", y_max=100)
+    classes = sorted(names)
+    per_class = report_page.bar_chart(
+        "ADD-S AUC per class", [names[k][0] for k in classes],
+        {c: [next((r["adds_auc"] for r in results[c]["classes"] if r["class_id"] == k), None) for k in classes]
+         for c in cols}, "ADD-S AUC", width=max(760, 90 * len(classes) + 230), y_max=100)
+    runs = [(f"scene {scene or '(default)'}", rdir, ["--dataset", args.dataset]) for scene, rdir in run_dirs]
+    links = report_page.orpe_reports(orpe, runs)
+    report_page.write(os.path.join(args.out, "report.html"), "Ablation", text, [pooled, per_class], links)
 
 
 if __name__ == "__main__":

@@ -2,7 +2,8 @@
 # The README's demo, end to end: dependencies, build, a synthetic scene (orpe synth), the full
 # Object-RPE pipeline on it (orpe run --mode full), recognising the objects from their models alone
 # (segmentation.backend=model: no labels, no training), and its evaluation (trajectory ATE, 6D pose AUC,
-# reconstruction error), with a short summary at the end.
+# reconstruction error), a short summary, and the report page of the run (orpe report, docs/REPORT.md),
+# whose path it prints last.
 #
 #   bash scripts/demo.sh                 # outputs in /tmp/orpe_demo (ORPE_DEMO_DIR to change)
 #   ORPE_DEMO_FRAMES=120 bash scripts/demo.sh   # a longer sequence
@@ -70,3 +71,7 @@ print(f"reconstruction error of the objects in the map: {recon['mean_mm']:.1f} m
 print(f"time per frame: {summary['timing_ms']['per_frame']['pipeline']:.0f} ms; demo wall time {seconds} s")
 print(f"outputs: {out}/run (trajectory.txt, map.ply, semantic_map.ply, objects.json, poses.csv, summary.json)")
 EOF
+
+step "report: map renders, models at the estimated poses, charts, tables (orpe report)"
+"$ORPE" -q report --run "$RUN" --dataset "$SCENE" --out "$OUT/report" > /dev/null
+echo "report (open it in a browser): $OUT/report/index.html"

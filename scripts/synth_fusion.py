@@ -11,7 +11,8 @@ single-view rows estimate.
 
   python3 scripts/synth_fusion.py --out /tmp/synth_fusion --seeds 1,2,3,4,5,6
 
-Writes OUT/synth_fusion.md (per seed and mean over seeds) and OUT/synth_fusion.json; per seed
+Writes OUT/synth_fusion.md (per seed and mean over seeds), OUT/synth_fusion.json and OUT/report.html (the
+tables, bar charts of ADD-S AUC per seed and of the means, links to each seed's `orpe report` page); per seed
 OUT/seed<N>/000000 (the scene), OUT/seed<N>/run (run outputs), OUT/seed<N>/eval/*.json.
 Python 3 standard library only.
 """
@@ -23,6 +24,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import ablation  # noqa: E402  (its run() helper)
+import report_page  # noqa: E402
 
 CONFIGS = ["DF", "DF-PM", "DF-PM-PD-PC", "Object-RPE"]
 EKF_ONLY = "Object-RPE, estimated objects only"
@@ -133,6 +135,18 @@ def main():
     with open(os.path.join(args.out, "synth_fusion.json"), "w") as f:
         json.dump({"args": vars(args), "per_seed": {str(s): results[s] for s in seeds}, "mean": summary}, f,
                   indent=1)
+    charts = [report_page.bar_chart("ADD-S AUC per seed", [f"seed {s}" for s in seeds],
+                                    {r: [results[s][r]["adds_auc"] for s in seeds] for r in rows}, "ADD-S AUC",
+                                    width=max(760, 110 * len(seeds) + 330), y_max=100),
+              report_page.bar_chart(f"Mean over the {len(seeds)} seeds (percent)",
+                                    ["ADD-S AUC", "ADD(-S) AUC", "ADD-S < 2 cm"],
+                                    {r: [summary[r]["adds_auc"], summary[r]["add_s_auc"],
+                                         summary[r]["adds_below"] * 100] for r in rows}, "percent",
+                                    width=900, y_max=100)]
+    links = report_page.orpe_reports(orpe, [(f"seed {s}", os.path.join(args.out, f"seed{s}", "run"),
+                                             ["--dataset", os.path.join(args.out, f"seed{s}", "000000")])
+                                            for s in seeds])
+    report_page.write(os.path.join(args.out, "report.html"), "Fusion vs single view", text, charts, links)
     print(text)
 
 

@@ -108,6 +108,7 @@ CommandRegistrar reg(30, [](CLI::App& root) {
     ro.view_up_m = s->view_up_m;
     ro.write_masks = s->write_masks;
     ro.overwrite = s->overwrite;
+    ro.command_line = command_line();
     install_stop_handlers();
     ro.stop_requested = [] { return g_signals.load() > 0; };
     for (const auto& a : s->ablations) {

@@ -19,6 +19,11 @@ struct CommandRegistrar {
 };
 std::vector<std::pair<int, CommandSetup>>& command_registry();
 
+/// The process's command line, each argument shell-quoted when it needs it (set by main), for the
+/// provenance of outputs.
+const std::string& command_line();
+void set_command_line(int argc, char** argv);
+
 /// --config FILE and --set section.key=value, shared by every command that runs a stage.
 struct ConfigOptions {
   std::string preset;

@@ -24,6 +24,27 @@ CommandRegistrar::CommandRegistrar(int order, CommandSetup setup) {
   command_registry().emplace_back(order, std::move(setup));
 }
 
+namespace {
+std::string g_command_line;
+}  // namespace
+
+const std::string& command_line() {
+  return g_command_line;
+}
+
+void set_command_line(int argc, char** argv) {
+  g_command_line.clear();
+  for (int i = 0; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool plain = !a.empty() && a.find_first_not_of(
+                                         "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                         "0123456789-_./=:,+@%") == std::string::npos;
+    std::string quoted = "'";
+    for (char c : a) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    g_command_line += (i ? " " : "") + (plain ? a : quoted + "'");
+  }
+}
+
 void add_config_options(CLI::App& app, ConfigOptions& options) {
   app.add_option("--preset", options.preset,
                  "Named parameter preset applied first: default, realtime (SLAM >= 15 frames/s; "
@@ -90,6 +111,7 @@ void route_log_streams() {
 
 int main(int argc, char** argv) {
   using namespace orpe::cli;
+  set_command_line(argc, argv);
   CLI::App app{"orpe: object recognition and 6D pose estimation from RGB-D scans (Object-RPE)"};
   app.set_version_flag("--version", std::string("orpe ") + orpe::kVersion);
   app.require_subcommand(1);

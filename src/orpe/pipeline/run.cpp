@@ -13,6 +13,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/machine_info.h"
 #include "orpe/core/staged_dir.h"
 #include "orpe/core/version.h"
 #include "orpe/eval/trajectory_metrics.h"
@@ -20,6 +21,7 @@
 #include "orpe/io/image_io.h"
 #include "orpe/io/json_summary.h"
 #include "orpe/io/trajectory_io.h"
+#include "orpe/pipeline/frame_log.h"
 #include "orpe/semantic/mask_output.h"
 #include "orpe/semantic/semantic_output.h"
 #include "orpe/slam/map_io.h"
@@ -69,6 +71,18 @@ void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
                         (info.model_symmetry.count(id) ? " symmetry: " + info.model_symmetry.at(id).text : ""));
     js.set("models.classes", classes);
   }
+}
+
+/// How and where the run was made (for `orpe report`): the command line and the machine.
+void write_provenance(const RunOptions& options, JsonSummary& js) {
+  js.set("provenance.command", options.command_line);
+  const MachineInfo m = describe_machine();
+  js.set("provenance.machine.hostname", m.hostname);
+  js.set("provenance.machine.cpu_model", m.cpu_model);
+  js.set("provenance.machine.logical_cpus", static_cast<int>(m.logical_cpus));
+  js.set("provenance.machine.os", m.os);
+  js.set("provenance.machine.memory_gb", m.memory_gb);
+  js.set("provenance.machine.load_1min_at_end", m.load_1min);
 }
 
 nlohmann::json pose_json(const SE3& T) {
@@ -280,6 +294,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
                                            static_cast<float>(config.segmentation.mask_threshold));
   }
   FrameStream stream(*reader);
+  FrameLog frame_log;
   RgbdFrame frame, first_frame;
   std::vector<std::string> wrong_size;
   const int every = config.pipeline.progress_every_n_frames;
@@ -293,7 +308,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     }
     const auto t_read = Clock::now();
     if (!stream.next(frame)) break;
-    summary.read_ms += ms_since(t_read);
+    const double read_ms = ms_since(t_read);
+    summary.read_ms += read_ms;
     if (summary.frames == 0) {
       first_frame.depth = frame.depth;
       first_frame.intrinsics = frame.intrinsics;
@@ -307,6 +323,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
       continue;
     }
     const PipelineFrameResult& r = pipeline.process(frame);
+    frame_log.add(r, read_ms, pipeline.slam().map().size(), pipeline.slam().map().bytes());
     ++summary.frames;
     summary.no_depth_frames += r.slam.no_depth;
     spdlog::debug("{}", r.slam.report());
@@ -343,6 +360,8 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   auto path = [&](const std::string& name) { return (fs::path(out) / name).string(); };
   write_tum_trajectory(path("trajectory.txt"), pipeline.trajectory());
   summary.files.push_back("trajectory.txt");
+  frame_log.write(path("frames.csv"));
+  summary.files.push_back("frames.csv");
   const float min_conf = static_cast<float>(config.pipeline.output_min_confidence);
   slam::write_surfel_ply(path("map.ply"), pipeline.slam().map(), min_conf);
   summary.files.push_back("map.ply");
@@ -430,6 +449,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("mode", options.mode);
   js.set("complete", !summary.interrupted);
   js.set("interrupted", summary.interrupted);
+  write_provenance(options, js);
   js.set("dataset.path", options.dataset_path);
   js.set("dataset.format", info.format);
   js.set("dataset.scene_id", info.scene_id);

@@ -1,6 +1,8 @@
 // `orpe run`: a whole dataset through the pipeline, with every output written atomically.
 //
 //  OUT/trajectory.txt        TUM trajectory (T_world_cam per frame; timestamps of the dataset)
+//  OUT/frames.csv           per processed frame: tracking state, map size, memory, time per stage
+//                            (pipeline/frame_log.h)
 //  OUT/map.ply               the surfel map (position, normal, colour, radius, confidence,
 //  instance) OUT/summary.json          timings per stage, counts, map bytes, peak memory, ATE (when
 //  the
@@ -49,6 +51,8 @@ struct RunOptions {
   double view_up_m = 0;
   /// semantic / full: also write per-keyframe input and projected instance masks to OUT/masks/.
   bool write_masks = false;
+  /// The command line that started the run, recorded in summary.json (provenance.command).
+  std::string command_line;
   /// Called with each progress line; null = spdlog::info.
   std::function<void(const std::string&)> progress;
   /// Replace an existing out_dir that holds a previous run (else an out_dir that is not empty is

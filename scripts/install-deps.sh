@@ -10,6 +10,8 @@ PACKAGES=(
   libmatio-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libtbb-dev libgtest-dev libgmock-dev libbenchmark-dev
   libassimp-dev libyaml-cpp-dev parallel
+  # ROS 1 bags as a dataset (io/dataset_rosbag.cpp, ORPE_WITH_ROSBAG; docs/DATASETS.md).
+  librosbag-storage-dev libsensor-msgs-dev
   # LibTorch for src/orpe/nets (ORPE_WITH_TORCH; ~0.5 GB), and Debian's PyTorch for the export /
   # fixture / training scripts of scripts/nets (run with /usr/bin/python3). docs/NETWORKS.md.
   libtorch-dev python3-torch python3-torchvision

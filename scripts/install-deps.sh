@@ -12,6 +12,8 @@ PACKAGES=(
   libassimp-dev libyaml-cpp-dev parallel
   # A real browser for the test that opens `orpe report`'s page (headless; docs/REPORT.md).
   chromium
+  # ROS 1 bags as a dataset (io/dataset_rosbag.cpp, ORPE_WITH_ROSBAG; docs/DATASETS.md).
+  librosbag-storage-dev libsensor-msgs-dev
   # LibTorch for src/orpe/nets (ORPE_WITH_TORCH; ~0.5 GB), and Debian's PyTorch for the export /
   # fixture / training scripts of scripts/nets (run with /usr/bin/python3). docs/NETWORKS.md.
   libtorch-dev python3-torch python3-torchvision

@@ -65,7 +65,8 @@ void add_dataset_options(CLI::App& app, ConfigOptions& options) {
   app.add_option(
       "--camera", options.camera_file,
       "Camera YAML (ORB-SLAM2/3 settings or OpenCV style): intrinsics, distortion, depth "
-      "scale, depth-to-colour extrinsics (dataset.camera_file; docs/DATASETS.md)");
+      "scale, depth-to-colour extrinsics; or a sensor preset: kinect_v1, xtion, primesense, "
+      "realsense_d435, azure_kinect_720p (dataset.camera_file; docs/DATASETS.md)");
 }
 
 OrpeConfig resolve_config(const ConfigOptions& options) {

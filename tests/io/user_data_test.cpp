@@ -303,6 +303,65 @@ TEST(PlainFolder, RgbAndDepthFoldersWithCameraYaml) {
   test::expect_io_error_naming([&] { open_dataset(dir, p); }, "counts must agree");
 }
 
+TEST(PlainFolder, DepthCameraOfHalfTheColourResolutionIsRegisteredWithoutHoles) {
+  // Colour 64x48 (fx 60), depth 32x24 (fx 30) from the same centre: a depth pixel covers 2x2
+  // colour pixels. A plane at 1.5 m.
+  const std::string dir = test::scratch_dir("plain_depth_res");
+  write_color_png(dir + "/rgb/000000.png", ColorImage(64, 48, Rgb8{90, 120, 150}));
+  write_depth_png(dir + "/depth/000000.png", DepthImage(32, 24, 1.5f), 1000);
+  test::write_text(dir + "/camera.yaml",
+                   "%YAML:1.0\nimage_width: 64\nimage_height: 48\n"
+                   "camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+                   "  data: [ 60., 0., 31.5, 0., 60., 23.5, 0., 0., 1. ]\n"
+                   "depth_units_per_m: 1000\n"
+                   "depth_camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+                   "  data: [ 30., 0., 15.5, 0., 30., 11.5, 0., 0., 1. ]\n"
+                   "depth_image_width: 32\ndepth_image_height: 24\n"
+                   "T_colour_depth: !!opencv-matrix\n  rows: 4\n  cols: 4\n  dt: d\n"
+                   "  data: [ 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1. ]\n");
+  const RgbdFrame f = open_dataset(dir, DatasetParams{})->read(0);
+  ASSERT_EQ(f.depth.width(), 64);
+  ASSERT_EQ(f.depth.height(), 48);
+  EXPECT_EQ(f.intrinsics.width, 64);
+  int holes = 0;
+  for (float z : f.depth) {
+    holes += z == 0;
+    if (z != 0) {
+      EXPECT_NEAR(z, 1.5f, 1e-6);
+    }
+  }
+  EXPECT_EQ(holes, 0) << "each coarse depth pixel fills its 2x2 colour footprint";
+  // Without a depth camera in the camera file, differing sizes are an error naming both.
+  test::write_text(dir + "/camera.yaml",
+                   "%YAML:1.0\nimage_width: 64\nimage_height: 48\n"
+                   "camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+                   "  data: [ 60., 0., 31.5, 0., 60., 23.5, 0., 0., 1. ]\n"
+                   "depth_units_per_m: 1000\n");
+  test::expect_io_error_naming([&] { open_dataset(dir, DatasetParams{})->read(0); },
+                               "depth is 32x24 but colour image");
+}
+
+TEST(CameraFile, SensorPresetsByNameWhenNoSuchFileExists) {
+  const CameraFileInfo d435 = read_camera_file("realsense_d435");
+  EXPECT_EQ(d435.path, "preset:realsense_d435");
+  EXPECT_NEAR(d435.colour.fx, 612.405, 1e-9);
+  EXPECT_EQ(d435.colour.width, 640);
+  EXPECT_DOUBLE_EQ(d435.depth_units_per_m, 1000.0);
+  EXPECT_FALSE(d435.has_depth_camera);  // depth aligned to colour by the driver
+  const CameraFileInfo kinect = read_camera_file("kinect_v1");
+  EXPECT_DOUBLE_EQ(kinect.colour.fx, 525.0);
+  EXPECT_DOUBLE_EQ(kinect.colour.cy, 239.5);
+  EXPECT_EQ(read_camera_file("azure_kinect_720p").colour.width, 1280);
+  for (const std::string& name : camera_preset_names())
+    EXPECT_NO_THROW(read_camera_file(name)) << name;
+  // A file of that name wins over the preset; an unknown name lists the presets.
+  const std::string dir = test::scratch_dir("presets");
+  test::write_text(dir + "/xtion", kOrbSlam2);
+  EXPECT_NEAR(read_camera_file(dir + "/xtion").colour.fx, 517.306408, 1e-9);
+  test::expect_io_error_naming([&] { read_camera_file("realsense_d999"); },
+                               "nor a sensor preset: kinect_v1, xtion, primesense");
+}
+
 TEST(CameraFile, OverridesATumFoldersIntrinsicsAndDepthScale) {
   const std::string dir = make_plain(test::scratch_dir("tumcam"), false);
   std::string rgb, depth;

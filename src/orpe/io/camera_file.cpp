@@ -179,18 +179,70 @@ void check_size(const PinholeIntrinsics& k, int w, int h, const std::string& wha
 
 }  // namespace
 
+namespace {
+
+/// Built-in cameras (docs/DATASETS.md "Sensor presets"): nominal values, not a calibration. Each
+/// depth is registered to colour (the driver's registered / aligned stream), in millimetres.
+struct CameraPreset {
+  const char* name;
+  const char* yaml;
+};
+
+const CameraPreset kPresets[] = {
+    // PrimeSense family (Kinect v1, Asus Xtion Pro Live) through OpenNI: the ROS openni_camera
+    // defaults, as TUM RGB-D's "ROS default" intrinsics; registered depth in mm.
+    {"primesense",
+     "%YAML:1.0\nCamera.fx: 525.0\nCamera.fy: 525.0\nCamera.cx: 319.5\nCamera.cy: 239.5\n"
+     "Camera.width: 640\nCamera.height: 480\nDepthMapFactor: 1000.0\n"},
+    // Intel RealSense D435 colour at 640x480, depth aligned to colour (Z16, 1 mm units): the
+    // factory values of one unit (librealsense issue #7300, rs-enumerate-devices -c).
+    {"realsense_d435",
+     "%YAML:1.0\nCamera.fx: 612.405\nCamera.fy: 610.649\nCamera.cx: 314.251\nCamera.cy: "
+     "237.778\nCamera.width: 640\nCamera.height: 480\nDepthMapFactor: 1000.0\n"},
+    // Microsoft Azure Kinect colour at 1280x720, depth transformed to colour (k4a
+    // depth_to_color, mm): one unit's 1920x1080 factory values (pyk4a issue #35) scaled by 2/3.
+    {"azure_kinect_720p",
+     "%YAML:1.0\nCamera.fx: 612.953\nCamera.fy: 612.920\nCamera.cx: 635.382\nCamera.cy: "
+     "367.842\nCamera.width: 1280\nCamera.height: 720\nDepthMapFactor: 1000.0\n"},
+};
+
+const CameraPreset* find_preset(const std::string& name) {
+  std::string n = name;
+  if (n == "kinect_v1" || n == "xtion") n = "primesense";
+  for (const CameraPreset& p : kPresets)
+    if (n == p.name) return &p;
+  return nullptr;
+}
+
+}  // namespace
+
+std::vector<std::string> camera_preset_names() {
+  std::vector<std::string> out = {"kinect_v1", "xtion"};
+  for (const CameraPreset& p : kPresets) out.push_back(p.name);
+  return out;
+}
+
 CameraFileInfo read_camera_file(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) throw IoError(path, "camera file not found");
+  const CameraPreset* preset = std::filesystem::exists(path) ? nullptr : find_preset(path);
+  if (!preset && !std::filesystem::is_regular_file(path)) {
+    std::string names;
+    for (const std::string& n : camera_preset_names()) names += (names.empty() ? "" : ", ") + n;
+    throw IoError(path, "camera file not found (nor a sensor preset: " + names + ")");
+  }
   cv::FileStorage fs;
   try {
-    fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
+    if (preset)
+      fs.open(preset->yaml,
+              cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+    else
+      fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
   } catch (const cv::Exception& e) {
     throw IoError(path, std::string("not a readable YAML camera file: ") + e.what());
   }
   if (!fs.isOpened()) throw IoError(path, "not a readable YAML camera file");
   const Keys k(fs, path);
   CameraFileInfo c;
-  c.path = path;
+  c.path = preset ? "preset:" + path : path;
   if (k.has("Camera1.fx")) {
     c.style = "orbslam3";
     read_orbslam(k, "Camera1.", c);
@@ -227,6 +279,10 @@ DepthImage register_depth_to_colour(const DepthImage& depth, const CameraFileInf
   DepthImage out(w, h, 0.0f);
   const Mat3 R = c.T_colour_depth.rotation();
   const Vec3 t = c.T_colour_depth.translation();
+  // A depth pixel covers (colour focal / depth focal) x (z_depth / z_colour) colour pixels per
+  // side: when depth is coarser than colour (an Azure Kinect's 640x576 depth into 1280x720
+  // colour), each point fills its whole footprint, or 3 of 4 colour pixels would stay holes.
+  const double sx = c.colour.fx / c.depth.fx, sy = c.colour.fy / c.depth.fy;
   for (int v = 0; v < depth.height(); ++v)
     for (int u = 0; u < depth.width(); ++u) {
       const float z = depth.at(u, v);
@@ -234,11 +290,20 @@ DepthImage register_depth_to_colour(const DepthImage& depth, const CameraFileInf
       const cv::Point2f& n = xn[static_cast<size_t>(v) * depth.width() + u];
       const Vec3 p = R * Vec3(n.x * z, n.y * z, z) + t;
       if (!(p.z() > 0)) continue;
-      const int uc = static_cast<int>(std::lround(c.colour.fx * p.x() / p.z() + c.colour.cx));
-      const int vc = static_cast<int>(std::lround(c.colour.fy * p.y() / p.z() + c.colour.cy));
-      if (!out.in_bounds(uc, vc)) continue;
-      float& d = out.at(uc, vc);
-      if (d == 0 || p.z() < d) d = static_cast<float>(p.z());
+      const double x = c.colour.fx * p.x() / p.z() + c.colour.cx;
+      const double y = c.colour.fy * p.y() / p.z() + c.colour.cy;
+      const double hx = 0.5 * sx * z / p.z(), hy = 0.5 * sy * z / p.z();
+      // Colour pixels whose centres lie in [x - hx, x + hx) x [y - hy, y + hy); at least the
+      // nearest one.
+      int u0 = static_cast<int>(std::ceil(x - hx)), u1 = static_cast<int>(std::ceil(x + hx)) - 1;
+      int v0 = static_cast<int>(std::ceil(y - hy)), v1 = static_cast<int>(std::ceil(y + hy)) - 1;
+      if (hx <= 0.5) u0 = u1 = static_cast<int>(std::lround(x));
+      if (hy <= 0.5) v0 = v1 = static_cast<int>(std::lround(y));
+      for (int vc = std::max(v0, 0); vc <= std::min(v1, h - 1); ++vc)
+        for (int uc = std::max(u0, 0); uc <= std::min(u1, w - 1); ++uc) {
+          float& d = out.at(uc, vc);
+          if (d == 0 || p.z() < d) d = static_cast<float>(p.z());
+        }
     }
   return out;
 }

@@ -14,15 +14,21 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "orpe/core/image.h"
 #include "orpe/io/dataset.h"
 
 namespace orpe {
 
-/// Reads a camera file. Throws IoError naming the file and the key for a missing file, an unknown
-/// shape, a missing or non-numeric value, a non-positive focal length / size / depth scale, a
-/// non-finite distortion, a T_colour_depth that is not rigid, or min_depth_m >= max_depth_m.
+/// Names of the built-in sensor presets accepted by read_camera_file in place of a path
+/// (`--camera realsense_d435`): nominal intrinsics and depth scales, docs/DATASETS.md.
+std::vector<std::string> camera_preset_names();
+
+/// Reads a camera file, or a sensor preset by name when no file of that name exists. Throws IoError
+/// naming the file and the key for a missing file, an unknown shape, a missing or non-numeric
+/// value, a non-positive focal length / size / depth scale, a non-finite distortion, a
+/// T_colour_depth that is not rigid, or min_depth_m >= max_depth_m.
 CameraFileInfo read_camera_file(const std::string& path);
 
 /// Applies a camera file to one frame read in the layout's own way: undistorts colour (bilinear),

@@ -17,9 +17,11 @@ bool DatasetParams::IsValid(std::string* why) const {
     return false;
   };
   if (format != "auto" && format != "tum" && format != "7scenes" && format != "ycbv" &&
-      format != "bop" && format != "plain")
-    return fail("format must be one of auto, tum, 7scenes, ycbv, bop, plain (got '" + format +
-                "')");
+      format != "bop" && format != "plain" && format != "rosbag")
+    return fail("format must be one of auto, tum, 7scenes, ycbv, bop, plain, rosbag (got '" +
+                format + "')");
+  if (bag_colour_topic.empty() || bag_depth_topic.empty())
+    return fail("bag_colour_topic and bag_depth_topic must not be empty");
   if (first_frame < 0) return fail("first_frame must be >= 0");
   if (last_frame < -1)
     return fail("last_frame must be -1 (to the end) or a frame index, not " +
@@ -38,7 +40,9 @@ bool DatasetParams::IsValid(std::string* why) const {
 std::string detect_dataset_format(const std::string& path) {
   namespace fs = std::filesystem;
   if (!fs::exists(path)) throw IoError(path, "dataset folder not found");
-  if (!fs::is_directory(path)) throw IoError(path, "dataset path is not a folder");
+  if (fs::is_regular_file(path) && fs::path(path).extension() == ".bag") return "rosbag";
+  if (!fs::is_directory(path))
+    throw IoError(path, "dataset path is not a folder (nor a ROS bag file, *.bag)");
   // Most specific first; the TUM index wins over 7-Scenes' own files when a folder has both (the
   // shared 7-Scenes copy), since it is the explicit frame list.
   if (detail::looks_like_bop(path)) return "bop";
@@ -52,7 +56,7 @@ std::string detect_dataset_format(const std::string& path) {
       "split/scene sub-folders), "
       "YCB-Video (data/NNNN/NNNNNN-meta.mat, or NNNNNN-color.png + NNNNNN-meta.mat here), "
       "TUM RGB-D (rgb.txt + depth.txt, or associations.txt), 7-Scenes (frame-NNNNNN.depth.png), "
-      "a plain folder (rgb/ + depth/ image folders with a camera.yaml); "
+      "a plain folder (rgb/ + depth/ image folders with a camera.yaml), a ROS bag (a *.bag file); "
       "set dataset.format to force one");
 }
 
@@ -107,7 +111,8 @@ std::unique_ptr<DatasetReader> open_dataset(const std::string& path, const Datas
   namespace fs = std::filesystem;
   std::string why;
   if (!params.IsValid(&why)) throw ConfigError("dataset: " + why);
-  if (!fs::is_directory(path)) throw IoError(path, "dataset folder not found");
+  const bool bag_file = fs::is_regular_file(path) && fs::path(path).extension() == ".bag";
+  if (!fs::is_directory(path) && !bag_file) throw IoError(path, "dataset folder not found");
   const std::string format = params.format == "auto" ? detect_dataset_format(path) : params.format;
   // The camera file: dataset.camera_file, else a plain folder's camera.yaml.
   std::optional<CameraFileInfo> camera;
@@ -118,6 +123,7 @@ std::unique_ptr<DatasetReader> open_dataset(const std::string& path, const Datas
   if (!camera_path.empty()) {
     camera = read_camera_file(camera_path);
     if (p.depth_units_per_m == 0) p.depth_units_per_m = camera->depth_units_per_m;
+    p.depth_registered_later = camera->has_depth_camera;
   } else if (format == "plain" && !(params.fx > 0 && params.fy > 0)) {
     throw IoError(path,
                   "a plain folder needs a camera file: camera.yaml in the folder, or "
@@ -134,6 +140,8 @@ std::unique_ptr<DatasetReader> open_dataset(const std::string& path, const Datas
     reader = detail::open_bop(path, p);
   else if (format == "plain")
     reader = detail::open_plain(path, p);
+  else if (format == "rosbag")
+    reader = detail::open_rosbag(path, p);
   else
     throw ConfigError("dataset.format: unknown layout '" + format + "'");
   if (camera || !params.models_dir.empty())

@@ -18,7 +18,7 @@ namespace orpe {
 
 /// Dataset selection and per-dataset overrides. Zero / empty means "use the layout's preset".
 struct DatasetParams {
-  std::string format = "auto";  ///< auto | tum | 7scenes | ycbv | bop
+  std::string format = "auto";  ///< auto | tum | 7scenes | ycbv | bop | plain | rosbag
   int first_frame = 0;          ///< index into the layout's frame list (after sorting), inclusive
   int last_frame = -1;          ///< inclusive; -1 = to the end
   int stride = 1;               ///< take every stride-th frame
@@ -34,10 +34,20 @@ struct DatasetParams {
   std::string
       models_unit;  ///< unit of models_dir's files: m | mm; empty = detect (error if unclear)
   std::string camera_file;  ///< camera YAML (ORB-SLAM2/3 or OpenCV style) overriding the layout's
+  // ROS 1 bags (a .bag file as the dataset path; docs/DATASETS.md "ROS bags"). Defaults: the topics
+  // of the TUM RGB-D bags.
+  std::string bag_colour_topic = "/camera/rgb/image_color";  ///< sensor_msgs/Image, 8-bit colour
+  std::string bag_depth_topic =
+      "/camera/depth/image";  ///< sensor_msgs/Image, 16UC1 (raw units) or 32FC1 (metres)
+  std::string bag_camera_info_topic =
+      "/camera/rgb/camera_info";  ///< sensor_msgs/CameraInfo of the colour camera
+  /// Set by open_dataset, not a setting: the camera file has a depth camera of its own, which is
+  /// registered into colour after loading, so colour and depth may differ in size at load.
+  bool depth_registered_later = false;
 
   template <class V>
   void visit(V&& v) {
-    v("format", format, "Dataset layout: auto | tum | 7scenes | ycbv | bop");
+    v("format", format, "Dataset layout: auto | tum | 7scenes | ycbv | bop | plain | rosbag");
     v("first_frame", first_frame, "First frame (index into the sorted frame list), inclusive");
     v("last_frame", last_frame, "Last frame, inclusive; -1 = to the end");
     v("stride", stride, "Take every stride-th frame (>= 1)");
@@ -62,8 +72,17 @@ struct DatasetParams {
       "unclear)");
     v("camera_file", camera_file,
       "Camera YAML (ORB-SLAM2/ORB-SLAM3 settings or OpenCV FileStorage style): intrinsics, "
-      "distortion, depth scale, depth-to-colour extrinsics; overrides the layout's "
+      "distortion, depth scale, depth-to-colour extrinsics; or a sensor preset name "
+      "(kinect_v1, xtion, primesense, realsense_d435, azure_kinect_720p); overrides the layout's "
       "(docs/DATASETS.md)");
+    v("bag_colour_topic", bag_colour_topic,
+      "ROS bag: colour sensor_msgs/Image topic (rgb8, bgr8, rgba8, bgra8, mono8)");
+    v("bag_depth_topic", bag_depth_topic,
+      "ROS bag: depth sensor_msgs/Image topic (16UC1: raw units, depth_units_per_m or 1000 per "
+      "metre; 32FC1: metres)");
+    v("bag_camera_info_topic", bag_camera_info_topic,
+      "ROS bag: sensor_msgs/CameraInfo of the colour camera (intrinsics and plumb_bob distortion); "
+      "unused when a camera file is given");
   }
   bool IsValid(std::string* why) const;
 };

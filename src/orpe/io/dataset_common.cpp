@@ -45,15 +45,27 @@ void load_color_and_depth(const std::string& color_path, const std::string& dept
   frame.color = read_color_image(color_path);
   DepthReadStats stats;
   frame.depth = read_depth_image(depth_path, depth_units_per_m, &stats);
-  if (frame.color.width() != frame.depth.width() || frame.color.height() != frame.depth.height())
-    throw IoError(depth_path, fmt::format("depth is {}x{} but colour image {} is {}x{}",
-                                          frame.depth.width(), frame.depth.height(), color_path,
-                                          frame.color.width(), frame.color.height()));
+  finish_color_and_depth(color_path, depth_path, stats, params, frame);
+}
+
+void finish_color_and_depth(const std::string& color_name, const std::string& depth_name,
+                            const DepthReadStats& stats, const DatasetParams& params,
+                            RgbdFrame& frame) {
+  // A depth camera of its own (camera file) is registered into colour later, at any size.
+  const bool same_size =
+      frame.color.width() == frame.depth.width() && frame.color.height() == frame.depth.height();
+  if (!same_size && !params.depth_registered_later)
+    throw IoError(depth_name,
+                  fmt::format("depth is {}x{} but colour image {} is {}x{} (a depth camera of "
+                              "another size needs a camera file with its intrinsics and "
+                              "T_colour_depth, docs/DATASETS.md)",
+                              frame.depth.width(), frame.depth.height(), color_name,
+                              frame.color.width(), frame.color.height()));
   if (stats.nonfinite_or_negative_pixels > 0)
-    spdlog::warn("{}: {} NaN, inf or negative depth values set to invalid (0)", depth_path,
+    spdlog::warn("{}: {} NaN, inf or negative depth values set to invalid (0)", depth_name,
                  stats.nonfinite_or_negative_pixels);
   if (stats.invalid_pixels == frame.depth.size())
-    throw IoError(depth_path,
+    throw IoError(depth_name,
                   fmt::format("no valid depth: all {} pixels are 0, NaN, inf or negative",
                               frame.depth.size()));
   if (params.max_depth_m > 0) {
@@ -61,8 +73,8 @@ void load_color_and_depth(const std::string& color_path, const std::string& dept
     for (float& z : frame.depth)
       if (z > max_m) z = 0.0f;
   }
-  frame.intrinsics.width = frame.depth.width();
-  frame.intrinsics.height = frame.depth.height();
+  frame.intrinsics.width = frame.color.width();
+  frame.intrinsics.height = frame.color.height();
 }
 
 LabelImage load_labels_matching(const std::string& path, const RgbdFrame& frame) {

@@ -9,6 +9,7 @@
 
 #include "orpe/core/frame.h"
 #include "orpe/io/dataset.h"
+#include "orpe/io/image_io.h"
 
 namespace orpe::detail {
 
@@ -26,6 +27,14 @@ PinholeIntrinsics apply_intrinsics_overrides(PinholeIntrinsics k, const DatasetP
 /// values of float depth images become 0 (CONVENTIONS.md) and are logged.
 void load_color_and_depth(const std::string& color_path, const std::string& depth_path,
                           double depth_units_per_m, const DatasetParams& params, RgbdFrame& frame);
+
+/// The checks of load_color_and_depth on images already decoded (a ROS bag's messages): equal
+/// sizes (unless params.depth_registered_later), at least one valid depth pixel (`stats`), depth
+/// beyond max_depth_m cleared; sets the intrinsics' size to the colour image's. Names are for
+/// messages.
+void finish_color_and_depth(const std::string& color_name, const std::string& depth_name,
+                            const DepthReadStats& stats, const DatasetParams& params,
+                            RgbdFrame& frame);
 
 /// Reads a label image and checks that its size matches `frame.depth`.
 LabelImage load_labels_matching(const std::string& path, const RgbdFrame& frame);
@@ -64,12 +73,14 @@ class SelectedFramesReader : public DatasetReader {
   std::vector<size_t> selected_;
 };
 
-// Factories of the five readers (one .cpp each).
+// Factories of the readers (one .cpp each).
 std::unique_ptr<DatasetReader> open_tum(const std::string& path, const DatasetParams& params);
 std::unique_ptr<DatasetReader> open_7scenes(const std::string& path, const DatasetParams& params);
 std::unique_ptr<DatasetReader> open_ycbv(const std::string& path, const DatasetParams& params);
 std::unique_ptr<DatasetReader> open_bop(const std::string& path, const DatasetParams& params);
 std::unique_ptr<DatasetReader> open_plain(const std::string& path, const DatasetParams& params);
+/// A ROS 1 bag file (dataset_rosbag.cpp; without ORPE_WITH_ROSBAG a ConfigError saying so).
+std::unique_ptr<DatasetReader> open_rosbag(const std::string& path, const DatasetParams& params);
 
 // Layout probes used by detect_dataset_format (true when `path` looks like that layout).
 bool looks_like_tum(const std::string& path);

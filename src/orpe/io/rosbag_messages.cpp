@@ -1,0 +1,210 @@
+// Built as C++17 (CMakeLists.txt): Debian's ROS 1 message headers do not compile as C++20. Only
+// standard and ROS headers here; see rosbag_messages.h.
+#include "orpe/io/rosbag_messages.h"
+
+#include <stdexcept>
+
+#if ORPE_HAVE_ROSBAG
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#endif
+
+namespace orpe::detail::rosbag_io {
+
+#if !ORPE_HAVE_ROSBAG
+
+bool available() {
+  return false;
+}
+
+namespace {
+[[noreturn]] void unavailable() {
+  throw std::runtime_error(
+      "this orpe was built without ROS bag support (apt-get install librosbag-storage-dev "
+      "libsensor-msgs-dev, as scripts/install-deps.sh does, then configure with "
+      "-DORPE_WITH_ROSBAG=ON)");
+}
+}  // namespace
+
+struct BagReader::Impl {};
+BagReader::BagReader(const std::string&) {
+  unavailable();
+}
+BagReader::~BagReader() = default;
+std::string BagReader::topics() const {
+  unavailable();
+}
+std::vector<double> BagReader::image_stamps(const std::string&) const {
+  unavailable();
+}
+ImageMessage BagReader::image(const std::string&, size_t) const {
+  unavailable();
+}
+std::optional<CameraInfoMessage> BagReader::first_camera_info(const std::string&) const {
+  unavailable();
+}
+struct BagWriter::Impl {};
+BagWriter::BagWriter(const std::string&) {
+  unavailable();
+}
+BagWriter::~BagWriter() = default;
+void BagWriter::write(const std::string&, double, const ImageMessage&) {
+  unavailable();
+}
+void BagWriter::write(const std::string&, double, const CameraInfoMessage&) {
+  unavailable();
+}
+
+#else
+
+bool available() {
+  return true;
+}
+
+struct BagReader::Impl {
+  rosbag::Bag bag;
+  /// Per image topic, its messages in bag order (filled by image_stamps).
+  mutable std::vector<std::pair<std::string, std::vector<rosbag::MessageInstance> > > messages;
+
+  const std::vector<rosbag::MessageInstance>* find(const std::string& topic) const {
+    for (const auto& [t, v] : messages)
+      if (t == topic) return &v;
+    return nullptr;
+  }
+};
+
+namespace {
+
+void check_type(const rosbag::MessageInstance& m, const std::string& want,
+                const std::string& topic) {
+  if (m.getDataType() != want)
+    throw std::runtime_error("topic " + topic + " holds " + m.getDataType() + ", not " + want);
+}
+
+template <class Fn>
+auto translate(Fn&& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const rosbag::BagException& e) {
+    throw std::runtime_error(std::string("cannot read the ROS bag: ") + e.what());
+  } catch (const ros::Exception& e) {
+    throw std::runtime_error(std::string("cannot read the ROS bag: ") + e.what());
+  }
+}
+
+}  // namespace
+
+BagReader::BagReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
+  translate([&] {
+    impl_->bag.open(path, rosbag::bagmode::Read);
+    return 0;
+  });
+}
+
+BagReader::~BagReader() = default;
+
+std::string BagReader::topics() const {
+  return translate([&] {
+    rosbag::View all(impl_->bag);
+    std::string out;
+    for (const rosbag::ConnectionInfo* c : all.getConnections())
+      out += (out.empty() ? "" : ", ") + c->topic + " (" + c->datatype + ")";
+    return out.empty() ? std::string("none") : out;
+  });
+}
+
+std::vector<double> BagReader::image_stamps(const std::string& topic) const {
+  return translate([&] {
+    rosbag::View view(impl_->bag, rosbag::TopicQuery(topic));
+    std::vector<rosbag::MessageInstance> kept;
+    std::vector<double> stamps;
+    for (const rosbag::MessageInstance& m : view) {
+      check_type(m, "sensor_msgs/Image", topic);
+      stamps.push_back(m.instantiate<sensor_msgs::Image>()->header.stamp.toSec());
+      kept.push_back(m);
+    }
+    impl_->messages.emplace_back(topic, std::move(kept));
+    return stamps;
+  });
+}
+
+ImageMessage BagReader::image(const std::string& topic, size_t k) const {
+  return translate([&] {
+    const auto* v = impl_->find(topic);
+    if (!v || k >= v->size())
+      throw std::runtime_error("no image " + std::to_string(k) + " on topic " + topic);
+    const auto msg = (*v)[k].instantiate<sensor_msgs::Image>();
+    if (!msg)
+      throw std::runtime_error("message " + std::to_string(k) + " of " + topic + " is unreadable");
+    ImageMessage out;
+    out.stamp_s = msg->header.stamp.toSec();
+    out.encoding = msg->encoding;
+    out.width = msg->width, out.height = msg->height, out.step = msg->step;
+    out.big_endian = msg->is_bigendian != 0;
+    out.data = msg->data;
+    return out;
+  });
+}
+
+std::optional<CameraInfoMessage> BagReader::first_camera_info(const std::string& topic) const {
+  return translate([&]() -> std::optional<CameraInfoMessage> {
+    rosbag::View view(impl_->bag, rosbag::TopicQuery(topic));
+    for (const rosbag::MessageInstance& m : view) {
+      check_type(m, "sensor_msgs/CameraInfo", topic);
+      const auto info = m.instantiate<sensor_msgs::CameraInfo>();
+      CameraInfoMessage out;
+      out.stamp_s = info->header.stamp.toSec();
+      out.width = info->width, out.height = info->height;
+      for (int i = 0; i < 9; ++i) out.K[i] = info->K[i];
+      out.distortion_model = info->distortion_model;
+      out.D = info->D;
+      return out;
+    }
+    return std::nullopt;
+  });
+}
+
+struct BagWriter::Impl {
+  rosbag::Bag bag;
+};
+
+BagWriter::BagWriter(const std::string& path) : impl_(std::make_unique<Impl>()) {
+  translate([&] {
+    impl_->bag.open(path, rosbag::bagmode::Write);
+    return 0;
+  });
+}
+
+BagWriter::~BagWriter() = default;
+
+void BagWriter::write(const std::string& topic, double record_time_s, const ImageMessage& m) {
+  sensor_msgs::Image msg;
+  msg.header.stamp = ros::Time(m.stamp_s);
+  msg.encoding = m.encoding;
+  msg.width = m.width, msg.height = m.height, msg.step = m.step;
+  msg.is_bigendian = m.big_endian ? 1 : 0;
+  msg.data = m.data;
+  translate([&] {
+    impl_->bag.write(topic, ros::Time(record_time_s), msg);
+    return 0;
+  });
+}
+
+void BagWriter::write(const std::string& topic, double record_time_s, const CameraInfoMessage& m) {
+  sensor_msgs::CameraInfo msg;
+  msg.header.stamp = ros::Time(m.stamp_s);
+  msg.width = m.width, msg.height = m.height;
+  for (int i = 0; i < 9; ++i) msg.K[i] = m.K[i];
+  msg.distortion_model = m.distortion_model;
+  msg.D = m.D;
+  translate([&] {
+    impl_->bag.write(topic, ros::Time(record_time_s), msg);
+    return 0;
+  });
+}
+
+#endif
+
+}  // namespace orpe::detail::rosbag_io

@@ -8,49 +8,35 @@
 // and image (docs/BENCHMARKS.md).
 #include <chrono>
 #include <cstdio>
-#include <ctime>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 
+#include "bench_args.h"
 #include "cpu_time.h"
+#include "orpe/io/image_io.h"
 #include "orpe/nets/maskrcnn.h"
 
 using orpe::bench::process_cpu_s;
 
 int main(int argc, char** argv) {
-  std::string model, image_path;
-  int repeats = 3, threads = 0;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i], value = argv[i + 1];
-    if (flag == "--model")
-      model = value;
-    else if (flag == "--image")
-      image_path = value;
-    else if (flag == "--repeats")
-      repeats = std::stoi(value);
-    else if (flag == "--threads")
-      threads = std::stoi(value);
-    else {
-      std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
+  try {
+    // --model and --image required; unknown flags and non-numbers are errors (bench_args.h).
+    const orpe::bench::BenchArgs args =
+        orpe::bench::parse_bench_args(argc, argv, {"--model", "--image", "--repeats", "--threads"});
+    const std::string model = args.get("--model", ""), image_path = args.get("--image", "");
+    const double repeats_arg = args.number("--repeats", 3),
+                 threads_arg = args.number("--threads", 0);
+    if (model.empty() || image_path.empty() || repeats_arg < 1 || threads_arg < 0 ||
+        repeats_arg != static_cast<int>(repeats_arg) ||
+        threads_arg != static_cast<int>(threads_arg)) {
+      std::fprintf(stderr,
+                   "usage: %s --model FILE --image PNG [--repeats N >= 1] [--threads T >= 0]\n",
+                   argv[0]);
       return 2;
     }
-  }
-  if (model.empty() || image_path.empty() || repeats < 1) {
-    std::fprintf(stderr, "usage: %s --model FILE --image PNG [--repeats N] [--threads T]\n",
-                 argv[0]);
-    return 2;
-  }
-  try {
-    const cv::Mat bgr = cv::imread(image_path, cv::IMREAD_COLOR);
-    if (bgr.empty()) throw std::runtime_error(image_path + ": cannot read the image");
-    orpe::ColorImage image(bgr.cols, bgr.rows);
-    for (int v = 0; v < bgr.rows; ++v)
-      for (int u = 0; u < bgr.cols; ++u) {
-        const cv::Vec3b p = bgr.at<cv::Vec3b>(v, u);
-        image.at(u, v) = {p[2], p[1], p[0]};
-      }
+    const int repeats = static_cast<int>(repeats_arg);
+    const orpe::ColorImage image = orpe::read_color_image(image_path);
     orpe::nets::MaskRcnnOptions options;
-    options.threads = threads;
+    options.threads = static_cast<int>(threads_arg);
     const orpe::nets::MaskRcnnNetwork net(model, options);
     orpe::nets::MaskRcnnOutput out = net.run(image);  // warm-up (graph optimisation)
     const auto t0 = std::chrono::steady_clock::now();

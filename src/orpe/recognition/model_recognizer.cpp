@@ -11,6 +11,7 @@
 #include <functional>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 #include "orpe/core/error.h"
@@ -59,6 +60,7 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
+  if (joint_restarts < 0) return fail("joint_restarts must be >= 0");
   if (!(reject_radius_m >= 0)) return fail("reject_radius_m must be >= 0");
   if (!(detection_probability > 0.5 && detection_probability <= 1))
     return fail("detection_probability must be in (0.5, 1]");
@@ -156,6 +158,7 @@ struct Hypothesis {
   bool from_track = false;
   int track = -1;
   double rank = 0;
+  bool dropped = false;  // by a clutter rule, out of the later selections of the cascade
 };
 
 }  // namespace recognition_detail
@@ -499,6 +502,8 @@ struct ModelRecognizer::Pass {
   void search_regions();
   void select();
   void reject_clutter();
+  double objective() const;
+  void reselect_jointly();
   std::vector<Detection> detections();
   void update_tracks();
   void remember_searches();
@@ -515,6 +520,9 @@ struct ModelRecognizer::Pass {
   std::vector<Hypothesis> hyps;
   std::vector<int> explained_by;  ///< per grid cell: the kept hypothesis explaining it, or -1
   std::vector<int> kept;          ///< indices into hyps
+  int first = -1;                 ///< hypothesis placed first in the selection (joint restarts)
+  std::vector<int> drops;         ///< hypotheses dropped by the clutter rules, in order
+  std::optional<GridNormals> normals;  ///< of the grid, on demand (outline tests)
   struct Searched {
     Vec3 centroid_world;
   };
@@ -624,11 +632,12 @@ void ModelRecognizer::Pass::select() {
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
                    [&](int a, int b) { return hyps[a].rank > hyps[b].rank; });
+  if (first >= 0) std::stable_partition(order.begin(), order.end(), [&](int i) { return i == first; });
   kept.clear();
   explained_by.assign(g.kept.size(), -1);
   for (int i : order) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
-    if (h.support < p.min_support || h.violation > p.max_violation) continue;
+    if (h.dropped || h.support < p.min_support || h.violation > p.max_violation) continue;
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;
     if (fresh < p.min_explained_points ||
@@ -644,7 +653,7 @@ void ModelRecognizer::Pass::select() {
 /// object explains, or smoothly into a neighbour's) is a part of something larger; a region the
 /// kept objects explain poorly holds no object. Both are dropped, then the selection runs again.
 void ModelRecognizer::Pass::reject_clutter() {
-  GridNormals normals(g, p.normal_radius_cells);
+  if (!normals) normals.emplace(g, p.normal_radius_cells);
   // Each round drops at least one hypothesis for good, so this ends; the last selection is
   // always checked (a clutter surface with many candidate models refills itself round after round).
   for (size_t round = 0; round <= hyps.size(); ++round) {
@@ -656,7 +665,7 @@ void ModelRecognizer::Pass::reject_clutter() {
     double worst_leak = p.max_boundary_leak, worst_seam = p.max_seam_fraction;
     for (int i : kept) {
       if (hyps[static_cast<size_t>(i)].from_track) continue;  // passed when it was found
-      const OutlineTest t = boundary_leak(g, frame.color, explained_by, i, p, normals);
+      const OutlineTest t = boundary_leak(g, frame.color, explained_by, i, p, *normals);
       if (t.leak > worst_leak) worst_leak = t.leak, worst = i;
       if (t.seam > worst_seam) {
         worst_seam = t.seam;
@@ -670,7 +679,8 @@ void ModelRecognizer::Pass::reject_clutter() {
                     rec.models_[hyps[static_cast<size_t>(worst)].model].name,
                     hyps[static_cast<size_t>(worst)].explained.size(), worst,
                     by_seam ? "seam" : "outline leak");
-      hyps[static_cast<size_t>(worst)].support = -1;  // out of the next selection
+      hyps[static_cast<size_t>(worst)].dropped = true;  // out of the next selection
+      drops.push_back(worst);
       select();
       continue;
     }
@@ -694,13 +704,70 @@ void ModelRecognizer::Pass::reject_clutter() {
         spdlog::debug("recognition: drop {} ({} points, {}): region coverage",
                       rec.models_[hyps[static_cast<size_t>(i)].model].name,
                       hyps[static_cast<size_t>(i)].explained.size(), i);
-        hyps[static_cast<size_t>(i)].support = -1;
+        hyps[static_cast<size_t>(i)].dropped = true;
+        drops.push_back(i);
         dropped = true;
       }
     }
     if (!dropped) break;
     select();
   }
+}
+
+/// How well the selection explains the scene: the kept hypotheses' ranks, each for the share of
+/// its explained points it owns (each observed point counts once, for the hypothesis owning it).
+double ModelRecognizer::Pass::objective() const {
+  std::vector<int> owned(hyps.size(), 0);
+  for (int o : explained_by)
+    if (o >= 0) ++owned[static_cast<size_t>(o)];
+  double j = 0;
+  for (int i : kept) {
+    const Hypothesis& h = hyps[static_cast<size_t>(i)];
+    j += h.rank * owned[static_cast<size_t>(i)] / std::max<double>(1.0, h.explained.size());
+  }
+  return j;
+}
+
+/// The cascade of clutter drops is greedy: a right hypothesis next to a wrong one leaks, is
+/// dropped for good, and its neighbours then leak in turn. So the selection is restarted from
+/// each hypothesis the cascade dropped (best first, up to joint_restarts), placed first with no
+/// drop in force; of the sets these cascades end in -- each passing every clutter rule -- the one
+/// explaining the scene best (objective()) is kept.
+void ModelRecognizer::Pass::reselect_jointly() {
+  if (p.joint_restarts <= 0 || drops.empty()) return;
+  std::vector<int> seeds = drops;
+  std::sort(seeds.begin(), seeds.end());
+  seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
+  std::stable_sort(seeds.begin(), seeds.end(), [&](int a, int b) {
+    return hyps[static_cast<size_t>(a)].rank > hyps[static_cast<size_t>(b)].rank;
+  });
+  if (static_cast<int>(seeds.size()) > p.joint_restarts) seeds.resize(p.joint_restarts);
+  auto dropped_flags = [&]() {
+    std::vector<char> f(hyps.size());
+    for (size_t i = 0; i < hyps.size(); ++i) f[i] = hyps[i].dropped;
+    return f;
+  };
+  double best = objective();
+  std::vector<int> best_kept = kept, best_explained_by = explained_by;
+  std::vector<char> best_dropped = dropped_flags();
+  for (int s : seeds) {
+    for (auto& h : hyps) h.dropped = false;
+    first = s;
+    select();
+    reject_clutter();
+    first = -1;
+    const double j = objective();
+    spdlog::debug("recognition: restart from {} ({}): {} kept, objective {:.0f} (best {:.0f})", s,
+                  rec.models_[hyps[static_cast<size_t>(s)].model].name, kept.size(), j, best);
+    if (j > best) {
+      best = j;
+      best_kept = kept, best_explained_by = explained_by;
+      best_dropped = dropped_flags();
+    }
+  }
+  kept = std::move(best_kept);
+  explained_by = std::move(best_explained_by);
+  for (size_t i = 0; i < hyps.size(); ++i) hyps[i].dropped = best_dropped[i];
 }
 
 /// Per kept object, the pixels within the inlier distance of its model (nearest model wins).
@@ -828,6 +895,7 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
   t = std::chrono::steady_clock::now();
   pass.select();
   pass.reject_clutter();
+  pass.reselect_jointly();
   timing.verify_ms = ms_since(t);
   t = std::chrono::steady_clock::now();
   std::vector<Detection> out = pass.detections();

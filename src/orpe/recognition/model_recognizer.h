@@ -74,6 +74,7 @@ struct RecognitionParams {
   int normal_radius_cells = 3;              ///< window of the grid normals (edge test)
   double max_seam_fraction = 0.5;  ///< a shared edge more seamless than this is no object boundary
   int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
+  int joint_restarts = 8;          ///< selections restarted from a dropped hypothesis (0 = off)
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
@@ -177,6 +178,12 @@ struct RecognitionParams {
       "Two kept objects whose shared edge is seamless (surface, normals and colour continue) for "
       "more than this fraction of its outline pairs tile one surface: the lower-ranked is dropped");
     v("min_seam_pairs", min_seam_pairs, "Outline pairs a shared edge needs for the seam test");
+    v("joint_restarts", joint_restarts,
+      "The clutter drops cascade (a right object next to a wrong one leaks and is dropped for "
+      "good): the selection is restarted from each of up to this many dropped hypotheses (best "
+      "first), placed first with no drop in force, and of the resulting sets -- each passing "
+      "every clutter rule -- the one whose kept objects explain the scene best (sum of their "
+      "ranks, each for the share of its points it owns) is kept; 0 = the single greedy cascade");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");

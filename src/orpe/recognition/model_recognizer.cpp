@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "orpe/core/error.h"
+#include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
 
 namespace orpe {
@@ -60,7 +61,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
-  if (joint_restarts < 0) return fail("joint_restarts must be >= 0");
+  if (!(min_colour_ncc >= -1 && min_colour_ncc <= 1))
+    return fail("min_colour_ncc must be in [-1, 1]");
   if (!(reject_radius_m >= 0)) return fail("reject_radius_m must be >= 0");
   if (!(detection_probability > 0.5 && detection_probability <= 1))
     return fail("detection_probability must be in (0.5, 1]");
@@ -159,6 +161,7 @@ struct Hypothesis {
   int track = -1;
   double rank = 0;
   bool dropped = false;  // by a clutter rule, out of the later selections of the cascade
+  double colour = 1;     // best colour NCC over the pose and its confusable turns (1: not tested)
 };
 
 }  // namespace recognition_detail
@@ -226,6 +229,30 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.support =
       supported + violated > 0 ? static_cast<double>(supported) / (supported + violated) : 0;
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
+}
+
+/// How the image's grey levels agree with a model's own colour (texture, vertex colours) at a
+/// hypothesis: the best NCC over its pose and the poses geometry confuses with it (180-degree
+/// turns, steps about a symmetry axis), on the model samples facing the camera whose observed
+/// depth lies on them (colour_agreement, pose stage). A flat-painted object of the model's shape
+/// correlates ~0 with any turn of a printed model. 1 when there is no evidence (no colour image,
+/// a model without colour, too few visible samples).
+double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const RgbdFrame& frame,
+                       const PinholeIntrinsics& K) {
+  const ColourScoreParams cp;
+  if (frame.color.empty() || !has_usable_colour(model, cp)) return 1;
+  std::vector<SE3> poses = confusable_poses(model, T_cam_obj);
+  poses.push_back(T_cam_obj);
+  double best = -1;
+  bool any = false;
+  for (const SE3& T : poses) {
+    const ColourAgreement a =
+        colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
+    if (!a.valid) continue;
+    any = true;
+    best = std::max(best, a.ncc);
+  }
+  return any ? best : 1;
 }
 
 /// Largest distance between two of the cells' points (over an even subsample of at most 256).
@@ -502,8 +529,6 @@ struct ModelRecognizer::Pass {
   void search_regions();
   void select();
   void reject_clutter();
-  double objective() const;
-  void reselect_jointly();
   std::vector<Detection> detections();
   void update_tracks();
   void remember_searches();
@@ -520,8 +545,6 @@ struct ModelRecognizer::Pass {
   std::vector<Hypothesis> hyps;
   std::vector<int> explained_by;  ///< per grid cell: the kept hypothesis explaining it, or -1
   std::vector<int> kept;          ///< indices into hyps
-  int first = -1;                 ///< hypothesis placed first in the selection (joint restarts)
-  std::vector<int> drops;         ///< hypotheses dropped by the clutter rules, in order
   std::optional<GridNormals> normals;  ///< of the grid, on demand (outline tests)
   struct Searched {
     Vec3 centroid_world;
@@ -550,6 +573,8 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
   out->model = mi;
   out->T_cam_obj = pose.T_cam_obj;
   verify(g, frame.depth, K, *in.model, p, *out);
+  if (p.min_colour_ncc > -1 && out->support >= p.min_support && out->violation <= p.max_violation)
+    out->colour = best_colour_ncc(*in.model, out->T_cam_obj, frame, K);
   return true;
 }
 
@@ -609,11 +634,12 @@ void ModelRecognizer::Pass::search_regions() {
       spdlog::trace(
           "recognition: {} on {} crop points at px {},{}: explains {} (fit {:.0f}), support "
           "{:.2f}, "
-          "violation {:.2f}, lowest {:.3f}",
+          "violation {:.2f}, lowest {:.3f}, colour {:.2f}, at {:.3f} {:.3f} {:.3f} (#{})",
           rec.models_[found[k].model].name, tasks[k].second.size(),
           g.pixel_u(tasks[k].second.front()), g.pixel_v(tasks[k].second.front()),
           found[k].explained.size(), found[k].fit, found[k].support, found[k].violation,
-          found[k].lowest_m);
+          found[k].lowest_m, found[k].colour, found[k].T_cam_obj.translation().x(),
+          found[k].T_cam_obj.translation().y(), found[k].T_cam_obj.translation().z(), hyps.size());
       hyps.push_back(std::move(found[k]));
     }
     searched.push_back({centroid_world});
@@ -632,12 +658,13 @@ void ModelRecognizer::Pass::select() {
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
                    [&](int a, int b) { return hyps[a].rank > hyps[b].rank; });
-  if (first >= 0) std::stable_partition(order.begin(), order.end(), [&](int i) { return i == first; });
   kept.clear();
   explained_by.assign(g.kept.size(), -1);
   for (int i : order) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
-    if (h.dropped || h.support < p.min_support || h.violation > p.max_violation) continue;
+    if (h.dropped || h.support < p.min_support || h.violation > p.max_violation ||
+        h.colour < p.min_colour_ncc)
+      continue;
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;
     if (fresh < p.min_explained_points ||
@@ -680,7 +707,6 @@ void ModelRecognizer::Pass::reject_clutter() {
                     hyps[static_cast<size_t>(worst)].explained.size(), worst,
                     by_seam ? "seam" : "outline leak");
       hyps[static_cast<size_t>(worst)].dropped = true;  // out of the next selection
-      drops.push_back(worst);
       select();
       continue;
     }
@@ -705,69 +731,12 @@ void ModelRecognizer::Pass::reject_clutter() {
                       rec.models_[hyps[static_cast<size_t>(i)].model].name,
                       hyps[static_cast<size_t>(i)].explained.size(), i);
         hyps[static_cast<size_t>(i)].dropped = true;
-        drops.push_back(i);
         dropped = true;
       }
     }
     if (!dropped) break;
     select();
   }
-}
-
-/// How well the selection explains the scene: the kept hypotheses' ranks, each for the share of
-/// its explained points it owns (each observed point counts once, for the hypothesis owning it).
-double ModelRecognizer::Pass::objective() const {
-  std::vector<int> owned(hyps.size(), 0);
-  for (int o : explained_by)
-    if (o >= 0) ++owned[static_cast<size_t>(o)];
-  double j = 0;
-  for (int i : kept) {
-    const Hypothesis& h = hyps[static_cast<size_t>(i)];
-    j += h.rank * owned[static_cast<size_t>(i)] / std::max<double>(1.0, h.explained.size());
-  }
-  return j;
-}
-
-/// The cascade of clutter drops is greedy: a right hypothesis next to a wrong one leaks, is
-/// dropped for good, and its neighbours then leak in turn. So the selection is restarted from
-/// each hypothesis the cascade dropped (best first, up to joint_restarts), placed first with no
-/// drop in force; of the sets these cascades end in -- each passing every clutter rule -- the one
-/// explaining the scene best (objective()) is kept.
-void ModelRecognizer::Pass::reselect_jointly() {
-  if (p.joint_restarts <= 0 || drops.empty()) return;
-  std::vector<int> seeds = drops;
-  std::sort(seeds.begin(), seeds.end());
-  seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
-  std::stable_sort(seeds.begin(), seeds.end(), [&](int a, int b) {
-    return hyps[static_cast<size_t>(a)].rank > hyps[static_cast<size_t>(b)].rank;
-  });
-  if (static_cast<int>(seeds.size()) > p.joint_restarts) seeds.resize(p.joint_restarts);
-  auto dropped_flags = [&]() {
-    std::vector<char> f(hyps.size());
-    for (size_t i = 0; i < hyps.size(); ++i) f[i] = hyps[i].dropped;
-    return f;
-  };
-  double best = objective();
-  std::vector<int> best_kept = kept, best_explained_by = explained_by;
-  std::vector<char> best_dropped = dropped_flags();
-  for (int s : seeds) {
-    for (auto& h : hyps) h.dropped = false;
-    first = s;
-    select();
-    reject_clutter();
-    first = -1;
-    const double j = objective();
-    spdlog::debug("recognition: restart from {} ({}): {} kept, objective {:.0f} (best {:.0f})", s,
-                  rec.models_[hyps[static_cast<size_t>(s)].model].name, kept.size(), j, best);
-    if (j > best) {
-      best = j;
-      best_kept = kept, best_explained_by = explained_by;
-      best_dropped = dropped_flags();
-    }
-  }
-  kept = std::move(best_kept);
-  explained_by = std::move(best_explained_by);
-  for (size_t i = 0; i < hyps.size(); ++i) hyps[i].dropped = best_dropped[i];
 }
 
 /// Per kept object, the pixels within the inlier distance of its model (nearest model wins).
@@ -895,7 +864,10 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
   t = std::chrono::steady_clock::now();
   pass.select();
   pass.reject_clutter();
-  pass.reselect_jointly();
+  for (int i : pass.kept)
+    spdlog::debug("recognition: kept #{} {} (rank {:.0f})", i,
+                  models_[pass.hyps[static_cast<size_t>(i)].model].name,
+                  pass.hyps[static_cast<size_t>(i)].rank);
   timing.verify_ms = ms_since(t);
   t = std::chrono::steady_clock::now();
   std::vector<Detection> out = pass.detections();

@@ -56,6 +56,7 @@ struct RecognitionParams {
   double min_support = 0.55;      ///< visible model points on the observed depth, fraction
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
+  double min_colour_ncc = 0.15;   ///< a model with colour: best grey NCC with the image (-1 = off)
   double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
   double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count
@@ -74,7 +75,6 @@ struct RecognitionParams {
   int normal_radius_cells = 3;              ///< window of the grid normals (edge test)
   double max_seam_fraction = 0.5;  ///< a shared edge more seamless than this is no object boundary
   int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
-  int joint_restarts = 8;          ///< selections restarted from a dropped hypothesis (0 = off)
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
@@ -123,6 +123,12 @@ struct RecognitionParams {
     v("max_violation", max_violation,
       "A hypothesis may have at most this fraction of model points in free space / below the "
       "support");
+    v("min_colour_ncc", min_colour_ncc,
+      "A hypothesis of a model with its own colour (texture or vertex colours) whose grey levels "
+      "correlate with the image's (NCC over the visible samples, best of its pose and the turns "
+      "geometry confuses with it) less than this is rejected: a flat-painted object of the "
+      "model's shape and size correlates ~0 with its print; no colour image, a model without "
+      "colour or too few visible samples: no test; -1 = off");
     v("min_explained_points", min_explained_points,
       "Grid points a hypothesis must newly explain to be kept");
     v("resting_bonus", resting_bonus,
@@ -178,12 +184,6 @@ struct RecognitionParams {
       "Two kept objects whose shared edge is seamless (surface, normals and colour continue) for "
       "more than this fraction of its outline pairs tile one surface: the lower-ranked is dropped");
     v("min_seam_pairs", min_seam_pairs, "Outline pairs a shared edge needs for the seam test");
-    v("joint_restarts", joint_restarts,
-      "The clutter drops cascade (a right object next to a wrong one leaks and is dropped for "
-      "good): the selection is restarted from each of up to this many dropped hypotheses (best "
-      "first), placed first with no drop in force, and of the resulting sets -- each passing "
-      "every clutter rule -- the one whose kept objects explain the scene best (sum of their "
-      "ranks, each for the share of its points it owns) is kept; 0 = the single greedy cascade");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");

@@ -56,7 +56,7 @@ struct RecognitionParams {
   double min_support = 0.55;      ///< visible model points on the observed depth, fraction
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
-  double min_colour_ncc = 0.15;   ///< a model with colour: best grey NCC with the image (-1 = off)
+  double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
   double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
   double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count

@@ -113,6 +113,8 @@ std::string score_frame(const RgbdFrame& frame, const DatasetInfo& info,
       if (iou > best_iou) best_iou = iou, best = static_cast<int>(d);
     }
     const std::string name = info.class_names.at(gt.class_id);
+    spdlog::debug("ground truth: {} at {:.3f} {:.3f} {:.3f}", name, gt.T_cam_obj.translation().x(),
+                  gt.T_cam_obj.translation().y(), gt.T_cam_obj.translation().z());
     auto& pc = t.per_class[name];
     ++pc.second;
     double e = 1.0;

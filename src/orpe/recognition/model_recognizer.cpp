@@ -11,9 +11,11 @@
 #include <functional>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <sstream>
 
 #include "orpe/core/error.h"
+#include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
 
 namespace orpe {
@@ -59,6 +61,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
+  if (!(min_colour_ncc >= -1 && min_colour_ncc <= 1))
+    return fail("min_colour_ncc must be in [-1, 1]");
   if (!(reject_radius_m >= 0)) return fail("reject_radius_m must be >= 0");
   if (!(detection_probability > 0.5 && detection_probability <= 1))
     return fail("detection_probability must be in (0.5, 1]");
@@ -156,6 +160,8 @@ struct Hypothesis {
   bool from_track = false;
   int track = -1;
   double rank = 0;
+  bool dropped = false;  // by a clutter rule, out of the later selections of the cascade
+  double colour = 1;     // best colour NCC over the pose and its confusable turns (1: not tested)
 };
 
 }  // namespace recognition_detail
@@ -223,6 +229,30 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.support =
       supported + violated > 0 ? static_cast<double>(supported) / (supported + violated) : 0;
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
+}
+
+/// How the image's grey levels agree with a model's own colour (texture, vertex colours) at a
+/// hypothesis: the best NCC over its pose and the poses geometry confuses with it (180-degree
+/// turns, steps about a symmetry axis), on the model samples facing the camera whose observed
+/// depth lies on them (colour_agreement, pose stage). A flat-painted object of the model's shape
+/// correlates ~0 with any turn of a printed model. 1 when there is no evidence (no colour image,
+/// a model without colour, too few visible samples).
+double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const RgbdFrame& frame,
+                       const PinholeIntrinsics& K) {
+  const ColourScoreParams cp;
+  if (frame.color.empty() || !has_usable_colour(model, cp)) return 1;
+  std::vector<SE3> poses = confusable_poses(model, T_cam_obj);
+  poses.push_back(T_cam_obj);
+  double best = -1;
+  bool any = false;
+  for (const SE3& T : poses) {
+    const ColourAgreement a =
+        colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
+    if (!a.valid) continue;
+    any = true;
+    best = std::max(best, a.ncc);
+  }
+  return any ? best : 1;
 }
 
 /// Largest distance between two of the cells' points (over an even subsample of at most 256).
@@ -515,6 +545,7 @@ struct ModelRecognizer::Pass {
   std::vector<Hypothesis> hyps;
   std::vector<int> explained_by;  ///< per grid cell: the kept hypothesis explaining it, or -1
   std::vector<int> kept;          ///< indices into hyps
+  std::optional<GridNormals> normals;  ///< of the grid, on demand (outline tests)
   struct Searched {
     Vec3 centroid_world;
   };
@@ -542,6 +573,8 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
   out->model = mi;
   out->T_cam_obj = pose.T_cam_obj;
   verify(g, frame.depth, K, *in.model, p, *out);
+  if (p.min_colour_ncc > -1 && out->support >= p.min_support && out->violation <= p.max_violation)
+    out->colour = best_colour_ncc(*in.model, out->T_cam_obj, frame, K);
   return true;
 }
 
@@ -601,11 +634,12 @@ void ModelRecognizer::Pass::search_regions() {
       spdlog::trace(
           "recognition: {} on {} crop points at px {},{}: explains {} (fit {:.0f}), support "
           "{:.2f}, "
-          "violation {:.2f}, lowest {:.3f}",
+          "violation {:.2f}, lowest {:.3f}, colour {:.2f}, at {:.3f} {:.3f} {:.3f} (#{})",
           rec.models_[found[k].model].name, tasks[k].second.size(),
           g.pixel_u(tasks[k].second.front()), g.pixel_v(tasks[k].second.front()),
           found[k].explained.size(), found[k].fit, found[k].support, found[k].violation,
-          found[k].lowest_m);
+          found[k].lowest_m, found[k].colour, found[k].T_cam_obj.translation().x(),
+          found[k].T_cam_obj.translation().y(), found[k].T_cam_obj.translation().z(), hyps.size());
       hyps.push_back(std::move(found[k]));
     }
     searched.push_back({centroid_world});
@@ -628,7 +662,9 @@ void ModelRecognizer::Pass::select() {
   explained_by.assign(g.kept.size(), -1);
   for (int i : order) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
-    if (h.support < p.min_support || h.violation > p.max_violation) continue;
+    if (h.dropped || h.support < p.min_support || h.violation > p.max_violation ||
+        h.colour < p.min_colour_ncc)
+      continue;
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;
     if (fresh < p.min_explained_points ||
@@ -644,7 +680,7 @@ void ModelRecognizer::Pass::select() {
 /// object explains, or smoothly into a neighbour's) is a part of something larger; a region the
 /// kept objects explain poorly holds no object. Both are dropped, then the selection runs again.
 void ModelRecognizer::Pass::reject_clutter() {
-  GridNormals normals(g, p.normal_radius_cells);
+  if (!normals) normals.emplace(g, p.normal_radius_cells);
   // Each round drops at least one hypothesis for good, so this ends; the last selection is
   // always checked (a clutter surface with many candidate models refills itself round after round).
   for (size_t round = 0; round <= hyps.size(); ++round) {
@@ -656,7 +692,7 @@ void ModelRecognizer::Pass::reject_clutter() {
     double worst_leak = p.max_boundary_leak, worst_seam = p.max_seam_fraction;
     for (int i : kept) {
       if (hyps[static_cast<size_t>(i)].from_track) continue;  // passed when it was found
-      const OutlineTest t = boundary_leak(g, frame.color, explained_by, i, p, normals);
+      const OutlineTest t = boundary_leak(g, frame.color, explained_by, i, p, *normals);
       if (t.leak > worst_leak) worst_leak = t.leak, worst = i;
       if (t.seam > worst_seam) {
         worst_seam = t.seam;
@@ -670,7 +706,7 @@ void ModelRecognizer::Pass::reject_clutter() {
                     rec.models_[hyps[static_cast<size_t>(worst)].model].name,
                     hyps[static_cast<size_t>(worst)].explained.size(), worst,
                     by_seam ? "seam" : "outline leak");
-      hyps[static_cast<size_t>(worst)].support = -1;  // out of the next selection
+      hyps[static_cast<size_t>(worst)].dropped = true;  // out of the next selection
       select();
       continue;
     }
@@ -694,7 +730,7 @@ void ModelRecognizer::Pass::reject_clutter() {
         spdlog::debug("recognition: drop {} ({} points, {}): region coverage",
                       rec.models_[hyps[static_cast<size_t>(i)].model].name,
                       hyps[static_cast<size_t>(i)].explained.size(), i);
-        hyps[static_cast<size_t>(i)].support = -1;
+        hyps[static_cast<size_t>(i)].dropped = true;
         dropped = true;
       }
     }
@@ -828,6 +864,10 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
   t = std::chrono::steady_clock::now();
   pass.select();
   pass.reject_clutter();
+  for (int i : pass.kept)
+    spdlog::debug("recognition: kept #{} {} (rank {:.0f})", i,
+                  models_[pass.hyps[static_cast<size_t>(i)].model].name,
+                  pass.hyps[static_cast<size_t>(i)].rank);
   timing.verify_ms = ms_since(t);
   t = std::chrono::steady_clock::now();
   std::vector<Detection> out = pass.detections();

@@ -56,6 +56,7 @@ struct RecognitionParams {
   double min_support = 0.55;      ///< visible model points on the observed depth, fraction
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
+  double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
   double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
   double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count
@@ -122,6 +123,12 @@ struct RecognitionParams {
     v("max_violation", max_violation,
       "A hypothesis may have at most this fraction of model points in free space / below the "
       "support");
+    v("min_colour_ncc", min_colour_ncc,
+      "A hypothesis of a model with its own colour (texture or vertex colours) whose grey levels "
+      "correlate with the image's (NCC over the visible samples, best of its pose and the turns "
+      "geometry confuses with it) less than this is rejected: a flat-painted object of the "
+      "model's shape and size correlates ~0 with its print; no colour image, a model without "
+      "colour or too few visible samples: no test; -1 = off");
     v("min_explained_points", min_explained_points,
       "Grid points a hypothesis must newly explain to be kept");
     v("resting_bonus", resting_bonus,

@@ -90,6 +90,10 @@ struct SemanticParams {
   int min_instance_detections = 3;   ///< instances detected in fewer keyframes are pruned
   int prune_missed_keyframes = 5;  ///< ... once visible but undetected this many keyframes in a row
   int min_instance_surfels = 50;   ///< instances with fewer surfels are removed at finalize()
+  /// At finalize(): an instance detected in fewer than this fraction of its chances (keyframes
+  /// that detected it or in which it was visible, >= min_visible_area_px, without a detection)
+  /// has not earned its existence and is removed (0 = off).
+  double min_detection_ratio = 0.5;
   bool always_active_objects = true;  ///< flag object surfels always active (paper)
   /// A keyframe in which a visible instance got no detection does not update the surfels in and
   /// around (boundary_neighbourhood_px) its projection: a detector miss is not evidence of
@@ -179,6 +183,10 @@ struct SemanticParams {
       "Prune such an instance once it was visible but undetected this many keyframes in a row");
     v("min_instance_surfels", min_instance_surfels,
       "Instances with fewer surfels are removed at the end");
+    v("min_detection_ratio", min_detection_ratio,
+      "At the end, instances detected in fewer than this fraction of the keyframes that detected "
+      "them or in which they were visible (projected mask >= min_visible_area_px) are removed (0 = "
+      "off)");
     v("always_active_objects", always_active_objects,
       "Flag object surfels always active (never leave the active window; paper)");
     v("skip_missed_instances", skip_missed_instances,
@@ -230,6 +238,10 @@ struct InstanceInfo {
   int last_frame = -1;
   int visible_keyframes = 0;   ///< keyframes in which it rendered >= min_visible_area_px pixels
   int consecutive_misses = 0;  ///< visible-but-undetected keyframes since its last detection
+  int missed_keyframes = 0;    ///< visible-but-undetected keyframes in all
+
+  /// detections / (detections + missed_keyframes): how often it was detected when it could be.
+  double detection_ratio() const;
 
   /// P(l | I_1..t) = sum / detections, sorted by decreasing probability.
   std::vector<std::pair<int, double>> class_distribution() const;

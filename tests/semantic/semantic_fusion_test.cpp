@@ -323,6 +323,40 @@ TEST(SemanticFusion, FinalizeRemovesInstancesDetectedInTooFewOfTheirChances) {
   }
 }
 
+TEST(SemanticFusion, FinalizeRemovesInstancesTooLowAboveTheSupportForTheirClass) {
+  for (const double fraction : {0.7, 0.0}) {
+    test::PlanarSetup s;  // the wall of surfels is the support plane (1 x 0.75 m)
+    SemanticParams p = no_pruning();
+    p.min_height_fraction = fraction;
+    SemanticFusion fusion(p);
+    const int W = s.K.width, H = s.K.height;
+    const auto sheet = test::rect_detection(W, H, 2, 0.9f, 5, 5, 19, 19);  // flat on the wall
+    const auto box = test::rect_detection(W, H, 3, 0.9f, 40, 30, 54, 44);  // stands off it
+    const auto tall = test::rect_detection(W, H, 4, 0.9f, 60, 5, 74, 19);  // class without width
+    for (int f = 0; f < 3; ++f)
+      fusion.integrate(s.frame(f), {sheet, box, tall}, SE3(), s.map, &s.pixel_surfel);
+    ASSERT_EQ(fusion.instances().size(), 3u);
+    // The box's surfels 6 cm in front of the wall (towards the camera).
+    for (int v = 30; v <= 44; ++v)
+      for (int u = 40; u <= 54; ++u) s.map.position_world[s.surfel(u, v)].z() -= 0.06f;
+    fusion.set_class_min_widths({{2, 0.05}, {3, 0.05}});
+    fusion.finalize(s.map);
+    std::set<int> classes;
+    for (const auto& [id, info] : fusion.instances()) {
+      classes.insert(info.argmax_class());
+      if (info.argmax_class() == 3) {
+        EXPECT_NEAR(info.height_above_support_m, 0.06, 0.002);
+      } else if (info.argmax_class() == 2) {
+        EXPECT_LT(info.height_above_support_m, 0.003);
+      }
+    }
+    if (fraction > 0)
+      EXPECT_EQ(classes, (std::set<int>{3, 4})) << "the sheet is no object of 5 cm";
+    else
+      EXPECT_EQ(classes, (std::set<int>{2, 3, 4})) << "rule off";
+  }
+}
+
 TEST(SemanticFusion, InstancesWhoseSurfelsWereAllReleasedAreRemoved) {
   test::PlanarSetup s;
   SemanticParams p;

@@ -62,6 +62,8 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (min_instance_surfels < 0) return fail("min_instance_surfels must be >= 0");
   if (!(min_detection_ratio >= 0 && min_detection_ratio <= 1))
     return fail("min_detection_ratio must be in [0, 1]");
+  if (!(min_height_fraction >= 0 && min_height_fraction <= 1))
+    return fail("min_height_fraction must be in [0, 1]");
   if (edge_band_px < 1 || edge_band_px > 50) return fail("edge_band_px must be in [1, 50]");
   if (!(edge_depth_tolerance_m > 0)) return fail("edge_depth_tolerance_m must be > 0");
   if (!(segment_link_m > 0 && segment_link_m <= 1)) return fail("segment_link_m must be in (0, 1]");
@@ -555,6 +557,24 @@ int SemanticFusion::release_support_surfels(slam::SurfelMap& map) const {
                                        params_.always_active_objects);
 }
 
+void SemanticFusion::measure_height(const slam::SurfelMap& map) {
+  const auto planes =
+      find_support_planes(map, params_.support_plane_max_planes, params_.support_plane_min_fraction,
+                          params_.support_plane_min_extent_m, params_.support_plane_max_distance_m);
+  const auto height = segment_height_above_support(map, planes);
+  for (auto& [id, info] : instances_) {
+    const auto it = height.find(id);
+    info.height_above_support_m = it == height.end() ? -1 : it->second;
+  }
+}
+
+bool SemanticFusion::too_low(const InstanceInfo& info) const {
+  const auto w = class_min_width_m_.find(info.argmax_class());
+  return params_.min_height_fraction > 0 && w != class_min_width_m_.end() &&
+         info.height_above_support_m >= 0 &&
+         info.height_above_support_m < params_.min_height_fraction * w->second;
+}
+
 int SemanticFusion::finalize(slam::SurfelMap& map) {
   if (params_.segment_confirmed_surfels_only)
     release_unconfirmed_surfels(map, static_cast<float>(params_.segment_link_m),
@@ -564,6 +584,7 @@ int SemanticFusion::finalize(slam::SurfelMap& map) {
                              params_.segment_min_component_fraction, nullptr,
                              params_.always_active_objects);
   release_support_surfels(map);
+  measure_height(map);
   const auto geometry = instance_geometry(map);
   std::vector<int> doomed;
   for (const auto& [id, info] : instances_) {
@@ -571,7 +592,7 @@ int SemanticFusion::finalize(slam::SurfelMap& map) {
     const int surfels = it == geometry.end() ? 0 : it->second.surfels;
     if (info.detections < params_.min_instance_detections ||
         surfels < params_.min_instance_surfels ||
-        info.detection_ratio() < params_.min_detection_ratio)
+        info.detection_ratio() < params_.min_detection_ratio || too_low(info))
       doomed.push_back(id);
   }
   for (int id : doomed) remove_instance(id, map);

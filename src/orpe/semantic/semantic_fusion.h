@@ -37,7 +37,9 @@
 //    removed once it was visible but undetected in prune_missed_keyframes keyframes in a row, and
 //    at finalize(); an instance left without surfels (all released) is removed at once; one with
 //    fewer than min_instance_surfels surfels is removed at finalize(). Removing an instance
-//    unlabels its surfels.
+//    unlabels its surfels. Also at finalize(): an instance rising less than min_height_fraction x
+//    its class model's minimal width above a support plane (set_class_min_widths), and, when
+//    min_detection_ratio > 0, one detected in too few of its chances.
 #pragma once
 
 #include <array>

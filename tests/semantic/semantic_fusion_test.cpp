@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <map>
+#include <set>
+
 #include "orpe/core/error.h"
 #include "orpe/semantic/semantic_fusion.h"
 #include "semantic/planar_setup.h"
@@ -110,6 +113,7 @@ SemanticParams no_pruning() {
   p.min_instance_detections = 1;
   p.min_visible_area_px = 1;
   p.min_instance_surfels = 0;
+  p.min_detection_ratio = 0;
   return p;
 }
 
@@ -279,6 +283,78 @@ TEST(SemanticFusion, SpuriousInstancesArePrunedAndFinalizeRemovesRareOnes) {
   EXPECT_EQ(fusion.instances().begin()->second.argmax_class(), 1);
   EXPECT_EQ(s.map.instance_id[s.surfel(55, 35)], 0);
   EXPECT_GT(s.map.instance_id[s.surfel(10, 10)], 0);
+}
+
+TEST(SemanticFusion, FinalizeRemovesInstancesDetectedInTooFewOfTheirChances) {
+  for (const double ratio : {0.5, 0.0}) {
+    test::PlanarSetup s;
+    SemanticParams p;
+    p.min_detection_ratio = ratio;
+    SemanticFusion fusion(p);
+    const int W = s.K.width, H = s.K.height;
+    const auto object = test::rect_detection(W, H, 1, 0.95f, 5, 5, 24, 24);
+    const auto flicker = test::rect_detection(W, H, 7, 0.6f, 50, 30, 59, 39);
+    const auto steady = test::rect_detection(W, H, 4, 0.7f, 50, 5, 59, 14);
+    // flicker: detected in keyframes 0-2, visible and undetected in 3-9 (3 of 10 chances);
+    // steady: detected in 0, 2, 4, 6, 8, missed in 1, 3, 5, 7, 9 (5 of 10).
+    for (int f = 0; f < 10; ++f) {
+      std::vector<Detection> d = {object};
+      if (f < 3) d.push_back(flicker);
+      if (f % 2 == 0) d.push_back(steady);
+      fusion.integrate(s.frame(f), d, SE3(), s.map, &s.pixel_surfel);
+    }
+    ASSERT_EQ(fusion.instances().size(), 3u) << "detected 3 times: not pruned during the run";
+    std::map<int, const InstanceInfo*> by_class;
+    for (const auto& [id, info] : fusion.instances()) by_class[info.argmax_class()] = &info;
+    EXPECT_EQ(by_class.at(7)->detections, 3);
+    EXPECT_EQ(by_class.at(7)->missed_keyframes, 7);
+    EXPECT_NEAR(by_class.at(7)->detection_ratio(), 0.3, 1e-12);
+    EXPECT_NEAR(by_class.at(4)->detection_ratio(), 0.5, 1e-12);
+    EXPECT_NEAR(by_class.at(1)->detection_ratio(), 1.0, 1e-12);
+    fusion.finalize(s.map);
+    std::set<int> classes;
+    for (const auto& [id, info] : fusion.instances()) classes.insert(info.argmax_class());
+    if (ratio > 0) {
+      EXPECT_EQ(classes, (std::set<int>{1, 4}));
+      EXPECT_EQ(s.map.instance_id[s.surfel(55, 35)], 0) << "its surfels are unlabelled";
+    } else {
+      EXPECT_EQ(classes, (std::set<int>{1, 4, 7})) << "rule off: the flicker survives";
+    }
+  }
+}
+
+TEST(SemanticFusion, FinalizeRemovesInstancesTooLowAboveTheSupportForTheirClass) {
+  for (const double fraction : {0.7, 0.0}) {
+    test::PlanarSetup s;  // the wall of surfels is the support plane (1 x 0.75 m)
+    SemanticParams p = no_pruning();
+    p.min_height_fraction = fraction;
+    SemanticFusion fusion(p);
+    const int W = s.K.width, H = s.K.height;
+    const auto sheet = test::rect_detection(W, H, 2, 0.9f, 5, 5, 19, 19);  // flat on the wall
+    const auto box = test::rect_detection(W, H, 3, 0.9f, 40, 30, 54, 44);  // stands off it
+    const auto tall = test::rect_detection(W, H, 4, 0.9f, 60, 5, 74, 19);  // class without width
+    for (int f = 0; f < 3; ++f)
+      fusion.integrate(s.frame(f), {sheet, box, tall}, SE3(), s.map, &s.pixel_surfel);
+    ASSERT_EQ(fusion.instances().size(), 3u);
+    // The box's surfels 6 cm in front of the wall (towards the camera).
+    for (int v = 30; v <= 44; ++v)
+      for (int u = 40; u <= 54; ++u) s.map.position_world[s.surfel(u, v)].z() -= 0.06f;
+    fusion.set_class_min_widths({{2, 0.05}, {3, 0.05}});
+    fusion.finalize(s.map);
+    std::set<int> classes;
+    for (const auto& [id, info] : fusion.instances()) {
+      classes.insert(info.argmax_class());
+      if (info.argmax_class() == 3) {
+        EXPECT_NEAR(info.height_above_support_m, 0.06, 0.002);
+      } else if (info.argmax_class() == 2) {
+        EXPECT_LT(info.height_above_support_m, 0.003);
+      }
+    }
+    if (fraction > 0)
+      EXPECT_EQ(classes, (std::set<int>{3, 4})) << "the sheet is no object of 5 cm";
+    else
+      EXPECT_EQ(classes, (std::set<int>{2, 3, 4})) << "rule off";
+  }
 }
 
 TEST(SemanticFusion, InstancesWhoseSurfelsWereAllReleasedAreRemoved) {

@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
@@ -198,6 +200,50 @@ ObjectSymmetry ObjectModelLibrary::ekf_symmetry(int class_id, const std::string&
 std::string ObjectModelLibrary::class_name(int class_id) const {
   const auto it = info_.class_names.find(class_id);
   return it != info_.class_names.end() ? it->second : fmt::format("class {}", class_id);
+}
+
+namespace {
+
+/// Extent of every `stride`-th model point along the unit direction (theta, phi) (m).
+double extent_along(const ObjectModel& model, size_t stride, double theta, double phi) {
+  const Eigen::Vector3f dir(static_cast<float>(std::sin(theta) * std::cos(phi)),
+                            static_cast<float>(std::sin(theta) * std::sin(phi)),
+                            static_cast<float>(std::cos(theta)));
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (size_t i = 0; i < model.points.size(); i += stride) {
+    const float t = dir.dot(model.points[i]);
+    lo = std::min(lo, t);
+    hi = std::max(hi, t);
+  }
+  return hi - lo;
+}
+
+}  // namespace
+
+double model_min_width_m(const ObjectModel& model) {
+  if (model.points.empty()) return 0;
+  // Coarse: 1000 directions on a Fibonacci half-sphere (a direction and its opposite give one
+  // extent); then a pattern search in (theta, phi) around the best, halving the step 12 times.
+  constexpr int kDirections = 1000;
+  const size_t stride = std::max<size_t>(1, model.points.size() / 4000);
+  double best = std::numeric_limits<double>::infinity(), theta = 0, phi = 0;
+  for (int k = 0; k < kDirections; ++k) {
+    const double t = std::acos(1.0 - (k + 0.5) / kDirections);
+    const double f = k * M_PI * (3.0 - std::sqrt(5.0));
+    const double e = extent_along(model, stride, t, f);
+    if (e < best) best = e, theta = t, phi = f;
+  }
+  for (double step = 0.1; step > 1e-4; step /= 2) {
+    bool moved = true;
+    while (moved) {
+      moved = false;
+      for (const auto& [dt, dp] : {std::pair{step, 0.0}, {-step, 0.0}, {0.0, step}, {0.0, -step}}) {
+        const double e = extent_along(model, stride, theta + dt, phi + dp);
+        if (e < best - 1e-9) best = e, theta += dt, phi += dp, moved = true;
+      }
+    }
+  }
+  return best;
 }
 
 }  // namespace orpe

@@ -29,6 +29,11 @@ namespace orpe {
 ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id,
                                       int surface_points = 2620);
 
+/// The model's minimal width (m): the smallest extent of its points over all directions (1000
+/// directions spread evenly on the sphere, then a local search around the best; a box: its
+/// smallest side). A resting object's top lies at least this far above its support.
+double model_min_width_m(const ObjectModel& model);
+
 class ObjectModelLibrary {
  public:
   explicit ObjectModelLibrary(DatasetInfo info, int surface_points = 2620)

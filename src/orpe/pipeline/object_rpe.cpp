@@ -693,10 +693,25 @@ void ObjectRpePipeline::hand_over_merged_tracks() {
         v.tracks, [&](int id) { return fusion.resolve_instance(id); }, views);
 }
 
+std::map<int, double> ObjectRpePipeline::instance_class_min_widths() {
+  std::map<int, double> widths;
+  for (const auto& [id, info] : semantic_->fusion().instances()) {
+    const int c = info.argmax_class();
+    if (c <= 0 || widths.count(c) || !models_.has(c) || model_errors_.count(c)) continue;
+    try {
+      widths[c] = model_min_width_m(models_.get(c));
+    } catch (const IoError& e) {
+      model_errors_[c] = e.what();  // the pose stage reports it; the instance keeps its chance
+    }
+  }
+  return widths;
+}
+
 void ObjectRpePipeline::finalize() {
   if (!semantic_) return;
   while (flush_one()) {
   }
+  semantic_->set_class_min_widths(instance_class_min_widths());
   semantic_->finalize(slam_->map());  // prunes, never merges: the tracks already follow every merge
   const auto& instances = semantic_->fusion().instances();
   for (auto& v : variants_) {

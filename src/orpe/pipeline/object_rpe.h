@@ -256,6 +256,8 @@ class ObjectRpePipeline {
   /// Moves the pose tracks of instances the semantic map merged onto the survivors (the one with
   /// more fused views wins when both have a track).
   void hand_over_merged_tracks();
+  /// Minimal widths of the models of the instances' classes (semantic.min_height_fraction).
+  std::map<int, double> instance_class_min_widths();
   /// The segmentation.backend=model recogniser over the dataset's (or model_classes') models.
   std::unique_ptr<Segmenter> make_model_recognizer();
 

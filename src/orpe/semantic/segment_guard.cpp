@@ -325,4 +325,27 @@ int release_unconfirmed_surfels(slam::SurfelMap& map, float link_m, bool clear_a
   return released;
 }
 
+std::map<std::int32_t, float> segment_height_above_support(
+    const slam::SurfelMap& map, const std::vector<SupportPlane>& planes) {
+  std::map<std::int32_t, std::vector<std::int32_t>> members;
+  for (size_t i = 0; i < map.size(); ++i)
+    if (map.instance_id[i] > 0) members[map.instance_id[i]].push_back(static_cast<std::int32_t>(i));
+  std::map<std::int32_t, float> out;
+  for (const auto& [id, idx] : members)
+    for (const auto& sp : planes) {
+      std::vector<float> above, below;
+      for (const auto i : idx) {
+        const float h = sp.plane.signed_distance(map.position_world[i]);
+        (h >= 0 ? above : below).push_back(std::abs(h));
+      }
+      std::vector<float>& side = above.size() >= below.size() ? above : below;
+      if (10 * side.size() < 9 * idx.size()) continue;  // the plane cuts through it
+      const size_t k = std::min(side.size() - 1, side.size() * 98 / 100);
+      std::nth_element(side.begin(), side.begin() + static_cast<std::ptrdiff_t>(k), side.end());
+      const auto it = out.find(id);
+      if (it == out.end() || side[k] < it->second) out[id] = side[k];
+    }
+  return out;
+}
+
 }  // namespace orpe

@@ -12,12 +12,15 @@
 //    floor, shelf boards, walls) are support, not object: an instance's surfels lying on one,
 //    within the plane's own noise and oriented like it, are released (the table just past a
 //    small object's silhouette is continuous in depth with it, so neither guard above sees it).
+//  - segment_height_above_support: how far an instance rises above the support planes (a resting
+//    object's top lies at least its model's minimal width above its support).
 //  - release_unconfirmed_surfels: a surfel fused in one frame only, next to the instance's
 //    confirmed surface, is a measurement that disagreed with that surface (else it would have been
 //    fused into it); at the end of a run it does not count as part of the object's segment.
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <vector>
 
 #include "orpe/core/image.h"
@@ -93,5 +96,12 @@ int release_support_plane_surfels(slam::SurfelMap& map, const std::vector<Suppor
 /// surfels stay in the map. Returns the number released; `always_active` is cleared for them when
 /// `clear_always_active`.
 int release_unconfirmed_surfels(slam::SurfelMap& map, float link_m, bool clear_always_active);
+
+/// Per instance of `map`: how far it rises above the support planes it stands on one side of. For
+/// each plane with at least 90 % of the instance's surfels on one side of it, the 98th percentile
+/// of their distances on that side; the smallest over such planes (m). Instances on no plane's one
+/// side are not listed.
+std::map<std::int32_t, float> segment_height_above_support(const slam::SurfelMap& map,
+                                                           const std::vector<SupportPlane>& planes);
 
 }  // namespace orpe

@@ -60,6 +60,10 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (min_confirmed_detections < 1) return fail("min_confirmed_detections must be >= 1");
   if (prune_missed_keyframes < 1) return fail("prune_missed_keyframes must be >= 1");
   if (min_instance_surfels < 0) return fail("min_instance_surfels must be >= 0");
+  if (!(min_detection_ratio >= 0 && min_detection_ratio <= 1))
+    return fail("min_detection_ratio must be in [0, 1]");
+  if (!(min_height_fraction >= 0 && min_height_fraction <= 1))
+    return fail("min_height_fraction must be in [0, 1]");
   if (edge_band_px < 1 || edge_band_px > 50) return fail("edge_band_px must be in [1, 50]");
   if (!(edge_depth_tolerance_m > 0)) return fail("edge_depth_tolerance_m must be > 0");
   if (!(segment_link_m > 0 && segment_link_m <= 1)) return fail("segment_link_m must be in (0, 1]");
@@ -84,6 +88,11 @@ std::vector<std::pair<int, double>> InstanceInfo::class_distribution() const {
   std::stable_sort(out.begin(), out.end(),
                    [](const auto& a, const auto& b) { return a.second > b.second; });
   return out;
+}
+
+double InstanceInfo::detection_ratio() const {
+  const int chances = detections + missed_keyframes;
+  return chances > 0 ? static_cast<double>(detections) / chances : 0.0;
 }
 
 int InstanceInfo::argmax_class() const {
@@ -236,6 +245,8 @@ void SemanticFusion::merge_into(int keep, int absorb, slam::SurfelMap& map) {
     k.first_frame = a.first_frame;
   k.last_frame = std::max(k.last_frame, a.last_frame);
   k.visible_keyframes = std::max(k.visible_keyframes, a.visible_keyframes);
+  // Keyframes in which both were visible and one was detected count once, as a detection.
+  k.missed_keyframes = std::min(k.missed_keyframes, a.missed_keyframes);
   instances_.erase(absorb);
   merged_into_[absorb] = keep;
 }
@@ -397,6 +408,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     ++it->second.visible_keyframes;
     if (!frame_classes.count(id)) {
       ++it->second.consecutive_misses;
+      ++it->second.missed_keyframes;
       if (it->second.detections >= params_.min_confirmed_detections) missed.push_back(id);
     }
   }
@@ -545,6 +557,24 @@ int SemanticFusion::release_support_surfels(slam::SurfelMap& map) const {
                                        params_.always_active_objects);
 }
 
+void SemanticFusion::measure_height(const slam::SurfelMap& map) {
+  const auto planes =
+      find_support_planes(map, params_.support_plane_max_planes, params_.support_plane_min_fraction,
+                          params_.support_plane_min_extent_m, params_.support_plane_max_distance_m);
+  const auto height = segment_height_above_support(map, planes);
+  for (auto& [id, info] : instances_) {
+    const auto it = height.find(id);
+    info.height_above_support_m = it == height.end() ? -1 : it->second;
+  }
+}
+
+bool SemanticFusion::too_low(const InstanceInfo& info) const {
+  const auto w = class_min_width_m_.find(info.argmax_class());
+  return params_.min_height_fraction > 0 && w != class_min_width_m_.end() &&
+         info.height_above_support_m >= 0 &&
+         info.height_above_support_m < params_.min_height_fraction * w->second;
+}
+
 int SemanticFusion::finalize(slam::SurfelMap& map) {
   if (params_.segment_confirmed_surfels_only)
     release_unconfirmed_surfels(map, static_cast<float>(params_.segment_link_m),
@@ -554,12 +584,15 @@ int SemanticFusion::finalize(slam::SurfelMap& map) {
                              params_.segment_min_component_fraction, nullptr,
                              params_.always_active_objects);
   release_support_surfels(map);
+  measure_height(map);
   const auto geometry = instance_geometry(map);
   std::vector<int> doomed;
   for (const auto& [id, info] : instances_) {
     const auto it = geometry.find(id);
     const int surfels = it == geometry.end() ? 0 : it->second.surfels;
-    if (info.detections < params_.min_instance_detections || surfels < params_.min_instance_surfels)
+    if (info.detections < params_.min_instance_detections ||
+        surfels < params_.min_instance_surfels ||
+        info.detection_ratio() < params_.min_detection_ratio || too_low(info))
       doomed.push_back(id);
   }
   for (int id : doomed) remove_instance(id, map);

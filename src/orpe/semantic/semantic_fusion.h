@@ -37,7 +37,9 @@
 //    removed once it was visible but undetected in prune_missed_keyframes keyframes in a row, and
 //    at finalize(); an instance left without surfels (all released) is removed at once; one with
 //    fewer than min_instance_surfels surfels is removed at finalize(). Removing an instance
-//    unlabels its surfels.
+//    unlabels its surfels. Also at finalize(): an instance rising less than min_height_fraction x
+//    its class model's minimal width above a support plane (set_class_min_widths), and, when
+//    min_detection_ratio > 0, one detected in too few of its chances.
 #pragma once
 
 #include <array>
@@ -90,6 +92,15 @@ struct SemanticParams {
   int min_instance_detections = 3;   ///< instances detected in fewer keyframes are pruned
   int prune_missed_keyframes = 5;  ///< ... once visible but undetected this many keyframes in a row
   int min_instance_surfels = 50;   ///< instances with fewer surfels are removed at finalize()
+  /// At finalize(): an instance detected in fewer than this fraction of its chances (keyframes
+  /// that detected it or in which it was visible, >= min_visible_area_px, without a detection)
+  /// has not earned its existence and is removed (0 = off).
+  double min_detection_ratio = 0;
+  /// At finalize(): an instance of a class with a known minimal width w (set_class_min_widths)
+  /// whose surfels rise less than this x w above a support plane they stand on one side of is
+  /// removed: a resting object's top lies at least w above its support (a sheet or the table
+  /// explained by a model does not). 0 = off.
+  double min_height_fraction = 0.7;
   bool always_active_objects = true;  ///< flag object surfels always active (paper)
   /// A keyframe in which a visible instance got no detection does not update the surfels in and
   /// around (boundary_neighbourhood_px) its projection: a detector miss is not evidence of
@@ -179,6 +190,14 @@ struct SemanticParams {
       "Prune such an instance once it was visible but undetected this many keyframes in a row");
     v("min_instance_surfels", min_instance_surfels,
       "Instances with fewer surfels are removed at the end");
+    v("min_height_fraction", min_height_fraction,
+      "At the end, an instance whose surfels rise less than this x its class model's minimal "
+      "width above a support plane they lie on one side of is removed (0 = off; needs the "
+      "models' widths, which the pipeline provides)");
+    v("min_detection_ratio", min_detection_ratio,
+      "At the end, instances detected in fewer than this fraction of the keyframes that detected "
+      "them or in which they were visible (projected mask >= min_visible_area_px) are removed (0 = "
+      "off)");
     v("always_active_objects", always_active_objects,
       "Flag object surfels always active (never leave the active window; paper)");
     v("skip_missed_instances", skip_missed_instances,
@@ -230,6 +249,12 @@ struct InstanceInfo {
   int last_frame = -1;
   int visible_keyframes = 0;   ///< keyframes in which it rendered >= min_visible_area_px pixels
   int consecutive_misses = 0;  ///< visible-but-undetected keyframes since its last detection
+  int missed_keyframes = 0;    ///< visible-but-undetected keyframes in all
+  /// Set by finalize(): its height above the support (segment_height_above_support, m; -1 = none).
+  double height_above_support_m = -1;
+
+  /// detections / (detections + missed_keyframes): how often it was detected when it could be.
+  double detection_ratio() const;
 
   /// P(l | I_1..t) = sum / detections, sorted by decreasing probability.
   std::vector<std::pair<int, double>> class_distribution() const;
@@ -307,6 +332,10 @@ class SemanticFusion {
   /// End of the run: removes instances detected in too few keyframes or with too few surfels.
   /// Returns the number removed.
   int finalize(slam::SurfelMap& map);
+  /// Minimal widths (m) of the class models, for min_height_fraction (classes not listed: no test).
+  void set_class_min_widths(std::map<int, double> widths) {
+    class_min_width_m_ = std::move(widths);
+  }
   /// Removes one instance (its surfels become background).
   void remove_instance(int id, slam::SurfelMap& map);
   /// The support-plane guard (SemanticParams::support_plane_guard); returns the surfels released.
@@ -331,6 +360,9 @@ class SemanticFusion {
 
  private:
   void merge_into(int keep, int absorb, slam::SurfelMap& map);
+  /// Sets InstanceInfo::height_above_support_m; true when the instance is too low for its class.
+  void measure_height(const slam::SurfelMap& map);
+  bool too_low(const InstanceInfo& info) const;
   struct UpdateCounts {
     int observed = 0, skipped = 0, labelled = 0, released = 0, candidates = 0, joined = 0;
     void add(const UpdateCounts& o);
@@ -343,6 +375,7 @@ class SemanticFusion {
   SemanticParams params_;
   std::map<int, InstanceInfo> instances_;
   std::map<int, int> merged_into_;  // absorbed -> survivor, kept for later stages (pose tracks)
+  std::map<int, double> class_min_width_m_;
   int next_instance_id_ = 1;
   slam::MapRenderer renderer_;
   InstanceRenderer instance_renderer_;

@@ -77,6 +77,10 @@ class SemanticMapper {
                                 double segment_ms = 0);
   /// End of the run: removes spurious instances. Returns how many were removed.
   int finalize(slam::SurfelMap& map) { return fusion_.finalize(map); }
+  /// The class models' minimal widths (m) for semantic.min_height_fraction; call before finalize().
+  void set_class_min_widths(std::map<int, double> widths) {
+    fusion_.set_class_min_widths(std::move(widths));
+  }
 
   /// PM / PD / PC of every confirmed instance (detected in >= min_confirmed_detections keyframes;
   /// the tentative ones may still be spurious) seen from a pose, label-aware like the association

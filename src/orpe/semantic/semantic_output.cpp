@@ -48,6 +48,9 @@ void write_instances_json(const std::string& path, const slam::SurfelMap& map,
     ji["class_distribution"] = dist;
     ji["detections"] = info.detections;
     ji["visible_keyframes"] = info.visible_keyframes;
+    ji["missed_keyframes"] = info.missed_keyframes;
+    if (info.height_above_support_m >= 0)
+      ji["height_above_support_m"] = info.height_above_support_m;
     ji["first_frame"] = info.first_frame;
     ji["last_frame"] = info.last_frame;
     const auto g = geometry.find(id);

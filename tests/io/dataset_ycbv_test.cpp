@@ -322,5 +322,26 @@ TEST(YcbReader, MetaMatWithDimensionsOfTheWrongTypeIsRefusedBeforeMatioAllocates
   }
 }
 
+TEST(YcbReader, MetaMatWithACompressedVariableLargerThanTheFileCanHoldIsRefusedBeforeMatioReadsIt) {
+  // fuzz/corpus/ycbv_meta/crash-oom-compressed-dims-3gb.mat (227 bytes): a compressed variable
+  // 'factor_depth' declaring 20000 x 20000 doubles. libmatio allocated 3.2 GB for its data before
+  // inflating it, and the conversion to doubles would have copied all of it.
+  const std::string dir = test::scratch_dir("ycb_fuzz_compressed") + "/data/0000";
+  write_ycb_frame(dir, 1, YcbFrameSpec{});
+  std::filesystem::copy_file(
+      std::string(ORPE_SOURCE_DIR) + "/fuzz/corpus/ycbv_meta/crash-oom-compressed-dims-3gb.mat",
+      dir + "/000001-meta.mat", std::filesystem::copy_options::overwrite_existing);
+  auto reader = open_dataset(dir, DatasetParams{});
+  try {
+    reader->read_annotations(0);
+    ADD_FAILURE() << "no error";
+  } catch (const IoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("000001-meta.mat"), std::string::npos) << what;
+    EXPECT_NE(what.find("variable 'factor_depth' declares 3200000000 bytes"), std::string::npos)
+        << what;
+  }
+}
+
 }  // namespace
 }  // namespace orpe

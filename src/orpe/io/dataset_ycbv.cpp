@@ -60,9 +60,54 @@ void convert(const void* data, size_t n, std::vector<double>& out) {
   out.assign(p, p + n);
 }
 
-/// Reads variable `name` as doubles; nullopt when absent. Throws IoError for a non-numeric, complex
-/// or unreadable variable.
+/// Bytes per element of a numeric MATLAB class; 0 for any other class.
+size_t numeric_element_bytes(matio_classes c) {
+  switch (c) {
+    case MAT_C_DOUBLE:
+    case MAT_C_INT64:
+    case MAT_C_UINT64:
+      return 8;
+    case MAT_C_SINGLE:
+    case MAT_C_INT32:
+    case MAT_C_UINT32:
+      return 4;
+    case MAT_C_INT16:
+    case MAT_C_UINT16:
+      return 2;
+    case MAT_C_INT8:
+    case MAT_C_UINT8:
+      return 1;
+    default:
+      return 0;
+  }
+}
+
+/// The most bytes deflate can expand one byte into (zlib: 1032:1).
+constexpr double kMaxInflateRatio = 1032;
+
+/// libmatio allocates a variable's data from its dimensions before it inflates a compressed one
+/// (fuzz/corpus/ycbv_meta/crash-oom-compressed-dims-3gb.mat: a 200-byte file declaring 20000 x
+/// 20000 doubles made it allocate 3.2 GB, and the conversion to doubles would have touched it all).
+/// Uncompressed sizes are checked against the file by check_mat5_sizes; a compressed variable cannot
+/// hold more than kMaxInflateRatio times the file's size. Its dimensions are read first
+/// (Mat_VarReadInfo, no data) and checked against that bound.
+void check_declared_size(mat_t* mat, const char* name, const std::string& path) {
+  MatVarPtr info(Mat_VarReadInfo(mat, name));
+  if (!info) return;
+  double bytes = static_cast<double>(std::max<size_t>(1, numeric_element_bytes(info->class_type)));
+  for (int i = 0; i < info->rank; ++i) bytes *= static_cast<double>(info->dims[i]);
+  std::error_code ec;
+  const double file_bytes = static_cast<double>(fs::file_size(path, ec));
+  if (bytes > kMaxInflateRatio * file_bytes + 1024)
+    throw IoError(path, fmt::format("variable '{}' declares {:.0f} bytes of data, more than a file "
+                                    "of {:.0f} bytes can hold (corrupt dimensions?)",
+                                    name, bytes, file_bytes));
+}
+
+/// Reads variable `name` as doubles; nullopt when absent. Throws IoError for a non-numeric, complex,
+/// oversized or unreadable variable.
 std::optional<MatArray> read_mat_array(mat_t* mat, const char* name, const std::string& path) {
+  check_declared_size(mat, name, path);
   MatVarPtr var(Mat_VarRead(mat, name));
   if (!var) return std::nullopt;
   if (var->isComplex) throw IoError(path, fmt::format("variable '{}' is complex", name));
@@ -78,33 +123,8 @@ std::optional<MatArray> read_mat_array(mat_t* mat, const char* name, const std::
   }
   if (!var->data)
     throw IoError(path, fmt::format("variable '{}' has no data (truncated file?)", name));
-  size_t elem = 0;
-  switch (var->class_type) {
-    case MAT_C_DOUBLE:
-      elem = sizeof(double);
-      break;
-    case MAT_C_SINGLE:
-      elem = sizeof(float);
-      break;
-    case MAT_C_INT8:
-    case MAT_C_UINT8:
-      elem = 1;
-      break;
-    case MAT_C_INT16:
-    case MAT_C_UINT16:
-      elem = 2;
-      break;
-    case MAT_C_INT32:
-    case MAT_C_UINT32:
-      elem = 4;
-      break;
-    case MAT_C_INT64:
-    case MAT_C_UINT64:
-      elem = 8;
-      break;
-    default:
-      throw IoError(path, fmt::format("variable '{}' is not a numeric array", name));
-  }
+  const size_t elem = numeric_element_bytes(var->class_type);
+  if (elem == 0) throw IoError(path, fmt::format("variable '{}' is not a numeric array", name));
   if (var->nbytes < n * elem)
     throw IoError(path, fmt::format("variable '{}' is truncated ({} of {} bytes)", name,
                                     var->nbytes, n * elem));

@@ -343,5 +343,29 @@ TEST(YcbReader, MetaMatWithACompressedVariableLargerThanTheFileCanHoldIsRefusedB
   }
 }
 
+TEST(YcbReader, MetaMatWithACompressedDimensionsTagBeyondTheVariableIsRefusedBeforeMatioReadsIt) {
+  // fuzz/corpus/ycbv_meta/crash-slow-compressed-dims-tag-100mb.mat (found by the ycbv_meta fuzz
+  // target, a timeout under ASan): 227 bytes whose compressed variable has a dimensions tag of
+  // 100663304 bytes; libmatio allocated 400 MB for the dimensions at each variable it looked up.
+  const std::string dir = test::scratch_dir("ycb_fuzz_compressed_dims") + "/data/0000";
+  write_ycb_frame(dir, 1, YcbFrameSpec{});
+  std::filesystem::copy_file(std::string(ORPE_SOURCE_DIR) +
+                                 "/fuzz/corpus/ycbv_meta/crash-slow-compressed-dims-tag-100mb.mat",
+                             dir + "/000001-meta.mat",
+                             std::filesystem::copy_options::overwrite_existing);
+  auto reader = open_dataset(dir, DatasetParams{});
+  try {
+    reader->read_annotations(0);
+    ADD_FAILURE() << "no error";
+  } catch (const IoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("000001-meta.mat"), std::string::npos) << what;
+    EXPECT_NE(what.find("in the compressed variable at byte 128: array dimensions of 100663304 "
+                        "bytes"),
+              std::string::npos)
+        << what;
+  }
+}
+
 }  // namespace
 }  // namespace orpe

@@ -13,6 +13,7 @@
 #include <fmt/ranges.h>
 #include <matio.h>
 #include <spdlog/spdlog.h>
+#include <zlib.h>
 
 #include "orpe/core/error.h"
 #include "orpe/core/parse_number.h"
@@ -172,14 +173,32 @@ struct YcbMeta {
   std::vector<SE3> T_cam_obj;  // same order as class_ids
 };
 
+/// The first `max_out` bytes (at most) that the zlib stream `data` inflates to; fewer when the
+/// stream ends or is corrupt there.
+std::string inflate_head(const char* data, size_t size, size_t max_out) {
+  z_stream z{};
+  if (inflateInit(&z) != Z_OK) return {};
+  std::string out(max_out, '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data));
+  z.avail_in = static_cast<uInt>(size);
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = static_cast<uInt>(max_out);
+  inflate(&z, Z_SYNC_FLUSH);
+  out.resize(z.total_out);
+  inflateEnd(&z);
+  return out;
+}
+
 // libmatio sizes its allocations from the file's tags and dimensions before checking them against
 // the file (fuzz ycbv_meta: a 411-byte meta.mat with a name tag of 4 GB made it allocate and clear
-// 4 GB). check_mat5_sizes refuses such a file first. Compressed variables are inflated by matio and
-// their contents are not checked here.
+// 4 GB). check_mat5_sizes refuses such a file first. Of a compressed variable, the head (the first
+// 64 KiB inflated: array flags, dimensions, name) is checked the same way; the data inside it is
+// bounded by check_declared_size. Cells and structs inside a compressed variable are not walked.
 struct Mat5Reader {
   const std::string& path;
   const std::string& bytes;
   bool swap = false;
+  std::string where;  // "in the compressed variable at byte N: " for an inflated head
 
   uint32_t u32(size_t at) const {
     uint32_t v;
@@ -187,7 +206,7 @@ struct Mat5Reader {
     return swap ? __builtin_bswap32(v) : v;
   }
   [[noreturn]] void corrupt(size_t at, const std::string& what) const {
-    throw IoError(path, fmt::format("corrupt MATLAB file: {} (byte {})", what, at));
+    throw IoError(path, fmt::format("corrupt MATLAB file: {}{} (byte {})", where, what, at));
   }
   /// Walks the data elements in [begin, end); a matrix's elements are walked too (depth-limited).
   void elements(size_t begin, size_t end, int depth) const {
@@ -202,6 +221,7 @@ struct Mat5Reader {
       if (n > end - at - 8)
         corrupt(at, fmt::format("an element of {} bytes where {} remain", n, end - at - 8));
       if (tag == 14) matrix(at + 8, at + 8 + n, depth + 1);  // miMATRIX
+      if (tag == 15 && depth == 0) compressed(at + 8, n);    // miCOMPRESSED
       // Elements inside a matrix are padded to 8 bytes; top-level ones (miCOMPRESSED) are not.
       at += 8 + (depth > 0 ? (n + 7) / 8 * 8 : n);
     }
@@ -223,21 +243,44 @@ struct Mat5Reader {
   /// their declared type (fuzz/corpus/ycbv_meta/crash-oom-dims-type-0-1gb.mat: type 0, 1 GB).
   void matrix(size_t begin, size_t end, int depth) const {
     elements(begin, end, depth);
+    matrix_header(begin, end);
+  }
+  /// A compressed variable of `size` bytes at `begin`: one miMATRIX element once inflated, of at
+  /// most kMaxInflateRatio x `size` bytes, whose head (array flags, dimensions, name) is checked
+  /// like an uncompressed matrix's (fuzz/corpus/ycbv_meta/crash-slow-compressed-dims-tag-100mb.mat:
+  /// a dimensions tag of 100 MB made libmatio allocate 400 MB for each variable it looked up).
+  void compressed(size_t begin, size_t size) const {
+    constexpr size_t kHeadBytes = 64 * 1024;
+    const std::string head = inflate_head(bytes.data() + begin, size, kHeadBytes);
+    if (head.size() < 8) return;  // libmatio reports a stream that does not inflate
+    Mat5Reader inner{path, head, swap,
+                     fmt::format("in the compressed variable at byte {}: ", begin - 8)};
+    const Element e = inner.element_at(0);
+    if (e.type != 14)
+      inner.corrupt(0, fmt::format("an element of type {} (MAT v5: miMATRIX = 14)", e.type));
+    if (static_cast<double>(e.size) > kMaxInflateRatio * static_cast<double>(size) + 64)
+      inner.corrupt(0, fmt::format("a matrix of {} bytes from {} compressed bytes", e.size, size));
+    inner.matrix_header(e.data, e.data + e.size);
+  }
+  /// The head of the matrix in [begin, end): flags, dimensions and the element count they give;
+  /// only the bytes present are read (an inflated head can end before `end`).
+  void matrix_header(size_t begin, size_t end) const {
     if (end == begin) return;  // an empty matrix
-    if (end - begin < 16) corrupt(begin, "a matrix too short for its array flags and dimensions");
+    const size_t limit = std::min(end, bytes.size());
+    if (limit < begin + 16) corrupt(begin, "a matrix too short for its array flags and dimensions");
     const Element flags = element_at(begin);
     if (flags.type != 6 || flags.size < 8)
       corrupt(begin, fmt::format("array flags of type {} and {} bytes (MAT v5: miUINT32, 8 bytes)",
                                  flags.type, flags.size));
     const uint32_t array_class = u32(flags.data) & 0xff;
     const size_t dims_at = begin + 8 + (flags.size + 7) / 8 * 8;
-    if (dims_at + 8 > end) corrupt(begin, "a matrix without dimensions");
+    if (dims_at + 8 > limit) corrupt(begin, "a matrix without dimensions");
     const Element dims = element_at(dims_at);
     if (dims.type != 5)
       corrupt(dims_at, fmt::format("array dimensions of type {} (MAT v5: miINT32 = 5)", dims.type));
-    if (dims.data + dims.size > end)
+    if (dims.data + dims.size > limit)
       corrupt(dims_at, fmt::format("array dimensions of {} bytes where {} remain", dims.size,
-                                   end - dims.data));
+                                   limit - std::min(limit, dims.data)));
     if (array_class == 5) return;  // sparse: the count is not bounded by the size
     double elements_count = 1;
     for (size_t k = 0; k + 4 <= dims.size; k += 4) elements_count *= u32(dims.data + k);
@@ -251,7 +294,7 @@ void check_mat5_sizes(const std::string& path) {
   std::ifstream is(path, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
   if (bytes.size() < 128) return;  // matio reports it
-  Mat5Reader r{path, bytes};
+  Mat5Reader r{path, bytes, false, {}};
   if (bytes[126] == 'M' && bytes[127] == 'I')
     r.swap = true;
   else if (bytes[126] != 'I' || bytes[127] != 'M')

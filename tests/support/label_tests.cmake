@@ -5,6 +5,7 @@
 file(STRINGS "${_orpe_long_file}" _orpe_long_lines)
 set(_orpe_long_patterns "")
 foreach(_line IN LISTS _orpe_long_lines)
+  string(REGEX REPLACE "[ \t]+#.*$" "" _line "${_line}")  # a trailing comment
   string(STRIP "${_line}" _line)
   if(_line AND NOT _line MATCHES "^#")
     list(APPEND _orpe_long_patterns "${_line}")

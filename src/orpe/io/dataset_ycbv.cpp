@@ -83,32 +83,9 @@ size_t numeric_element_bytes(matio_classes c) {
   }
 }
 
-/// The most bytes deflate can expand one byte into (zlib: 1032:1).
-constexpr double kMaxInflateRatio = 1032;
-
-/// libmatio allocates a variable's data from its dimensions before it inflates a compressed one
-/// (fuzz/corpus/ycbv_meta/crash-oom-compressed-dims-3gb.mat: a 200-byte file declaring 20000 x
-/// 20000 doubles made it allocate 3.2 GB, and the conversion to doubles would have touched it all).
-/// Uncompressed sizes are checked against the file by check_mat5_sizes; a compressed variable cannot
-/// hold more than kMaxInflateRatio times the file's size. Its dimensions are read first
-/// (Mat_VarReadInfo, no data) and checked against that bound.
-void check_declared_size(mat_t* mat, const char* name, const std::string& path) {
-  MatVarPtr info(Mat_VarReadInfo(mat, name));
-  if (!info) return;
-  double bytes = static_cast<double>(std::max<size_t>(1, numeric_element_bytes(info->class_type)));
-  for (int i = 0; i < info->rank; ++i) bytes *= static_cast<double>(info->dims[i]);
-  std::error_code ec;
-  const double file_bytes = static_cast<double>(fs::file_size(path, ec));
-  if (bytes > kMaxInflateRatio * file_bytes + 1024)
-    throw IoError(path, fmt::format("variable '{}' declares {:.0f} bytes of data, more than a file "
-                                    "of {:.0f} bytes can hold (corrupt dimensions?)",
-                                    name, bytes, file_bytes));
-}
-
-/// Reads variable `name` as doubles; nullopt when absent. Throws IoError for a non-numeric, complex,
-/// oversized or unreadable variable.
+/// Reads variable `name` as doubles; nullopt when absent. Throws IoError for a non-numeric, complex
+/// or unreadable variable.
 std::optional<MatArray> read_mat_array(mat_t* mat, const char* name, const std::string& path) {
-  check_declared_size(mat, name, path);
   MatVarPtr var(Mat_VarRead(mat, name));
   if (!var) return std::nullopt;
   if (var->isComplex) throw IoError(path, fmt::format("variable '{}' is complex", name));
@@ -173,6 +150,9 @@ struct YcbMeta {
   std::vector<SE3> T_cam_obj;  // same order as class_ids
 };
 
+/// The most bytes deflate can expand one byte into (zlib: 1032:1).
+constexpr double kMaxInflateRatio = 1032;
+
 /// The first `max_out` bytes (at most) that the zlib stream `data` inflates to; fewer when the
 /// stream ends or is corrupt there.
 std::string inflate_head(const char* data, size_t size, size_t max_out) {
@@ -192,8 +172,9 @@ std::string inflate_head(const char* data, size_t size, size_t max_out) {
 // libmatio sizes its allocations from the file's tags and dimensions before checking them against
 // the file (fuzz ycbv_meta: a 411-byte meta.mat with a name tag of 4 GB made it allocate and clear
 // 4 GB). check_mat5_sizes refuses such a file first. Of a compressed variable, the head (the first
-// 64 KiB inflated: array flags, dimensions, name) is checked the same way; the data inside it is
-// bounded by check_declared_size. Cells and structs inside a compressed variable are not walked.
+// 64 KiB inflated: array flags, dimensions) is checked the same way, its element count against the
+// size it declares once inflated, itself at most kMaxInflateRatio x its compressed size. Cells and
+// structs inside a compressed variable are not walked; v7.3 (HDF5) files are left to matio.
 struct Mat5Reader {
   const std::string& path;
   const std::string& bytes;
@@ -246,9 +227,11 @@ struct Mat5Reader {
     matrix_header(begin, end);
   }
   /// A compressed variable of `size` bytes at `begin`: one miMATRIX element once inflated, of at
-  /// most kMaxInflateRatio x `size` bytes, whose head (array flags, dimensions, name) is checked
-  /// like an uncompressed matrix's (fuzz/corpus/ycbv_meta/crash-slow-compressed-dims-tag-100mb.mat:
-  /// a dimensions tag of 100 MB made libmatio allocate 400 MB for each variable it looked up).
+  /// most kMaxInflateRatio x `size` bytes, whose head (array flags, dimensions) is checked like an
+  /// uncompressed matrix's. fuzz/corpus/ycbv_meta: crash-slow-compressed-dims-tag-100mb.mat (a
+  /// dimensions tag of 100 MB: libmatio allocated 400 MB at each variable it looked up) and
+  /// crash-oom-compressed-dims-3gb.mat (20000 x 20000 doubles in a variable of 72 bytes: matio
+  /// allocated 3.2 GB for the data).
   void compressed(size_t begin, size_t size) const {
     constexpr size_t kHeadBytes = 64 * 1024;
     const std::string head = inflate_head(bytes.data() + begin, size, kHeadBytes);

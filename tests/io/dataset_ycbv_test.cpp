@@ -347,14 +347,15 @@ TEST(YcbReader, CompressedMetaVariableOfMoreElementsThanBytesIsRefusedBeforeMati
 
 TEST(YcbReader, CompressedMetaDimensionsTagBeyondTheVariableIsRefusedBeforeMatioReadsIt) {
   // fuzz/corpus/ycbv_meta/crash-slow-compressed-dims-tag-100mb.mat (found by the ycbv_meta fuzz
-  // target, a timeout under ASan): 227 bytes whose compressed variable has a dimensions tag of
-  // 100663304 bytes; libmatio allocated 400 MB for the dimensions at each variable it looked up.
+  // target, a timeout under ASan): a compressed variable with a dimensions tag of 100663304 bytes;
+  // libmatio allocated 400 MB for the dimensions at each variable it looked up. Its zlib checksum
+  // is wrong too (refused for that first); the -valid-zlib copy has the same bytes recompressed.
   const std::string dir = test::scratch_dir("ycb_fuzz_compressed_dims") + "/data/0000";
   write_ycb_frame(dir, 1, YcbFrameSpec{});
-  std::filesystem::copy_file(std::string(ORPE_SOURCE_DIR) +
-                                 "/fuzz/corpus/ycbv_meta/crash-slow-compressed-dims-tag-100mb.mat",
-                             dir + "/000001-meta.mat",
-                             std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(
+      std::string(ORPE_SOURCE_DIR) +
+          "/fuzz/corpus/ycbv_meta/crash-slow-compressed-dims-tag-100mb-valid-zlib.mat",
+      dir + "/000001-meta.mat", std::filesystem::copy_options::overwrite_existing);
   auto reader = open_dataset(dir, DatasetParams{});
   try {
     reader->read_annotations(0);
@@ -364,6 +365,29 @@ TEST(YcbReader, CompressedMetaDimensionsTagBeyondTheVariableIsRefusedBeforeMatio
     EXPECT_NE(what.find("000001-meta.mat"), std::string::npos) << what;
     EXPECT_NE(what.find("in the compressed variable at byte 128: array dimensions of 100663304 "
                         "bytes"),
+              std::string::npos)
+        << what;
+  }
+}
+
+TEST(YcbReader, CompressedMetaVariableWithCorruptZlibDataIsRefusedBeforeMatioReadsIt) {
+  // fuzz/corpus/ycbv_meta/crash-slow-corrupt-zlib-stream.mat (found by the ycbv_meta fuzz target,
+  // a timeout under ASan): the fourth compressed variable's zlib data is corrupt ("invalid distance
+  // too far back"); libmatio sized a 450 MB allocation from what it inflated before the error.
+  const std::string dir = test::scratch_dir("ycb_fuzz_corrupt_zlib") + "/data/0000";
+  write_ycb_frame(dir, 1, YcbFrameSpec{});
+  std::filesystem::copy_file(
+      std::string(ORPE_SOURCE_DIR) + "/fuzz/corpus/ycbv_meta/crash-slow-corrupt-zlib-stream.mat",
+      dir + "/000001-meta.mat", std::filesystem::copy_options::overwrite_existing);
+  auto reader = open_dataset(dir, DatasetParams{});
+  try {
+    reader->read_annotations(0);
+    ADD_FAILURE() << "no error";
+  } catch (const IoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("000001-meta.mat"), std::string::npos) << what;
+    EXPECT_NE(what.find("a compressed variable of 84 bytes whose zlib data does not inflate "
+                        "(byte 333)"),
               std::string::npos)
         << what;
   }

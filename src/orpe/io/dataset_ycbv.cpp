@@ -154,16 +154,18 @@ struct YcbMeta {
 constexpr double kMaxInflateRatio = 1032;
 
 /// The first `max_out` bytes (at most) that the zlib stream `data` inflates to; fewer when the
-/// stream ends or is corrupt there.
-std::string inflate_head(const char* data, size_t size, size_t max_out) {
+/// stream ends there. `corrupt` is set when the stream is not valid zlib up to that point.
+std::string inflate_head(const char* data, size_t size, size_t max_out, bool& corrupt) {
   z_stream z{};
-  if (inflateInit(&z) != Z_OK) return {};
+  corrupt = inflateInit(&z) != Z_OK;
+  if (corrupt) return {};
   std::string out(max_out, '\0');
   z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data));
   z.avail_in = static_cast<uInt>(size);
   z.next_out = reinterpret_cast<Bytef*>(out.data());
   z.avail_out = static_cast<uInt>(max_out);
-  inflate(&z, Z_SYNC_FLUSH);
+  const int rc = inflate(&z, Z_SYNC_FLUSH);
+  corrupt = rc != Z_OK && rc != Z_STREAM_END && rc != Z_BUF_ERROR;
   out.resize(z.total_out);
   inflateEnd(&z);
   return out;
@@ -234,8 +236,14 @@ struct Mat5Reader {
   /// allocated 3.2 GB for the data).
   void compressed(size_t begin, size_t size) const {
     constexpr size_t kHeadBytes = 64 * 1024;
-    const std::string head = inflate_head(bytes.data() + begin, size, kHeadBytes);
-    if (head.size() < 8) return;  // libmatio reports a stream that does not inflate
+    bool bad_stream = false;
+    const std::string head = inflate_head(bytes.data() + begin, size, kHeadBytes, bad_stream);
+    // libmatio reads what a corrupt stream gave before the error, and sized allocations from it
+    // (fuzz/corpus/ycbv_meta/crash-slow-corrupt-zlib-stream.mat: 450 MB).
+    if (bad_stream || head.size() < 8)
+      corrupt(begin - 8, fmt::format("a compressed variable of {} bytes whose zlib data does not "
+                                     "inflate",
+                                     size));
     Mat5Reader inner{path, head, swap,
                      fmt::format("in the compressed variable at byte {}: ", begin - 8)};
     const Element e = inner.element_at(0);

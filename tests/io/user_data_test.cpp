@@ -120,6 +120,13 @@ TEST(CameraFile, WrongOrMissingValuesAreErrorsNamingTheKey) {
                     "  data: [ 2., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1. ]\n"),
        "not a rotation"},
       {opencv_style("min_depth_m: 5\n"), "greater than min_depth_m"},
+      // OpenCV allocates rows x cols before it reads the data (fuzz camera_yaml: 64 GB)
+      {opencv_style("depth_camera_matrix: !!opencv-matrix\n  rows: 100000\n  cols: 100000\n"
+                    "  dt: d\n  data: [ 1. ]\n"),
+       "depth_camera_matrix: rows 100000 and cols 100000: each must be 1 to 16"},
+      {opencv_style("depth_camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+                    "  data: [ 1., 2. ]\n"),
+       "depth_camera_matrix: 2 data values for 3 x 3"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     const std::string path = dir + "/c" + std::to_string(i) + ".yaml";

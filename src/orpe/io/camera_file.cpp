@@ -44,10 +44,26 @@ class Keys {
       fail(key, fmt::format("must be a pixel count (got {})", v));
     return static_cast<int>(v);
   }
+  /// An !!opencv-matrix of at most kMaxSide x kMaxSide values. Its rows, cols and data are checked
+  /// before OpenCV reads it: OpenCV allocates rows x cols first (fuzz camera_yaml:
+  /// crash-oom-matrix-rows.yaml, a mangled rows: line made it ask for 64 GB).
   cv::Mat matrix(const std::string& key) const {
+    constexpr int kMaxSide = 16;
+    const cv::FileNode n = fs_[key];
+    if (n.empty() || n.isNone()) fail(key, "missing or not an !!opencv-matrix");
+    const cv::FileNode rows = n["rows"], cols = n["cols"], data = n["data"];
+    if (!n.isMap() || !rows.isInt() || !cols.isInt() || !data.isSeq())
+      fail(key, "expected an !!opencv-matrix (integer rows and cols, a data list)");
+    if (static_cast<int>(rows) < 1 || static_cast<int>(rows) > kMaxSide ||
+        static_cast<int>(cols) < 1 || static_cast<int>(cols) > kMaxSide)
+      fail(key, fmt::format("rows {} and cols {}: each must be 1 to {}", static_cast<int>(rows),
+                            static_cast<int>(cols), kMaxSide));
+    if (data.size() != static_cast<size_t>(static_cast<int>(rows) * static_cast<int>(cols)))
+      fail(key, fmt::format("{} data values for {} x {}", data.size(), static_cast<int>(rows),
+                            static_cast<int>(cols)));
     cv::Mat m;
     try {
-      fs_[key] >> m;
+      n >> m;
     } catch (const cv::Exception&) {
       fail(key, "expected an !!opencv-matrix");
     }

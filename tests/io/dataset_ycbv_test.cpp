@@ -357,5 +357,13 @@ TEST(YcbReader, CompressedMetaVariableWithCorruptZlibDataIsRefusedBeforeMatioRea
                              "a compressed variable of 91 bytes whose zlib data does not inflate");
 }
 
+TEST(YcbReader, CompressedMetaVariableWithANameTagBeyondItsBytesIsRefusedBeforeMatioReadsIt) {
+  // Found by the ycbv_meta fuzz target: a compressed variable whose name tag claims 1,638,145,809
+  // bytes; libmatio allocated 1.6 GB for the name.
+  expect_corpus_meta_refused("crash-oom-compressed-name-tag.mat",
+                             "in the compressed variable at byte 249: an array name of type 1 and "
+                             "1638145809 bytes");
+}
+
 }  // namespace
 }  // namespace orpe

@@ -124,6 +124,9 @@ TEST(CameraFile, WrongOrMissingValuesAreErrorsNamingTheKey) {
                     "  data: [ 2., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1. ]\n"),
        "not a rotation"},
       {opencv_style("min_depth_m: 5\n"), "greater than min_depth_m"},
+      // not a map: OpenCV's FileNode::operator[] asserted (fuzz camera_yaml)
+      {"%YAML:1.0\nimage_width: 64\nimage_height: 48\ncamera_matrix: 5\n",
+       "camera_matrix: expected an !!opencv-matrix"},
       // OpenCV allocates rows x cols before it reads the data (fuzz camera_yaml: 64 GB)
       {opencv_style("depth_camera_matrix: !!opencv-matrix\n  rows: 100000\n  cols: 100000\n"
                     "  dt: d\n  data: [ 1. ]\n" +

@@ -51,8 +51,9 @@ class Keys {
     constexpr int kMaxSide = 16;
     const cv::FileNode n = fs_[key];
     if (n.empty() || n.isNone()) fail(key, "missing or not an !!opencv-matrix");
+    if (!n.isMap()) fail(key, "expected an !!opencv-matrix (integer rows and cols, a data list)");
     const cv::FileNode rows = n["rows"], cols = n["cols"], data = n["data"];
-    if (!n.isMap() || !rows.isInt() || !cols.isInt() || !data.isSeq())
+    if (!rows.isInt() || !cols.isInt() || !data.isSeq())
       fail(key, "expected an !!opencv-matrix (integer rows and cols, a data list)");
     if (static_cast<int>(rows) < 1 || static_cast<int>(rows) > kMaxSide ||
         static_cast<int>(cols) < 1 || static_cast<int>(cols) > kMaxSide)

@@ -253,6 +253,18 @@ struct Mat5Reader {
       inner.corrupt(0, fmt::format("a matrix of {} bytes from {} compressed bytes", e.size, size));
     inner.matrix_header(e.data, e.data + e.size);
   }
+  /// The array name after the dimensions: miINT8, in the bytes present; a small element holds at
+  /// most 4 (fuzz/corpus/ycbv_meta/crash-oom-compressed-name-tag.mat: a compressed variable's name
+  /// tag of 1.6 GB made libmatio allocate it).
+  void check_name(size_t at, size_t limit) const {
+    if (at + 8 > limit) corrupt(at, "a matrix without a name");
+    const uint32_t tag = u32(at);
+    const Element name = element_at(at);
+    if (name.type != 1 || ((tag >> 16) && name.size > 4) || name.data + name.size > limit)
+      corrupt(at, fmt::format("an array name of type {} and {} bytes where {} remain (MAT v5: "
+                              "miINT8, at most 4 bytes in the small format)",
+                              name.type, name.size, limit - std::min(limit, name.data)));
+  }
   /// The head of the matrix in [begin, end): flags, dimensions and the element count they give;
   /// only the bytes present are read (an inflated head can end before `end`).
   void matrix_header(size_t begin, size_t end) const {
@@ -272,6 +284,7 @@ struct Mat5Reader {
     if (dims.data + dims.size > limit)
       corrupt(dims_at, fmt::format("array dimensions of {} bytes where {} remain", dims.size,
                                    limit - std::min(limit, dims.data)));
+    check_name(dims.data + (dims.size + 7) / 8 * 8, limit);
     if (array_class == 5) return;  // sparse: the count is not bounded by the size
     double elements_count = 1;
     for (size_t k = 0; k + 4 <= dims.size; k += 4) elements_count *= u32(dims.data + k);

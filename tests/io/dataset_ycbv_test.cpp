@@ -365,5 +365,13 @@ TEST(YcbReader, CompressedMetaVariableWithANameTagBeyondItsBytesIsRefusedBeforeM
                              "1638145809 bytes");
 }
 
+TEST(YcbReader, MetaMatShorterThanTheHeaderIsRefusedBeforeMatioReadsItAsMatV4) {
+  // Found by the ycbv_meta fuzz target: 40 bytes; libmatio read them as a MAT v4 header and
+  // allocated the 1.6 GB name length it claims.
+  expect_corpus_meta_refused(
+      "crash-oom-short-v4-header.mat",
+      "not a MATLAB 5 or 7.3 file (40 bytes: shorter than the 128-byte header)");
+}
+
 }  // namespace
 }  // namespace orpe

@@ -297,7 +297,12 @@ struct Mat5Reader {
 void check_mat5_sizes(const std::string& path) {
   std::ifstream is(path, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
-  if (bytes.size() < 128) return;  // matio reports it
+  // Shorter than the MAT v5 header: libmatio would try it as MAT v4 and allocate the name length
+  // that its header claims (fuzz/corpus/ycbv_meta/crash-oom-short-v4-header.mat: 40 bytes, 1.6 GB).
+  if (bytes.size() < 128)
+    throw IoError(path, fmt::format("not a MATLAB 5 or 7.3 file ({} bytes: shorter than the "
+                                    "128-byte header)",
+                                    bytes.size()));
   Mat5Reader r{path, bytes, false, {}};
   if (bytes[126] == 'M' && bytes[127] == 'I')
     r.swap = true;

@@ -201,8 +201,10 @@ CameraFileInfo read_camera_file(const std::string& path) {
   cv::FileStorage fs;
   try {
     fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
-  } catch (const std::exception& e) {  // cv::Exception, and std::length_error from OpenCV's YAML
-                                       // parser (fuzz camera_yaml: crash-length-error-yaml.yaml)
+  } catch (const cv::Exception& e) {
+    throw IoError(path, std::string("not a readable YAML camera file: ") + e.what());
+  } catch (const std::exception& e) {  // std::length_error from OpenCV's YAML parser (fuzz
+                                       // camera_yaml: crash-length-error-yaml.yaml)
     throw IoError(path, std::string("not a readable YAML camera file: ") + e.what());
   }
   if (!fs.isOpened()) throw IoError(path, "not a readable YAML camera file");

@@ -7,7 +7,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config git
   libeigen3-dev libopencv-dev libopencv-contrib-dev
-  libmatio-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
+  libmatio-dev zlib1g-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libnanoflann-dev libtbb-dev libgtest-dev libgmock-dev libbenchmark-dev
   libassimp-dev libyaml-cpp-dev parallel
   # A real browser for the test that opens `orpe report`'s page (headless; docs/REPORT.md).

@@ -18,11 +18,20 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// $TMPDIR when set, else /dev/shm (tmpfs: every input is written and read back without disk
+/// traffic), else the system's temporary folder.
+fs::path scratch_parent() {
+  if (const char* env = std::getenv("TMPDIR"); env && *env) return env;
+  std::error_code ec;
+  if (fs::is_directory("/dev/shm", ec)) return "/dev/shm";
+  return fs::temp_directory_path();
+}
+
 struct Scratch {
   std::string dir;
   Scratch() {
     spdlog::set_level(spdlog::level::off);
-    dir = (fs::temp_directory_path() / ("orpe_fuzz_" + std::to_string(getpid()))).string();
+    dir = (scratch_parent() / ("orpe_fuzz_" + std::to_string(getpid()))).string();
     std::error_code ec;
     fs::remove_all(dir, ec);
     fs::create_directories(dir);

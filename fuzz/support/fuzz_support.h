@@ -12,8 +12,9 @@
 
 namespace orpe::fuzz {
 
-/// A fresh folder for this process (<temp>/orpe_fuzz_<pid>), created on first use and removed at
-/// exit. Also silences spdlog (the parsers' warnings would dominate the run time).
+/// A fresh folder for this process, <dir>/orpe_fuzz_<pid> with <dir> = $TMPDIR, else /dev/shm (no
+/// disk traffic per input), else the system's temporary folder; created on first use and removed
+/// at exit. Also silences spdlog (the parsers' warnings would dominate the run time).
 const std::string& scratch_dir();
 
 /// scratch_dir()/relative, its parent folders created.

@@ -302,24 +302,75 @@ TEST(YcbReader, MetaMatWithATagBeyondTheFileIsRefusedBeforeMatioAllocatesIt) {
   }
 }
 
-TEST(YcbReader, MetaMatWithDimensionsOfTheWrongTypeIsRefusedBeforeMatioAllocatesIt) {
-  // fuzz/corpus/ycbv_meta/crash-oom-dims-type-0-1gb.mat (found by the ycbv_meta fuzz target): 365
-  // bytes; a matrix's dimensions have type 0 instead of miINT32, and libmatio, which reads them
-  // anyway, allocated 1 GB for [1 x 1095565313] doubles.
-  const std::string dir = test::scratch_dir("ycb_fuzz_dims") + "/data/0000";
+/// Reads fuzz/corpus/ycbv_meta/`corpus_file` as the meta.mat of a one-frame video: an IoError
+/// naming the file and containing `needle` (a refusal before libmatio reads the variable).
+void expect_corpus_meta_refused(const std::string& corpus_file, const std::string& needle) {
+  const std::string dir = test::scratch_dir("ycb_fuzz_corpus") + "/data/0000";
   write_ycb_frame(dir, 1, YcbFrameSpec{});
-  std::filesystem::copy_file(
-      std::string(ORPE_SOURCE_DIR) + "/fuzz/corpus/ycbv_meta/crash-oom-dims-type-0-1gb.mat",
-      dir + "/000001-meta.mat", std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(std::string(ORPE_SOURCE_DIR) + "/fuzz/corpus/ycbv_meta/" + corpus_file,
+                             dir + "/000001-meta.mat",
+                             std::filesystem::copy_options::overwrite_existing);
   auto reader = open_dataset(dir, DatasetParams{});
   try {
     reader->read_annotations(0);
-    ADD_FAILURE() << "no error";
+    ADD_FAILURE() << corpus_file << ": no error";
   } catch (const IoError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("000001-meta.mat"), std::string::npos) << what;
-    EXPECT_NE(what.find("array dimensions of type 0"), std::string::npos) << what;
+    EXPECT_NE(what.find(needle), std::string::npos) << what;
   }
+}
+
+TEST(YcbReader, MetaMatWithDimensionsOfTheWrongTypeIsRefusedBeforeMatioAllocatesIt) {
+  // Found by the ycbv_meta fuzz target: 365 bytes; a matrix's dimensions have type 0 instead of
+  // miINT32, and libmatio, which reads them anyway, allocated 1 GB for [1 x 1095565313] doubles.
+  expect_corpus_meta_refused("crash-oom-dims-type-0-1gb.mat", "array dimensions of type 0");
+}
+
+TEST(YcbReader, CompressedMetaVariableOfMoreElementsThanBytesIsRefusedBeforeMatioReadsIt) {
+  // 227 bytes: a compressed variable 'factor_depth' declaring 20000 x 20000 doubles in 72 bytes.
+  // libmatio allocated 3.2 GB for its data before inflating it, and the conversion to doubles
+  // would have copied all of it.
+  expect_corpus_meta_refused(
+      "crash-oom-compressed-dims-3gb.mat",
+      "in the compressed variable at byte 128: an array of 400000000 elements in 72 bytes");
+}
+
+TEST(YcbReader, CompressedMetaDimensionsTagBeyondTheVariableIsRefusedBeforeMatioReadsIt) {
+  // crash-slow-compressed-dims-tag-100mb.mat (found by the ycbv_meta fuzz target, a timeout under
+  // ASan): a compressed variable with a dimensions tag of 100663304 bytes; libmatio allocated 400
+  // MB for the dimensions at each variable it looked up. Its zlib checksum is wrong too (refused
+  // for that first, by the next test's check); the -valid-zlib copy has the same bytes
+  // recompressed.
+  expect_corpus_meta_refused(
+      "crash-slow-compressed-dims-tag-100mb-valid-zlib.mat",
+      "in the compressed variable at byte 128: array dimensions of 100663304 bytes");
+}
+
+TEST(YcbReader, CompressedMetaVariableWithCorruptZlibDataIsRefusedBeforeMatioReadsIt) {
+  // Found by the ycbv_meta fuzz target (timeouts under ASan): libmatio sized allocations from what
+  // a corrupt zlib stream inflated to before its error (450 MB in the first file).
+  expect_corpus_meta_refused("crash-slow-corrupt-zlib-stream.mat",
+                             "a compressed variable of 84 bytes whose zlib data does not inflate "
+                             "(byte 333)");
+  expect_corpus_meta_refused("crash-slow-compressed-dims-tag-100mb.mat",
+                             "a compressed variable of 91 bytes whose zlib data does not inflate");
+}
+
+TEST(YcbReader, CompressedMetaVariableWithANameTagBeyondItsBytesIsRefusedBeforeMatioReadsIt) {
+  // Found by the ycbv_meta fuzz target: a compressed variable whose name tag claims 1,638,145,809
+  // bytes; libmatio allocated 1.6 GB for the name.
+  expect_corpus_meta_refused("crash-oom-compressed-name-tag.mat",
+                             "in the compressed variable at byte 249: an array name of type 1 and "
+                             "1638145809 bytes");
+}
+
+TEST(YcbReader, MetaMatShorterThanTheHeaderIsRefusedBeforeMatioReadsItAsMatV4) {
+  // Found by the ycbv_meta fuzz target: 40 bytes; libmatio read them as a MAT v4 header and
+  // allocated the 1.6 GB name length it claims.
+  expect_corpus_meta_refused(
+      "crash-oom-short-v4-header.mat",
+      "not a MATLAB 5 or 7.3 file (40 bytes: shorter than the 128-byte header)");
 }
 
 }  // namespace

@@ -93,6 +93,10 @@ TEST(CameraFile, ReadsOrbSlam2And3SettingsAsTheyAre) {
   EXPECT_DOUBLE_EQ(c.max_depth_m, 4.5);
 }
 
+const std::string kIdentityColourDepth =
+    "T_colour_depth: !!opencv-matrix\n  rows: 4\n  cols: 4\n  dt: d\n"
+    "  data: [ 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1. ]\n";
+
 TEST(CameraFile, WrongOrMissingValuesAreErrorsNamingTheKey) {
   const std::string dir = test::scratch_dir("badcam");
   struct Case {
@@ -120,6 +124,18 @@ TEST(CameraFile, WrongOrMissingValuesAreErrorsNamingTheKey) {
                     "  data: [ 2., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1. ]\n"),
        "not a rotation"},
       {opencv_style("min_depth_m: 5\n"), "greater than min_depth_m"},
+      // not a map: OpenCV's FileNode::operator[] asserted (fuzz camera_yaml)
+      {"%YAML:1.0\nimage_width: 64\nimage_height: 48\ncamera_matrix: 5\n",
+       "camera_matrix: expected an !!opencv-matrix"},
+      // OpenCV allocates rows x cols before it reads the data (fuzz camera_yaml: 64 GB)
+      {opencv_style("depth_camera_matrix: !!opencv-matrix\n  rows: 100000\n  cols: 100000\n"
+                    "  dt: d\n  data: [ 1. ]\n" +
+                    kIdentityColourDepth),
+       "depth_camera_matrix: rows 100000 and cols 100000: each must be 1 to 16"},
+      {opencv_style("depth_camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+                    "  data: [ 1., 2. ]\n" +
+                    kIdentityColourDepth),
+       "depth_camera_matrix: 2 data values for 3 x 3"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     const std::string path = dir + "/c" + std::to_string(i) + ".yaml";

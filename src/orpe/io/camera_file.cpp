@@ -44,10 +44,27 @@ class Keys {
       fail(key, fmt::format("must be a pixel count (got {})", v));
     return static_cast<int>(v);
   }
+  /// An !!opencv-matrix of at most kMaxSide x kMaxSide values. Its rows, cols and data are checked
+  /// before OpenCV reads it: OpenCV allocates rows x cols first (fuzz camera_yaml:
+  /// crash-oom-matrix-rows.yaml, a mangled rows: line made it ask for 64 GB).
   cv::Mat matrix(const std::string& key) const {
+    constexpr int kMaxSide = 16;
+    const cv::FileNode n = fs_[key];
+    if (n.empty() || n.isNone()) fail(key, "missing or not an !!opencv-matrix");
+    if (!n.isMap()) fail(key, "expected an !!opencv-matrix (integer rows and cols, a data list)");
+    const cv::FileNode rows = n["rows"], cols = n["cols"], data = n["data"];
+    if (!rows.isInt() || !cols.isInt() || !data.isSeq())
+      fail(key, "expected an !!opencv-matrix (integer rows and cols, a data list)");
+    if (static_cast<int>(rows) < 1 || static_cast<int>(rows) > kMaxSide ||
+        static_cast<int>(cols) < 1 || static_cast<int>(cols) > kMaxSide)
+      fail(key, fmt::format("rows {} and cols {}: each must be 1 to {}", static_cast<int>(rows),
+                            static_cast<int>(cols), kMaxSide));
+    if (data.size() != static_cast<size_t>(static_cast<int>(rows) * static_cast<int>(cols)))
+      fail(key, fmt::format("{} data values for {} x {}", data.size(), static_cast<int>(rows),
+                            static_cast<int>(cols)));
     cv::Mat m;
     try {
-      fs_[key] >> m;
+      n >> m;
     } catch (const cv::Exception&) {
       fail(key, "expected an !!opencv-matrix");
     }
@@ -237,6 +254,9 @@ CameraFileInfo read_camera_file(const std::string& path) {
     else
       fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
   } catch (const cv::Exception& e) {
+    throw IoError(path, std::string("not a readable YAML camera file: ") + e.what());
+  } catch (const std::exception& e) {  // std::length_error from OpenCV's YAML parser (fuzz
+                                       // camera_yaml: crash-length-error-yaml.yaml)
     throw IoError(path, std::string("not a readable YAML camera file: ") + e.what());
   }
   if (!fs.isOpened()) throw IoError(path, "not a readable YAML camera file");

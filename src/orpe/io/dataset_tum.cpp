@@ -143,7 +143,8 @@ bool is_seven_scenes_origin(const fs::path& root, const std::vector<FramePair>& 
   if (name.rfind("frame-", 0) != 0 || dot == std::string::npos) return false;
   const fs::path pose =
       (root / pairs.front().rgb.path).parent_path() / (name.substr(0, dot) + ".pose.txt");
-  return fs::exists(pose);
+  std::error_code ec;  // a name too long to look up is no 7-Scenes frame (and no exception)
+  return fs::exists(pose, ec);
 }
 
 class TumReader final : public SelectedFramesReader {

@@ -13,6 +13,7 @@
 #include <fmt/ranges.h>
 #include <matio.h>
 #include <spdlog/spdlog.h>
+#include <zlib.h>
 
 #include "orpe/core/error.h"
 #include "orpe/core/parse_number.h"
@@ -60,6 +61,28 @@ void convert(const void* data, size_t n, std::vector<double>& out) {
   out.assign(p, p + n);
 }
 
+/// Bytes per element of a numeric MATLAB class; 0 for any other class.
+size_t numeric_element_bytes(matio_classes c) {
+  switch (c) {
+    case MAT_C_DOUBLE:
+    case MAT_C_INT64:
+    case MAT_C_UINT64:
+      return 8;
+    case MAT_C_SINGLE:
+    case MAT_C_INT32:
+    case MAT_C_UINT32:
+      return 4;
+    case MAT_C_INT16:
+    case MAT_C_UINT16:
+      return 2;
+    case MAT_C_INT8:
+    case MAT_C_UINT8:
+      return 1;
+    default:
+      return 0;
+  }
+}
+
 /// Reads variable `name` as doubles; nullopt when absent. Throws IoError for a non-numeric, complex
 /// or unreadable variable.
 std::optional<MatArray> read_mat_array(mat_t* mat, const char* name, const std::string& path) {
@@ -78,33 +101,8 @@ std::optional<MatArray> read_mat_array(mat_t* mat, const char* name, const std::
   }
   if (!var->data)
     throw IoError(path, fmt::format("variable '{}' has no data (truncated file?)", name));
-  size_t elem = 0;
-  switch (var->class_type) {
-    case MAT_C_DOUBLE:
-      elem = sizeof(double);
-      break;
-    case MAT_C_SINGLE:
-      elem = sizeof(float);
-      break;
-    case MAT_C_INT8:
-    case MAT_C_UINT8:
-      elem = 1;
-      break;
-    case MAT_C_INT16:
-    case MAT_C_UINT16:
-      elem = 2;
-      break;
-    case MAT_C_INT32:
-    case MAT_C_UINT32:
-      elem = 4;
-      break;
-    case MAT_C_INT64:
-    case MAT_C_UINT64:
-      elem = 8;
-      break;
-    default:
-      throw IoError(path, fmt::format("variable '{}' is not a numeric array", name));
-  }
+  const size_t elem = numeric_element_bytes(var->class_type);
+  if (elem == 0) throw IoError(path, fmt::format("variable '{}' is not a numeric array", name));
   if (var->nbytes < n * elem)
     throw IoError(path, fmt::format("variable '{}' is truncated ({} of {} bytes)", name,
                                     var->nbytes, n * elem));
@@ -152,14 +150,38 @@ struct YcbMeta {
   std::vector<SE3> T_cam_obj;  // same order as class_ids
 };
 
+/// The most bytes deflate can expand one byte into (zlib: 1032:1).
+constexpr double kMaxInflateRatio = 1032;
+
+/// The first `max_out` bytes (at most) that the zlib stream `data` inflates to; fewer when the
+/// stream ends there. `corrupt` is set when the stream is not valid zlib up to that point.
+std::string inflate_head(const char* data, size_t size, size_t max_out, bool& corrupt) {
+  z_stream z{};
+  corrupt = inflateInit(&z) != Z_OK;
+  if (corrupt) return {};
+  std::string out(max_out, '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data));
+  z.avail_in = static_cast<uInt>(size);
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = static_cast<uInt>(max_out);
+  const int rc = inflate(&z, Z_SYNC_FLUSH);
+  corrupt = rc != Z_OK && rc != Z_STREAM_END && rc != Z_BUF_ERROR;
+  out.resize(z.total_out);
+  inflateEnd(&z);
+  return out;
+}
+
 // libmatio sizes its allocations from the file's tags and dimensions before checking them against
 // the file (fuzz ycbv_meta: a 411-byte meta.mat with a name tag of 4 GB made it allocate and clear
-// 4 GB). check_mat5_sizes refuses such a file first. Compressed variables are inflated by matio and
-// their contents are not checked here.
+// 4 GB). check_mat5_sizes refuses such a file first. Of a compressed variable, the head (the first
+// 64 KiB inflated: array flags, dimensions) is checked the same way, its element count against the
+// size it declares once inflated, itself at most kMaxInflateRatio x its compressed size. Cells and
+// structs inside a compressed variable are not walked; v7.3 (HDF5) files are left to matio.
 struct Mat5Reader {
   const std::string& path;
   const std::string& bytes;
   bool swap = false;
+  std::string where;  // "in the compressed variable at byte N: " for an inflated head
 
   uint32_t u32(size_t at) const {
     uint32_t v;
@@ -167,7 +189,7 @@ struct Mat5Reader {
     return swap ? __builtin_bswap32(v) : v;
   }
   [[noreturn]] void corrupt(size_t at, const std::string& what) const {
-    throw IoError(path, fmt::format("corrupt MATLAB file: {} (byte {})", what, at));
+    throw IoError(path, fmt::format("corrupt MATLAB file: {}{} (byte {})", where, what, at));
   }
   /// Walks the data elements in [begin, end); a matrix's elements are walked too (depth-limited).
   void elements(size_t begin, size_t end, int depth) const {
@@ -182,6 +204,7 @@ struct Mat5Reader {
       if (n > end - at - 8)
         corrupt(at, fmt::format("an element of {} bytes where {} remain", n, end - at - 8));
       if (tag == 14) matrix(at + 8, at + 8 + n, depth + 1);  // miMATRIX
+      if (tag == 15 && depth == 0) compressed(at + 8, n);    // miCOMPRESSED
       // Elements inside a matrix are padded to 8 bytes; top-level ones (miCOMPRESSED) are not.
       at += 8 + (depth > 0 ? (n + 7) / 8 * 8 : n);
     }
@@ -203,21 +226,65 @@ struct Mat5Reader {
   /// their declared type (fuzz/corpus/ycbv_meta/crash-oom-dims-type-0-1gb.mat: type 0, 1 GB).
   void matrix(size_t begin, size_t end, int depth) const {
     elements(begin, end, depth);
+    matrix_header(begin, end);
+  }
+  /// A compressed variable of `size` bytes at `begin`: one miMATRIX element once inflated, of at
+  /// most kMaxInflateRatio x `size` bytes, whose head (array flags, dimensions) is checked like an
+  /// uncompressed matrix's. fuzz/corpus/ycbv_meta: crash-slow-compressed-dims-tag-100mb.mat (a
+  /// dimensions tag of 100 MB: libmatio allocated 400 MB at each variable it looked up) and
+  /// crash-oom-compressed-dims-3gb.mat (20000 x 20000 doubles in a variable of 72 bytes: matio
+  /// allocated 3.2 GB for the data).
+  void compressed(size_t begin, size_t size) const {
+    constexpr size_t kHeadBytes = 64 * 1024;
+    bool bad_stream = false;
+    const std::string head = inflate_head(bytes.data() + begin, size, kHeadBytes, bad_stream);
+    // libmatio reads what a corrupt stream gave before the error, and sized allocations from it
+    // (fuzz/corpus/ycbv_meta/crash-slow-corrupt-zlib-stream.mat: 450 MB).
+    if (bad_stream || head.size() < 8)
+      corrupt(begin - 8, fmt::format("a compressed variable of {} bytes whose zlib data does not "
+                                     "inflate",
+                                     size));
+    Mat5Reader inner{path, head, swap,
+                     fmt::format("in the compressed variable at byte {}: ", begin - 8)};
+    const Element e = inner.element_at(0);
+    if (e.type != 14)
+      inner.corrupt(0, fmt::format("an element of type {} (MAT v5: miMATRIX = 14)", e.type));
+    if (static_cast<double>(e.size) > kMaxInflateRatio * static_cast<double>(size) + 64)
+      inner.corrupt(0, fmt::format("a matrix of {} bytes from {} compressed bytes", e.size, size));
+    inner.matrix_header(e.data, e.data + e.size);
+  }
+  /// The array name after the dimensions: miINT8, in the bytes present; a small element holds at
+  /// most 4 (fuzz/corpus/ycbv_meta/crash-oom-compressed-name-tag.mat: a compressed variable's name
+  /// tag of 1.6 GB made libmatio allocate it).
+  void check_name(size_t at, size_t limit) const {
+    if (at + 8 > limit) corrupt(at, "a matrix without a name");
+    const uint32_t tag = u32(at);
+    const Element name = element_at(at);
+    if (name.type != 1 || ((tag >> 16) && name.size > 4) || name.data + name.size > limit)
+      corrupt(at, fmt::format("an array name of type {} and {} bytes where {} remain (MAT v5: "
+                              "miINT8, at most 4 bytes in the small format)",
+                              name.type, name.size, limit - std::min(limit, name.data)));
+  }
+  /// The head of the matrix in [begin, end): flags, dimensions and the element count they give;
+  /// only the bytes present are read (an inflated head can end before `end`).
+  void matrix_header(size_t begin, size_t end) const {
     if (end == begin) return;  // an empty matrix
-    if (end - begin < 16) corrupt(begin, "a matrix too short for its array flags and dimensions");
+    const size_t limit = std::min(end, bytes.size());
+    if (limit < begin + 16) corrupt(begin, "a matrix too short for its array flags and dimensions");
     const Element flags = element_at(begin);
     if (flags.type != 6 || flags.size < 8)
       corrupt(begin, fmt::format("array flags of type {} and {} bytes (MAT v5: miUINT32, 8 bytes)",
                                  flags.type, flags.size));
     const uint32_t array_class = u32(flags.data) & 0xff;
     const size_t dims_at = begin + 8 + (flags.size + 7) / 8 * 8;
-    if (dims_at + 8 > end) corrupt(begin, "a matrix without dimensions");
+    if (dims_at + 8 > limit) corrupt(begin, "a matrix without dimensions");
     const Element dims = element_at(dims_at);
     if (dims.type != 5)
       corrupt(dims_at, fmt::format("array dimensions of type {} (MAT v5: miINT32 = 5)", dims.type));
-    if (dims.data + dims.size > end)
+    if (dims.data + dims.size > limit)
       corrupt(dims_at, fmt::format("array dimensions of {} bytes where {} remain", dims.size,
-                                   end - dims.data));
+                                   limit - std::min(limit, dims.data)));
+    check_name(dims.data + (dims.size + 7) / 8 * 8, limit);
     if (array_class == 5) return;  // sparse: the count is not bounded by the size
     double elements_count = 1;
     for (size_t k = 0; k + 4 <= dims.size; k += 4) elements_count *= u32(dims.data + k);
@@ -230,8 +297,13 @@ struct Mat5Reader {
 void check_mat5_sizes(const std::string& path) {
   std::ifstream is(path, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
-  if (bytes.size() < 128) return;  // matio reports it
-  Mat5Reader r{path, bytes};
+  // Shorter than the MAT v5 header: libmatio would try it as MAT v4 and allocate the name length
+  // that its header claims (fuzz/corpus/ycbv_meta/crash-oom-short-v4-header.mat: 40 bytes, 1.6 GB).
+  if (bytes.size() < 128)
+    throw IoError(path, fmt::format("not a MATLAB 5 or 7.3 file ({} bytes: shorter than the "
+                                    "128-byte header)",
+                                    bytes.size()));
+  Mat5Reader r{path, bytes, false, {}};
   if (bytes[126] == 'M' && bytes[127] == 'I')
     r.swap = true;
   else if (bytes[126] != 'I' || bytes[127] != 'M')

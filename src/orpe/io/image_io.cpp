@@ -14,9 +14,16 @@ namespace orpe {
 namespace {
 
 cv::Mat imread_checked(const std::string& path, int flags) {
-  if (!std::filesystem::exists(path)) throw IoError(path, "file not found");
+  // Without an error code, status() throws a bare filesystem_error for a name it cannot look up
+  // (fuzz tum_index: a file name of 300 characters in rgb.txt, "File name too long").
+  std::error_code ec;
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(st))
+    throw IoError(path, ec && ec != std::errc::no_such_file_or_directory
+                            ? "cannot access the file: " + ec.message()
+                            : std::string("file not found"));
   // A FIFO or device would block the reader for ever; a folder is a mistake.
-  if (!std::filesystem::is_regular_file(path)) throw IoError(path, "not a regular file");
+  if (!std::filesystem::is_regular_file(st)) throw IoError(path, "not a regular file");
   cv::Mat m;
   try {
     m = cv::imread(path, flags);

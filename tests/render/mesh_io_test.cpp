@@ -231,8 +231,8 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
       {"short.ply",
        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
        "float z\n"
-       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0 0\n0 1 0\n3 0 "
-       "1 2\n",
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 "
+       "0 1 2 7\n",
        "more values than its header"},
       {"badidx.ply",
        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
@@ -240,6 +240,13 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 "
        "0 1 9\n",
        "out of range"},
+      // libassimp aborts the process on a face without indices (fuzz finding, session 8).
+      {"emptyface.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 "
+       "0\n0\n",
+       "a face needs at least 3"},
       {"truncbin.ply",
        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
        "y\n"

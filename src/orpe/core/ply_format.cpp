@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -265,9 +266,27 @@ PlyFile read_ply_header(const std::string& path) {
 }
 
 /// Walks the body element by element; `wanted` (may be null) collects one element's scalars.
+namespace {
+
+/// Records of the "vertex" element, or nullopt when the file has none.
+std::optional<size_t> vertex_count(const PlyFile& file) {
+  for (const Element& e : file.elements)
+    if (e.name == "vertex") return e.count;
+  return std::nullopt;
+}
+
+/// A face's vertex list must name at least 3 existing vertices (libassimp aborts the process on a
+/// face of 0 indices: ai_assert in its triangulation; fuzz finding, docs/FUZZING.md).
+bool is_face_index_list(const Element& e, const Property& p) {
+  return e.name == "face" && (p.name == "vertex_indices" || p.name == "vertex_index");
+}
+
+}  // namespace
+
 void walk_ply_body(const std::string& path, const PlyFile& file, const std::string& element,
                    PlyColumns* wanted_out) {
   BodyReader body(path, file.data, file.body_pos, file.format);
+  const std::optional<size_t> vertices = vertex_count(file);
   for (const Element& e : file.elements) {
     const bool wanted = wanted_out && e.name == element;
     PlyColumns out;
@@ -282,7 +301,18 @@ void walk_ply_body(const std::string& path, const PlyFile& file, const std::stri
           const double n = body.next(p.count_type);
           if (!(n >= 0) || n > 1e9)
             throw IoError(path, fmt::format("PLY element '{}': bad list length", e.name));
-          for (size_t k = 0; k < static_cast<size_t>(n); ++k) body.next(p.type);
+          const bool face = is_face_index_list(e, p);
+          if (face && n < 3)
+            throw IoError(path, fmt::format("PLY face {} has {} vertex indices (a face needs at "
+                                            "least 3)",
+                                            r, n));
+          for (size_t k = 0; k < static_cast<size_t>(n); ++k) {
+            const double index = body.next(p.type);
+            if (face && vertices && !(index >= 0 && index < static_cast<double>(*vertices)))
+              throw IoError(path, fmt::format("PLY face {}: vertex index {} out of range ({} "
+                                              "vertices)",
+                                              r, index, *vertices));
+          }
         } else {
           const double v = body.next(p.type);
           if (wanted) out.columns[p.name].push_back(v);

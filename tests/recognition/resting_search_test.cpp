@@ -12,13 +12,7 @@
 namespace orpe {
 namespace {
 
-using test::PlacedObject;
 using test::TestShapes;
-
-const TestShapes& shapes() {
-  static const TestShapes s;
-  return s;
-}
 
 /// Mean distance of the model's points at `T` to the nearest of its points at `T_true` (ADD-S).
 double adds(const ObjectModel& m, const SE3& T, const SE3& T_true) {
@@ -33,7 +27,7 @@ double adds(const ObjectModel& m, const SE3& T, const SE3& T_true) {
 }
 
 TEST(RestingSearch, FaceAxesOfABoxAreItsEdges) {
-  const ModelFaceAxes ax = model_face_axes(shapes().models()[0]);  // 0.12 x 0.07 x 0.05
+  const ModelFaceAxes ax = model_face_axes(TestShapes().models()[0]);  // 0.12 x 0.07 x 0.05
   std::vector<float> e(ax.extents.data(), ax.extents.data() + 3);
   std::sort(e.begin(), e.end());
   EXPECT_NEAR(e[0], 0.05, 0.006);
@@ -42,13 +36,13 @@ TEST(RestingSearch, FaceAxesOfABoxAreItsEdges) {
   EXPECT_GT(ax.face_fraction, 0.9);
   EXPECT_NEAR(ax.axes.determinant(), 1.0, 1e-4);
   // A can's surface runs along no three axes: no box.
-  EXPECT_LT(model_face_axes(shapes().models()[1]).face_fraction, 0.6);
+  EXPECT_LT(model_face_axes(TestShapes().models()[1]).face_fraction, 0.6);
 }
 
 // A box on the table: its vertical faces reach the table, and one of the resting poses placed on
 // them is the box's own within a few mm.
 TEST(RestingSearch, PlacesABoxOnItsObservedFace) {
-  const auto& s = shapes();
+  const TestShapes s;
   const SE3 T_world_obj = TestShapes::on_table(0.01, 0.02, 0.35, 0.025);
   const RgbdFrame f = test::render_table_scene({{1, &s.box, T_world_obj}});
   const SceneGeometryParams gp;
@@ -76,7 +70,7 @@ TEST(RestingSearch, PlacesABoxOnItsObservedFace) {
 // 5 mm ADD-S; the crop search alone finds it at one of the three turns (8 mm) and not at the
 // others.
 TEST(RestingSearch, FindsABoxTheRotationGridMisses) {
-  const auto& s = shapes();
+  const TestShapes s;
   const ObjectModel model = s.models()[0];
   auto found_with = [&](bool resting) {
     int found = 0;

@@ -435,9 +435,11 @@ MaskImage crop_mask(const SceneGrid& g, const std::vector<int>& cells, int W, in
 /// around seeds spread by farthest-point sampling; crops whose extents do not fit are dropped.
 // Not inlined: inlined into search_regions, GCC 12 warns (-Wfree-nonheap-object, a false
 // positive) on its vector's destructor.
-[[gnu::noinline]] std::vector<std::vector<int>> region_crops(const SceneGrid& g, const std::vector<int>& cells,
-                                           const ObjectModel& model, const Vec3f& model_extents,
-                                           const RecognitionParams& p) {
+[[gnu::noinline]] std::vector<std::vector<int>> region_crops(const SceneGrid& g,
+                                                             const std::vector<int>& cells,
+                                                             const ObjectModel& model,
+                                                             const Vec3f& model_extents,
+                                                             const RecognitionParams& p) {
   std::vector<std::vector<int>> crops;
   auto extents_of = [&](const std::vector<int>& cs) {
     std::vector<Vec3f> pts;

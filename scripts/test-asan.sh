@@ -30,6 +30,7 @@ fi
 deadline=$ORPE_ASAN_DEADLINE_S
 test_timeout=${ORPE_ASAN_TEST_TIMEOUT_S:-1200}
 report=$ORPE_BUILD_DIR/asan_not_run.txt
+rm -f "$report"  # a previous run's
 seconds_left() { echo $((deadline - $(date +%s))); }
 
 # The loud message of a cut: $1 = what was cut, $2 = a file of test names that did not run (or "").

@@ -6,6 +6,7 @@
 #include "io/dataset_fixtures.h"
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
+#include "orpe/io/dataset_common.h"
 #include "support/test_data.h"
 
 namespace orpe {
@@ -278,3 +279,18 @@ TEST(FloatDepth, NanAndNegativeBecomeInvalidAllInvalidIsAnError) {
 
 }  // namespace
 }  // namespace orpe
+
+// detail::associate_stamps, the pairing of TUM lists, stamped plain folders and ROS bags.
+TEST(StampPairing, ClosestPairsFirstOneToOneInTheOrderOfTheFirstList) {
+  using orpe::detail::associate_stamps;
+  using Pairs = std::vector<std::pair<size_t, size_t>>;
+  // The second colour stamp is closer to the only depth stamp: it wins (colour order would not).
+  EXPECT_EQ(associate_stamps({0.000, 0.010}, {0.009}), (Pairs{{1, 0}}));
+  // Regular streams pair in order; a depth stamp beyond 0.02 s of every colour stamp is dropped.
+  EXPECT_EQ(associate_stamps({0.0, 0.033, 0.066}, {0.001, 0.030, 0.070, 0.5}),
+            (Pairs{{0, 0}, {1, 1}, {2, 2}}));
+  // Each index at most once; the result sorted by the first list's index even when it is unsorted.
+  EXPECT_EQ(associate_stamps({0.066, 0.0}, {0.0, 0.065}), (Pairs{{0, 1}, {1, 0}}));
+  EXPECT_EQ(associate_stamps({0.0}, {0.0201}), Pairs{});
+  EXPECT_EQ(associate_stamps({0.0}, {0.05}, 0.1), (Pairs{{0, 0}}));
+}

@@ -96,6 +96,25 @@ TEST(TumReader, FrameSelectionIntrinsicsOverridesAndMaxDepth) {
   EXPECT_THROW(open_dataset(dir, p), ConfigError);
 }
 
+// dataset.cut_first / cut_last: a range of frames left out (a kidnapping); frame indices keep the
+// layout's numbering, so ground truth and results still match.
+TEST(TumReader, ACutRangeOfFramesIsLeftOut) {
+  const std::string dir = make_tum(test::scratch_dir("tum"));
+  DatasetParams p;
+  p.cut_first = 1;
+  p.cut_last = 2;
+  auto reader = open_dataset(dir, p);
+  ASSERT_EQ(reader->size(), 2u);  // frames 0 and 3
+  EXPECT_EQ(reader->read(0).index, 0);
+  EXPECT_EQ(reader->read(1).index, 3);
+  p.cut_first = 0, p.cut_last = 9;  // nothing left
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
+  p.cut_first = 2, p.cut_last = 1;  // an empty range is a mistake
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
+  p.cut_first = 1, p.cut_last = -1;  // one end only
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
+}
+
 TEST(TumReader, AssociationsFileAndDepthScaleOverride) {
   const std::string dir = make_tum(test::scratch_dir("tum"), 1000);
   // Pair colour 0 with depth 1 on purpose: associations.txt must be followed, not nearest times.

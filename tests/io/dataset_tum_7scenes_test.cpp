@@ -6,6 +6,7 @@
 #include "io/dataset_fixtures.h"
 #include "orpe/core/error.h"
 #include "orpe/io/dataset.h"
+#include "orpe/io/dataset_common.h"
 #include "support/test_data.h"
 
 namespace orpe {
@@ -92,6 +93,25 @@ TEST(TumReader, FrameSelectionIntrinsicsOverridesAndMaxDepth) {
   EXPECT_THROW(open_dataset(dir, p), ConfigError);
   p.stride = 1;
   p.depth_units_per_m = -5000;  // a wrong depth scale is refused up front
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
+}
+
+// dataset.cut_first / cut_last: a range of frames left out (a kidnapping); frame indices keep the
+// layout's numbering, so ground truth and results still match.
+TEST(TumReader, ACutRangeOfFramesIsLeftOut) {
+  const std::string dir = make_tum(test::scratch_dir("tum"));
+  DatasetParams p;
+  p.cut_first = 1;
+  p.cut_last = 2;
+  auto reader = open_dataset(dir, p);
+  ASSERT_EQ(reader->size(), 2u);  // frames 0 and 3
+  EXPECT_EQ(reader->read(0).index, 0);
+  EXPECT_EQ(reader->read(1).index, 3);
+  p.cut_first = 0, p.cut_last = 9;  // nothing left
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
+  p.cut_first = 2, p.cut_last = 1;  // an empty range is a mistake
+  EXPECT_THROW(open_dataset(dir, p), ConfigError);
+  p.cut_first = 1, p.cut_last = -1;  // one end only
   EXPECT_THROW(open_dataset(dir, p), ConfigError);
 }
 
@@ -278,3 +298,18 @@ TEST(FloatDepth, NanAndNegativeBecomeInvalidAllInvalidIsAnError) {
 
 }  // namespace
 }  // namespace orpe
+
+// detail::associate_stamps, the pairing of TUM lists, stamped plain folders and ROS bags.
+TEST(StampPairing, ClosestPairsFirstOneToOneInTheOrderOfTheFirstList) {
+  using orpe::detail::associate_stamps;
+  using Pairs = std::vector<std::pair<size_t, size_t>>;
+  // The second colour stamp is closer to the only depth stamp: it wins (colour order would not).
+  EXPECT_EQ(associate_stamps({0.000, 0.010}, {0.009}), (Pairs{{1, 0}}));
+  // Regular streams pair in order; a depth stamp beyond 0.02 s of every colour stamp is dropped.
+  EXPECT_EQ(associate_stamps({0.0, 0.033, 0.066}, {0.001, 0.030, 0.070, 0.5}),
+            (Pairs{{0, 0}, {1, 1}, {2, 2}}));
+  // Each index at most once; the result sorted by the first list's index even when it is unsorted.
+  EXPECT_EQ(associate_stamps({0.066, 0.0}, {0.0, 0.065}), (Pairs{{0, 1}, {1, 0}}));
+  EXPECT_EQ(associate_stamps({0.0}, {0.0201}), Pairs{});
+  EXPECT_EQ(associate_stamps({0.0}, {0.05}, 0.1), (Pairs{{0, 0}}));
+}

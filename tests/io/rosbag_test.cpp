@@ -135,6 +135,22 @@ TEST(RosBag, ColourAndDepthPairedByHeaderStampWithCameraInfoIntrinsics) {
   EXPECT_NEAR(scaled->read(0).depth.at(0, 0), 1100 / 5000.0, 1e-6);
 }
 
+TEST(RosBag, PairingTakesTheClosestPairFirstLikeAssociatePy) {
+  // Colour at 50.000 and 50.010, one depth image at 50.009: associate.py pairs the closer colour
+  // image (dt 1 ms), not the first one in colour order (dt 9 ms).
+  const std::string path = test::scratch_dir("rosbag") + "/closest.bag";
+  {
+    BagWriter bag(path);
+    bag.write("/camera/rgb/image_color", 1.0, colour_message(50.000, 0, "rgb8"));
+    bag.write("/camera/rgb/image_color", 2.0, colour_message(50.010, 1, "rgb8"));
+    bag.write("/camera/depth/image", 3.0, depth16_message(50.009, 1000));
+    bag.write("/camera/rgb/camera_info", 4.0, camera_info(50.0));
+  }
+  auto reader = open_dataset(path, DatasetParams{});
+  ASSERT_EQ(reader->size(), 1u);
+  EXPECT_NEAR(reader->read(0).timestamp_s, 50.010, 1e-6);
+}
+
 TEST(RosBag, FloatDepthInMetresBgrColourAndTopicSettings) {
   const std::string path = test::scratch_dir("rosbag") + "/float.bag";
   {

@@ -33,13 +33,17 @@ struct TrackedFrame {
 };
 
 // The default tracker: its free-space self-check is on (docs/SLAM.md, "The tracker's self-check").
+// Relocalisation is off here: these tests judge the tracker's own verdict on each jump (with it on, a
+// jump frame may be relocalised -- correctly -- against frame 0: tests/pipeline/relocalisation_test.cpp).
 slam::SlamParams default_params() {
-  return slam::SlamParams();
+  slam::SlamParams params;
+  params.reloc.enabled = false;
+  return params;
 }
 
 // The same with the free-space test switched off.
 slam::SlamParams without_free_space_check() {
-  slam::SlamParams params;
+  slam::SlamParams params = default_params();
   params.tracker.max_in_front_fraction = params.tracker.good_in_front_fraction = 1.0;
   return params;
 }

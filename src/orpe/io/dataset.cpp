@@ -29,6 +29,9 @@ bool DatasetParams::IsValid(std::string* why) const {
   if (last_frame >= 0 && last_frame < first_frame)
     return fail("last_frame must be -1 or >= first_frame");
   if (stride < 1) return fail("stride must be >= 1");
+  if ((cut_first < 0) != (cut_last < 0) || cut_first < -1 || cut_last < -1)
+    return fail("cut_first and cut_last must both be -1 (no gap) or both frame indices");
+  if (cut_last < cut_first) return fail("cut_last must be >= cut_first");
   if (depth_units_per_m < 0) return fail("depth_units_per_m must be >= 0 (0 = preset)");
   if (fx < 0 || fy < 0) return fail("fx, fy must be >= 0 (0 = preset)");
   if (max_depth_m < 0) return fail("max_depth_m must be >= 0 (0 = keep all)");
@@ -37,10 +40,18 @@ bool DatasetParams::IsValid(std::string* why) const {
   return true;
 }
 
+namespace {
+/// A ROS 1 bag given as the dataset: a regular file named *.bag.
+bool is_bag_file(const std::string& path) {
+  namespace fs = std::filesystem;
+  return fs::is_regular_file(path) && fs::path(path).extension() == ".bag";
+}
+}  // namespace
+
 std::string detect_dataset_format(const std::string& path) {
   namespace fs = std::filesystem;
   if (!fs::exists(path)) throw IoError(path, "dataset folder not found");
-  if (fs::is_regular_file(path) && fs::path(path).extension() == ".bag") return "rosbag";
+  if (is_bag_file(path)) return "rosbag";
   if (!fs::is_directory(path))
     throw IoError(path, "dataset path is not a folder (nor a ROS bag file, *.bag)");
   // Most specific first; the TUM index wins over 7-Scenes' own files when a folder has both (the
@@ -111,7 +122,7 @@ std::unique_ptr<DatasetReader> open_dataset(const std::string& path, const Datas
   namespace fs = std::filesystem;
   std::string why;
   if (!params.IsValid(&why)) throw ConfigError("dataset: " + why);
-  const bool bag_file = fs::is_regular_file(path) && fs::path(path).extension() == ".bag";
+  const bool bag_file = is_bag_file(path);
   if (!fs::is_directory(path) && !bag_file) throw IoError(path, "dataset folder not found");
   const std::string format = params.format == "auto" ? detect_dataset_format(path) : params.format;
   // The camera file: dataset.camera_file, else a plain folder's camera.yaml.

@@ -22,6 +22,10 @@ struct DatasetParams {
   int first_frame = 0;          ///< index into the layout's frame list (after sorting), inclusive
   int last_frame = -1;          ///< inclusive; -1 = to the end
   int stride = 1;               ///< take every stride-th frame
+  /// Frames [cut_first, cut_last] (indices into the layout's list, inclusive) left out, as if the
+  /// camera had been covered or frames dropped (a kidnapping, docs/SLAM.md); -1 = none.
+  int cut_first = -1;
+  int cut_last = -1;
   double depth_units_per_m =
       0;  ///< raw depth units per metre; 0 = preset (TUM 5000, 7-Scenes 1000, ...)
   double fx = 0, fy = 0, cx = 0, cy = 0;  ///< intrinsics override, pixels; 0 = preset / from files
@@ -51,6 +55,9 @@ struct DatasetParams {
     v("first_frame", first_frame, "First frame (index into the sorted frame list), inclusive");
     v("last_frame", last_frame, "Last frame, inclusive; -1 = to the end");
     v("stride", stride, "Take every stride-th frame (>= 1)");
+    v("cut_first", cut_first,
+      "First frame of a range left out (a gap: the camera moves unseen); -1 = no gap");
+    v("cut_last", cut_last, "Last frame of that range, inclusive");
     v("depth_units_per_m", depth_units_per_m,
       "Raw depth units per metre; 0 = the layout's preset (TUM 5000, 7-Scenes 1000, YCB meta.mat, "
       "BOP json)");

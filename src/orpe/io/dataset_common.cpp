@@ -1,5 +1,6 @@
 #include "orpe/io/dataset_common.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -23,7 +24,13 @@ std::vector<size_t> select_frames(size_t total, const DatasetParams& params,
   size_t last = total - 1;
   if (params.last_frame >= 0) last = std::min(last, static_cast<size_t>(params.last_frame));
   std::vector<size_t> out;
-  for (size_t i = first; i <= last; i += static_cast<size_t>(params.stride)) out.push_back(i);
+  for (size_t i = first; i <= last; i += static_cast<size_t>(params.stride))
+    if (params.cut_first < 0 || i < static_cast<size_t>(params.cut_first) ||
+        i > static_cast<size_t>(params.cut_last))
+      out.push_back(i);
+  if (out.empty())
+    throw ConfigError(fmt::format("dataset.cut_first / cut_last ({} - {}) leave no frame of {}",
+                                  params.cut_first, params.cut_last, root));
   return out;
 }
 
@@ -133,6 +140,33 @@ SE3 checked_pose(const Mat3& R, const Vec3& t, const std::string& path, const st
                   fmt::format("{}: rotation is not orthonormal (|R R^T - I| = {:.2g}, det {:.3f})",
                               what, orth_err, R.determinant()));
   return SE3(orthonormalize(R), t);
+}
+
+std::vector<std::pair<size_t, size_t>> associate_stamps(const std::vector<double>& a,
+                                                        const std::vector<double>& b,
+                                                        double max_dt_s) {
+  struct Candidate {
+    double dt;
+    size_t i, j;
+  };
+  std::vector<Candidate> candidates;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const double t = a[i];
+    const auto lo = std::lower_bound(b.begin(), b.end(), t - max_dt_s);
+    for (auto it = lo; it != b.end() && *it <= t + max_dt_s; ++it)
+      candidates.push_back({std::abs(*it - t), i, static_cast<size_t>(it - b.begin())});
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& x, const Candidate& y) { return x.dt < y.dt; });
+  std::vector<char> a_used(a.size(), 0), b_used(b.size(), 0);
+  std::vector<std::pair<size_t, size_t>> matches;
+  for (const Candidate& c : candidates) {
+    if (a_used[c.i] || b_used[c.j]) continue;
+    a_used[c.i] = b_used[c.j] = 1;
+    matches.emplace_back(c.i, c.j);
+  }
+  std::sort(matches.begin(), matches.end());
+  return matches;
 }
 
 PinholeIntrinsics with_image_size(PinholeIntrinsics k, const std::vector<std::string>& paths) {

@@ -5,6 +5,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "orpe/core/frame.h"
@@ -57,6 +58,17 @@ SE3 checked_pose(const Mat3& R, const Vec3& t, const std::string& path, const st
 /// so DatasetInfo::intrinsics carries the real image size. Keeps `k` unchanged when none is
 /// readable.
 PinholeIntrinsics with_image_size(PinholeIntrinsics k, const std::vector<std::string>& paths);
+
+/// The largest time difference of a colour / depth pair (REFERENCE.md; TUM's associate.py).
+constexpr double kMaxPairDtS = 0.02;
+
+/// One-to-one pairing of two stamp lists like TUM's associate.py: every candidate pair within
+/// `max_dt_s`, taken greedily by increasing time difference (ties: lower index into `a` first),
+/// each index used at most once. Returns (index into a, index into b), sorted by the index into a.
+/// Precondition: `b` is sorted ascending (`a` need not be).
+std::vector<std::pair<size_t, size_t>> associate_stamps(const std::vector<double>& a,
+                                                        const std::vector<double>& b,
+                                                        double max_dt_s = kMaxPairDtS);
 
 /// Common base: owns info, params and the selected positions.
 class SelectedFramesReader : public DatasetReader {

@@ -18,7 +18,6 @@ namespace orpe::detail {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr double kMaxPairDtS = 0.02;
 constexpr double kFrameRateHz = 30.0;  // timestamps when the names carry none
 
 std::vector<fs::path> images_in(const fs::path& dir) {
@@ -62,28 +61,19 @@ bool whole_number_names(const std::vector<fs::path>& v) {
   });
 }
 
+/// Colour and depth files paired one-to-one by the stamps in their names like TUM's associate.py
+/// (detail::associate_stamps), in colour order.
 std::vector<PlainPair> pair_by_timestamp(const std::vector<fs::path>& rgb,
                                          const std::vector<fs::path>& depth) {
   std::vector<std::pair<double, fs::path>> d;
   for (const auto& p : depth) d.emplace_back(*stamp_of(p), p);
   std::sort(d.begin(), d.end());
+  std::vector<double> ta, tb;
+  for (const auto& r : rgb) ta.push_back(*stamp_of(r));
+  for (const auto& x : d) tb.push_back(x.first);
   std::vector<PlainPair> out;
-  std::vector<char> used(d.size(), 0);
-  for (const auto& r : rgb) {
-    const double t = *stamp_of(r);
-    long best = -1;
-    double best_dt = kMaxPairDtS;
-    const auto lo =
-        std::lower_bound(d.begin(), d.end(), std::make_pair(t - kMaxPairDtS, fs::path()));
-    for (auto it = lo; it != d.end() && it->first <= t + kMaxPairDtS; ++it) {
-      const long k = it - d.begin();
-      if (!used[k] && std::abs(it->first - t) <= best_dt)
-        best = k, best_dt = std::abs(it->first - t);
-    }
-    if (best < 0) continue;
-    used[best] = 1;
-    out.push_back({r, d[best].second, t, static_cast<int>(out.size())});
-  }
+  for (auto [r, k] : associate_stamps(ta, tb))
+    out.push_back({rgb[r], d[k].second, ta[r], static_cast<int>(out.size())});
   return out;
 }
 

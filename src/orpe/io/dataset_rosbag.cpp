@@ -28,7 +28,6 @@ using rosbag_io::BagReader;
 using rosbag_io::CameraInfoMessage;
 using rosbag_io::ImageMessage;
 
-constexpr double kMaxPairDtS = 0.02;
 
 /// Stamps of the image messages of `topic` with their bag positions, sorted by stamp.
 std::vector<std::pair<double, size_t>> image_messages(const BagReader& bag,
@@ -52,26 +51,15 @@ std::vector<std::pair<double, size_t>> image_messages(const BagReader& bag,
   return out;
 }
 
-/// Colour frames paired with the nearest unused depth frame within kMaxPairDtS, in colour order.
+/// Colour and depth messages (sorted by stamp) paired one-to-one like TUM's associate.py
+/// (detail::associate_stamps), in colour order.
 std::vector<std::pair<size_t, size_t>> pair_by_stamp(
     const std::vector<std::pair<double, size_t>>& colour,
     const std::vector<std::pair<double, size_t>>& depth) {
-  std::vector<std::pair<size_t, size_t>> out;
-  std::vector<char> used(depth.size(), 0);
-  size_t lo = 0;
-  for (size_t c = 0; c < colour.size(); ++c) {
-    const double t = colour[c].first;
-    while (lo < depth.size() && depth[lo].first < t - kMaxPairDtS) ++lo;
-    long best = -1;
-    double best_dt = kMaxPairDtS;
-    for (size_t d = lo; d < depth.size() && depth[d].first <= t + kMaxPairDtS; ++d)
-      if (!used[d] && std::abs(depth[d].first - t) <= best_dt)
-        best = static_cast<long>(d), best_dt = std::abs(depth[d].first - t);
-    if (best < 0) continue;
-    used[best] = 1;
-    out.emplace_back(c, static_cast<size_t>(best));
-  }
-  return out;
+  std::vector<double> ta, tb;
+  for (const auto& c : colour) ta.push_back(c.first);
+  for (const auto& d : depth) tb.push_back(d.first);
+  return associate_stamps(ta, tb);
 }
 
 /// A CameraInfo as a camera (intrinsics, plumb_bob distortion, undone at load like a camera

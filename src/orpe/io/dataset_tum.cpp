@@ -17,7 +17,6 @@ namespace orpe::detail {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr double kMaxPairDtS = 0.02;  // REFERENCE.md: pair by nearest timestamp within 0.02 s
 constexpr double kTumDepthUnitsPerM = 5000.0;
 constexpr double kSevenScenesDepthUnitsPerM = 1000.0;
 
@@ -100,36 +99,14 @@ long nearest_within(const std::vector<T>& sorted, double t, double max_dt, Stamp
   return best_dt <= max_dt ? best : -1;
 }
 
-/// One-to-one pairing like TUM's associate.py: all candidate pairs within max_dt, taken greedily by
-/// increasing time difference.
+/// One-to-one pairing like TUM's associate.py (detail::associate_stamps), in colour order.
 std::vector<FramePair> associate(const std::vector<StampedFile>& rgb,
                                  const std::vector<StampedFile>& depth) {
-  struct Candidate {
-    double dt;
-    size_t r, d;
-  };
-  std::vector<Candidate> candidates;
-  for (size_t r = 0; r < rgb.size(); ++r) {
-    const double t = rgb[r].timestamp_s;
-    auto lo = std::lower_bound(depth.begin(), depth.end(), t - kMaxPairDtS,
-                               [](const StampedFile& x, double v) { return x.timestamp_s < v; });
-    for (auto it = lo; it != depth.end() && it->timestamp_s <= t + kMaxPairDtS; ++it)
-      candidates.push_back(
-          {std::abs(it->timestamp_s - t), r, static_cast<size_t>(it - depth.begin())});
-  }
-  std::stable_sort(candidates.begin(), candidates.end(),
-                   [](const Candidate& a, const Candidate& b) { return a.dt < b.dt; });
-  std::vector<char> rgb_used(rgb.size(), 0), depth_used(depth.size(), 0);
-  std::vector<std::pair<size_t, size_t>> matches;
-  for (const Candidate& c : candidates) {
-    if (rgb_used[c.r] || depth_used[c.d]) continue;
-    rgb_used[c.r] = depth_used[c.d] = 1;
-    matches.emplace_back(c.r, c.d);
-  }
-  std::sort(matches.begin(), matches.end());
+  std::vector<double> ta, tb;
+  for (const StampedFile& f : rgb) ta.push_back(f.timestamp_s);
+  for (const StampedFile& f : depth) tb.push_back(f.timestamp_s);
   std::vector<FramePair> out;
-  out.reserve(matches.size());
-  for (auto [r, d] : matches) out.push_back({rgb[r], depth[d]});
+  for (auto [r, d] : associate_stamps(ta, tb)) out.push_back({rgb[r], depth[d]});
   return out;
 }
 

@@ -33,10 +33,11 @@ struct OrpeConfig {
   slam::PreprocessParams slam_preprocess;  ///< SLAM depth filter / pyramids
   slam::TrackerParams slam_tracking;       ///< SLAM frame-to-model tracking
   slam::FusionParams slam_fusion;          ///< SLAM surfel fusion
+  slam::RelocaliserParams slam_reloc;      ///< SLAM relocalisation after tracking loss
 
   /// The SLAM system's parameters assembled from the slam* sections.
   slam::SlamParams slam_params() const {
-    return {slam_preprocess, slam_tracking, slam_fusion, slam};
+    return {slam_preprocess, slam_tracking, slam_fusion, slam, slam_reloc};
   }
   SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
   SemanticParams semantic;          ///< instance-aware semantic fusion
@@ -61,6 +62,7 @@ struct OrpeConfig {
     v("slam_preprocess", slam_preprocess);
     v("slam_tracking", slam_tracking);
     v("slam_fusion", slam_fusion);
+    v("slam_reloc", slam_reloc);
     v("segmentation", segmentation);
     v("semantic", semantic);
     v("recognition", recognition);

@@ -276,6 +276,8 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
   const bool lost = result_.slam.status == slam::TrackingStatus::kLost;
   stats_.lost_frames += lost;
   stats_.degraded_frames += result_.slam.status == slam::TrackingStatus::kDegraded;
+  if (result_.slam.relocalised)
+    stats_.relocalised_frames.emplace_back(frame.index, result_.slam.reloc_keyframe);
 
   const bool delayed = params_.pipeline.segmentation_delay_frames > 0;
   if (semantic_ && !lost && !delayed) {

@@ -156,6 +156,9 @@ struct ObjectWorldPose {
 /// Totals over a run.
 struct PipelineStats {
   int frames = 0, keyframes = 0, evaluated_frames = 0, lost_frames = 0, degraded_frames = 0;
+  /// Frames on which a LOST camera was relocalised (slam_reloc), by RgbdFrame::index, with the
+  /// keyframe each was found against.
+  std::vector<std::pair<int, int>> relocalised_frames;
   int detections = 0;
   int single_view_estimates = 0, single_view_valid = 0, single_view_cache_hits = 0;
   int single_view_from_prior = 0;  ///< estimates that were a local refinement of the EKF's prior

@@ -482,6 +482,14 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("counts.evaluated_frames", st.evaluated_frames);
   js.set("counts.tracking_degraded", st.degraded_frames);
   js.set("counts.tracking_lost", st.lost_frames);
+  js.set("counts.relocalisations", static_cast<int>(st.relocalised_frames.size()));
+  {
+    std::vector<double> frames, keyframes;  // frame indices (JSON numbers)
+    for (auto [f, k] : st.relocalised_frames) frames.push_back(f), keyframes.push_back(k);
+    js.set("tracking.relocalised_frames", frames);
+    js.set("tracking.relocalised_against_keyframes", keyframes);
+    js.set("tracking.keyframes_stored", static_cast<int>(pipeline.slam().keyframes()));
+  }
   js.set("counts.no_depth_frames", summary.no_depth_frames);
   js.set("counts.detections", st.detections);
   js.set("counts.instances", summary.instances);

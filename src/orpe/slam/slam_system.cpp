@@ -65,6 +65,10 @@ bool SlamParams::IsValid(std::string* why) const {
     if (why) *why = "slam: " + w;
     return false;
   }
+  if (!reloc.IsValid(&w)) {
+    if (why) *why = "slam_reloc: " + w;
+    return false;
+  }
   return true;
 }
 
@@ -84,7 +88,8 @@ SlamSystem::SlamSystem(const SlamParams& params)
     : params_(params),
       preprocessor_(params.preprocess),
       tracker_(params.tracker),
-      fusion_(params.fusion) {
+      fusion_(params.fusion),
+      relocaliser_(params.reloc) {
   std::string why;
   if (!params_.IsValid(&why)) throw ConfigError(why);
   map_.reserve(static_cast<size_t>(params_.options.reserve_surfels));
@@ -96,6 +101,83 @@ SlamFrameResult SlamSystem::process(const RgbdFrame& frame) {
 
 SlamFrameResult SlamSystem::process_at_known_pose(const RgbdFrame& frame, const SE3& T_world_cam) {
   return process_impl(frame, &T_world_cam);
+}
+
+void SlamSystem::predict(const SE3& T_world_cam, std::int32_t now) {
+  RenderOptions opt;
+  opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
+  // Unstable surfels of the last fused frame (not of the previous frame: after frames that were
+  // not fused -- no depth, LOST -- those would be none, and the young map too sparse to re-acquire).
+  opt.also_seen_since =
+      (params_.options.track_recent_unstable || fused_frames_ < 15) ? last_fused_time_ : -1;
+  opt.active_window_frames = params_.fusion.active_window_frames;
+  opt.now = now;
+  opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
+  opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
+  opt.want_surfel_centre = true;
+  const int pl = std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
+  const PinholeIntrinsics K_pred = intrinsics_.scaled(pl);
+  predict_renderer_.render(map_, T_world_cam, K_pred, opt, &prediction_);
+  build_model_pyramid(prediction_, K_pred, params_.preprocess.pyramid_levels - pl,
+                      static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_, pl);
+  if (params_.options.rgb_against_previous_frame && prev_frame_at_pose_) {
+    // The previous frame was taken at the reference pose: its intensities and vertices are the
+    // photometric reference, in the same (reference camera) frame as the rendered model.
+    for (size_t k = 0; k < model_.levels.size(); ++k) {
+      const FrameLevel& P = prev_pyramid_.levels[k + static_cast<size_t>(pl)];
+      model_.levels[k].intensity = P.intensity;
+      model_.levels[k].color_point = P.vertex;
+    }
+  }
+}
+
+AlignmentResult SlamSystem::align_into(const SE3& init, SlamFrameResult& res) {
+  const AlignmentResult a = tracker_.align(pyramid_, model_, init);
+  res.icp_inliers = a.icp_inliers;
+  res.inlier_fraction = a.icp_overlap > 0 ? double(a.icp_inliers) / a.icp_overlap : 0.0;
+  res.icp_rms_m = a.icp_rms_m;
+  res.rgb_rms = a.rgb_rms;
+  res.iterations = a.iterations;
+  res.overlap_fraction = a.overlap_fraction;
+  res.consistent_fraction = a.consistent_fraction;
+  res.in_front_fraction = a.in_front_fraction;
+  res.behind_fraction = a.behind_fraction;
+  res.final_step = a.final_step;
+  res.reason = a.reason;
+  return a;
+}
+
+bool SlamSystem::try_relocalise(std::int32_t now, SlamFrameResult& res) {
+  const auto t = std::chrono::steady_clock::now();
+  const SlamFrameResult lost = res;  // the figures of the failed alignment, kept if none verifies
+  const std::vector<RelocCandidate> candidates = relocaliser_.query(pyramid_.levels[0]);
+  res.reloc_candidates = static_cast<int>(candidates.size());
+  // The photometric reference of the previous frame is not at a candidate pose.
+  const bool prev_at_pose = prev_frame_at_pose_;
+  prev_frame_at_pose_ = false;
+  for (const RelocCandidate& c : candidates) {
+    predict(c.T_world_cam, now);
+    const AlignmentResult a = align_into(SE3(), res);
+    if (a.failed || a.weak) continue;
+    T_world_cam_ = c.T_world_cam * a.T_ref_cam;
+    res.tracked_T_world_cam = T_world_cam_;
+    res.relocalised = true;
+    res.reloc_keyframe = c.keyframe_frame_index;
+    res.reason = fmt::format("relocalised against keyframe {} ({} of {} matches inliers)",
+                             c.keyframe_frame_index, c.inliers, c.matches);
+    status_ = TrackingStatus::kOk;
+    bad_frames_ = 0;
+    res.reloc_ms += ms_since(t);
+    return true;
+  }
+  prev_frame_at_pose_ = prev_at_pose;
+  const int tried = res.reloc_candidates;
+  res = lost;
+  res.reloc_candidates = tried;
+  if (tried > 0)
+    res.reason += fmt::format(" | relocalisation: none of {} candidate poses verified", tried);
+  res.reloc_ms += ms_since(t);
+  return false;
 }
 
 SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* known_T_world_cam) {
@@ -137,52 +219,15 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     res.tracked_T_world_cam = T_world_cam_;
   } else if (!map_.empty()) {
     t = std::chrono::steady_clock::now();
-    RenderOptions opt;
-    opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
-    // Unstable surfels of the last fused frame (not of the previous frame: after frames that were
-    // not fused -- no depth, LOST -- those would be none, and the young map too sparse to re-acquire).
-    opt.also_seen_since =
-        (params_.options.track_recent_unstable || fused_frames_ < 15) ? last_fused_time_ : -1;
-    opt.active_window_frames = params_.fusion.active_window_frames;
-    opt.now = now;
-    opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
-    opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
-    opt.want_surfel_centre = true;
-    const int pl =
-        std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
-    const PinholeIntrinsics K_pred = intrinsics_.scaled(pl);
-    predict_renderer_.render(map_, T_world_cam_, K_pred, opt, &prediction_);
-    build_model_pyramid(prediction_, K_pred, params_.preprocess.pyramid_levels - pl,
-                        static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_,
-                        pl);
-    if (params_.options.rgb_against_previous_frame && prev_frame_at_pose_) {
-      // The previous frame was taken at the reference pose: its intensities and vertices are the
-      // photometric reference, in the same (reference camera) frame as the rendered model.
-      for (size_t k = 0; k < model_.levels.size(); ++k) {
-        const FrameLevel& P = prev_pyramid_.levels[k + static_cast<size_t>(pl)];
-        model_.levels[k].intensity = P.intensity;
-        model_.levels[k].color_point = P.vertex;
-      }
-    }
+    predict(T_world_cam_, now);
     res.predict_ms = ms_since(t);
 
     t = std::chrono::steady_clock::now();
     const SE3 init = (params_.tracker.constant_velocity && status_ != TrackingStatus::kLost)
                          ? last_motion_
                          : SE3();
-    const AlignmentResult a = tracker_.align(pyramid_, model_, init);
+    const AlignmentResult a = align_into(init, res);
     res.track_ms = ms_since(t);
-    res.icp_inliers = a.icp_inliers;
-    res.inlier_fraction = a.icp_overlap > 0 ? double(a.icp_inliers) / a.icp_overlap : 0.0;
-    res.icp_rms_m = a.icp_rms_m;
-    res.rgb_rms = a.rgb_rms;
-    res.iterations = a.iterations;
-    res.overlap_fraction = a.overlap_fraction;
-    res.consistent_fraction = a.consistent_fraction;
-    res.in_front_fraction = a.in_front_fraction;
-    res.behind_fraction = a.behind_fraction;
-    res.final_step = a.final_step;
-    res.reason = a.reason;
     if (a.failed) {
       ++bad_frames_;
       status_ = TrackingStatus::kLost;
@@ -204,13 +249,18 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
       status_ = TrackingStatus::kOk;
     }
     res.tracked_T_world_cam = T_world_cam_ * a.T_ref_cam;
-    if (known_T_world_cam) {
+    if (!known_T_world_cam && !accept && status_ == TrackingStatus::kLost &&
+        params_.reloc.enabled && try_relocalise(now, res)) {
+      accept = true;
+    } else if (known_T_world_cam) {
       // Mapping with known poses: the alignment is only reported; the frame is fused at the given
       // pose.
       accept = true;
       if (status_ == TrackingStatus::kLost) status_ = TrackingStatus::kDegraded;
     }
-    if (accept) {
+    if (res.relocalised) {
+      last_motion_ = SE3();
+    } else if (accept) {
       T_world_cam_ = T_world_cam_ * a.T_ref_cam;
       last_motion_ = a.T_ref_cam;
     } else {
@@ -240,6 +290,11 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     res.fused = true;
     last_fused_time_ = now;
     ++fused_frames_;
+    if (params_.reloc.enabled && status_ == TrackingStatus::kOk) {
+      t = std::chrono::steady_clock::now();
+      relocaliser_.maybe_add(pyramid_.levels[0], T_world_cam_, frame.index);
+      res.reloc_ms += ms_since(t);
+    }
   } else {
     pixel_surfel_ = IndexImage();
     res.fusion.surfels = map_.size();

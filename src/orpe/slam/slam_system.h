@@ -25,6 +25,7 @@
 #include "orpe/slam/fusion.h"
 #include "orpe/slam/map_renderer.h"
 #include "orpe/slam/preprocess.h"
+#include "orpe/slam/relocaliser.h"
 #include "orpe/slam/surfel_map.h"
 #include "orpe/slam/tracker.h"
 
@@ -84,6 +85,7 @@ struct SlamParams {
   TrackerParams tracker;
   FusionParams fusion;
   SlamOptions options;
+  RelocaliserParams reloc;  ///< relocalisation of a LOST camera (config section slam_reloc)
   bool IsValid(std::string* why) const;
 };
 
@@ -110,10 +112,15 @@ struct SlamFrameResult {
   /// Too little valid depth in range (SlamOptions::min_valid_depth_fraction): not tracked, not
   /// fused.
   bool no_depth = false;
+  /// The camera was LOST and was found again by relocalisation on this frame (RelocaliserParams):
+  /// the candidate from keyframe `reloc_keyframe` passed the tracker's gates from there.
+  bool relocalised = false;
+  int reloc_keyframe = -1;     ///< RgbdFrame::index of that keyframe
+  int reloc_candidates = 0;    ///< candidate poses tried on this frame (0 = none proposed)
   int valid_depth_px = 0;  ///< level-0 pixels with depth in [min_depth_m, max_depth_m]
   FusionStats fusion;
   // Stage timings, milliseconds.
-  double preprocess_ms = 0, predict_ms = 0, track_ms = 0, fuse_ms = 0, total_ms = 0;
+  double preprocess_ms = 0, predict_ms = 0, track_ms = 0, fuse_ms = 0, reloc_ms = 0, total_ms = 0;
   std::string report() const;
 };
 
@@ -145,9 +152,18 @@ class SlamSystem {
   /// Per pixel of the last frame: surfel it updated or created, -1 none (empty if not fused).
   const IndexImage& last_pixel_surfel() const { return pixel_surfel_; }
   TrackingStatus status() const { return status_; }
+  /// Keyframes stored for relocalisation so far.
+  size_t keyframes() const { return relocaliser_.size(); }
 
  private:
   SlamFrameResult process_impl(const RgbdFrame& frame, const SE3* known_T_world_cam);
+  /// Renders the map at T_world_cam into prediction_ / model_ (the tracking reference).
+  void predict(const SE3& T_world_cam, std::int32_t now);
+  /// Aligns the current frame against model_ from `init`; copies the figures into `res`.
+  AlignmentResult align_into(const SE3& init, SlamFrameResult& res);
+  /// LOST: tries the relocaliser's candidates, each verified by an OK alignment from it. On
+  /// success sets T_world_cam_, status_ OK and res.relocalised; returns whether it succeeded.
+  bool try_relocalise(std::int32_t now, SlamFrameResult& res);
 
   SlamParams params_;
   FramePreprocessor preprocessor_;
@@ -155,6 +171,7 @@ class SlamSystem {
   SurfelFusion fusion_;
   MapRenderer renderer_;  // for users
   MapRenderer predict_renderer_;
+  Relocaliser relocaliser_;
   SurfelMap map_;
   FramePyramid pyramid_;
   FramePyramid prev_pyramid_;

@@ -1,0 +1,95 @@
+// Relocalisation after tracking loss (issue 19): a database of keyframes -- ORB keypoints of
+// tracked frames with their 3D points in the keyframe's camera frame, and the keyframe's
+// T_world_cam -- queried with a lost frame. Each of the keyframes sharing the most descriptor
+// matches with the frame gives a candidate T_world_cam from a 3D-3D RANSAC (Kabsch on three
+// matches, then all inliers).
+//
+// The relocaliser only proposes: SlamSystem verifies every candidate by tracking the frame against
+// the map rendered at it, with the tracker's usual quality gates and free-space check, and resumes
+// only on an OK alignment (a wrong candidate is never fused). OpenCV stays inside relocaliser.cpp.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "orpe/core/se3.h"
+#include "orpe/slam/preprocess.h"
+
+namespace orpe::slam {
+
+/// Config section `slam_reloc`.
+struct RelocaliserParams {
+  bool enabled = true;  ///< off: a lost camera re-acquires only from its held pose (as before)
+  /// A tracked (OK) frame becomes a keyframe when its camera is at least this far from every stored
+  /// keyframe's, in translation or rotation. Typical 0.10 m / 10 deg: ~1 keyframe per 10 cm of
+  /// path.
+  double keyframe_min_translation_m = 0.10;
+  double keyframe_min_rotation_deg = 10.0;
+  int max_keyframes = 2000;  ///< older keyframes are dropped beyond this (memory: ~40 kB each)
+  int orb_features = 600;    ///< ORB keypoints detected per frame (full resolution)
+  /// Lowe's ratio test on the two nearest descriptors (Hamming); typical 0.75-0.8.
+  double match_ratio = 0.8;
+  int candidates = 3;    ///< keyframes (most matches first) whose pose is estimated and verified
+  int min_inliers = 20;  ///< 3D-3D RANSAC inliers a candidate needs
+  /// RANSAC inlier distance between a keyframe point and the frame's point moved into it (m).
+  double inlier_distance_m = 0.03;
+  int ransac_iterations = 300;  ///< fixed seed: deterministic
+
+  template <class V>
+  void visit(V&& v) {
+    v("enabled", enabled,
+      "Relocalise a LOST camera against stored keyframes (ORB + 3D-3D RANSAC, verified by "
+      "tracking against the map); off = re-acquire from the held pose only");
+    v("keyframe_min_translation_m", keyframe_min_translation_m,
+      "A tracked frame is stored as a keyframe when its camera is at least this far (m) ...");
+    v("keyframe_min_rotation_deg", keyframe_min_rotation_deg,
+      "... or this many degrees from every stored keyframe's");
+    v("max_keyframes", max_keyframes, "Keyframes kept (the oldest are dropped beyond this)");
+    v("orb_features", orb_features, "ORB keypoints per frame");
+    v("match_ratio", match_ratio, "Ratio test of the descriptor matches (nearest / second)");
+    v("candidates", candidates, "Keyframes (most matches first) tried per lost frame");
+    v("min_inliers", min_inliers, "3D-3D RANSAC inliers a candidate pose needs");
+    v("inlier_distance_m", inlier_distance_m, "RANSAC inlier distance (m)");
+    v("ransac_iterations", ransac_iterations, "RANSAC iterations per candidate (fixed seed)");
+  }
+  bool IsValid(std::string* why) const;
+};
+
+/// A candidate camera pose for a lost frame.
+struct RelocCandidate {
+  SE3 T_world_cam;
+  int keyframe_frame_index = -1;  ///< RgbdFrame::index of the keyframe it came from
+  int matches = 0;                ///< descriptor matches with that keyframe
+  int inliers = 0;                ///< RANSAC inliers among them
+};
+
+class Relocaliser {
+ public:
+  explicit Relocaliser(const RelocaliserParams& params = {});
+  ~Relocaliser();
+  Relocaliser(Relocaliser&&) noexcept;
+  Relocaliser& operator=(Relocaliser&&) noexcept;
+
+  const RelocaliserParams& params() const { return params_; }
+  /// Stores `level0` (intensity + vertex map, full resolution) as a keyframe at `T_world_cam` when
+  /// it is far enough from every stored keyframe (RelocaliserParams). Returns whether it was
+  /// stored.
+  bool maybe_add(const FrameLevel& level0, const SE3& T_world_cam, int frame_index);
+  /// Candidate poses of `level0`'s camera, best first (most inliers); empty when no keyframe
+  /// shares enough matches. Deterministic.
+  std::vector<RelocCandidate> query(const FrameLevel& level0) const;
+  size_t size() const;
+  void clear();
+
+ private:
+  struct Impl;
+  RelocaliserParams params_;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// T_a_b minimising sum |a_i - T_a_b b_i|^2 (Kabsch / Umeyama without scale); needs >= 3
+/// non-collinear pairs. Exposed for tests.
+SE3 fit_rigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b);
+
+}  // namespace orpe::slam

@@ -45,8 +45,7 @@ void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
     const CameraFileInfo& c = *info.camera;
     js.set("camera.file", c.path);
     js.set("camera.style", c.style);
-    js.set("camera.colour_fx_fy_cx_cy",
-           std::vector<double>{c.colour.fx, c.colour.fy, c.colour.cx, c.colour.cy});
+    js.set("camera.colour_fx_fy_cx_cy", std::vector<double>{c.colour.fx, c.colour.fy, c.colour.cx, c.colour.cy});
     js.set("camera.colour_size", std::vector<double>{static_cast<double>(c.colour.width),
                                                      static_cast<double>(c.colour.height)});
     js.set("camera.colour_distortion_k1_k2_p1_p2_k3",
@@ -56,13 +55,11 @@ void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
     js.set("camera.max_depth_m", c.max_depth_m);
     js.set("camera.registered_depth_camera", c.has_depth_camera);
     if (c.has_depth_camera) {
-      js.set("camera.depth_fx_fy_cx_cy",
-             std::vector<double>{c.depth.fx, c.depth.fy, c.depth.cx, c.depth.cy});
+      js.set("camera.depth_fx_fy_cx_cy", std::vector<double>{c.depth.fx, c.depth.fy, c.depth.cx, c.depth.cy});
       js.set("camera.depth_distortion_k1_k2_p1_p2_k3",
              std::vector<double>(c.depth_distortion.begin(), c.depth_distortion.end()));
       const Eigen::Matrix4d T = c.T_colour_depth.matrix();
-      js.set("camera.T_colour_depth",
-             std::vector<double>(T.data(), T.data() + 16));  // column-major
+      js.set("camera.T_colour_depth", std::vector<double>(T.data(), T.data() + 16));  // column-major
     }
   }
   if (!info.models_dir.empty()) {
@@ -70,9 +67,8 @@ void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
     js.set("models.units_per_m", info.model_units_per_m);
     std::vector<std::string> classes;
     for (const auto& [id, path] : info.model_mesh_paths)
-      classes.push_back(
-          std::to_string(id) + " " + info.class_names.at(id) + " " + path +
-          (info.model_symmetry.count(id) ? " symmetry: " + info.model_symmetry.at(id).text : ""));
+      classes.push_back(std::to_string(id) + " " + info.class_names.at(id) + " " + path +
+                        (info.model_symmetry.count(id) ? " symmetry: " + info.model_symmetry.at(id).text : ""));
     js.set("models.classes", classes);
   }
 }

@@ -20,7 +20,8 @@ import resource
 import subprocess
 import sys
 
-STAGES = ["read", "slam", "semantic", "render_views", "single_view", "ekf", "pipeline"]
+# model_loading: object models loaded on their class's first estimate (inside pipeline, in no stage).
+STAGES = ["read", "slam", "semantic", "render_views", "single_view", "ekf", "model_loading", "pipeline"]
 
 
 def run(orpe, dataset, scene, mode, out, sets):

@@ -108,6 +108,37 @@ TEST(ObjectModel, SearchIndexMatchesBruteForce) {
   }
 }
 
+// nearest_within (the registration's bounded and warm-started searches, issue #15): the very point
+// nearest() returns when it is nearer than the bound, none otherwise -- also with duplicate points
+// (ties) and with a bound just above the nearest distance.
+TEST(ObjectModel, BoundedSearchReturnsTheExactNearestOrNone) {
+  test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.006f);
+  const size_t n = s.points.size();
+  for (size_t i = 0; i < n; i += 7) s.points.push_back(s.points[i]);  // ties
+  const ModelSearchIndex index(s.points);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(-0.07f, 0.07f);
+  int found = 0, none = 0;
+  for (int i = 0; i < 500; ++i) {
+    const Eigen::Vector3f q(u(rng), u(rng), u(rng));
+    float best = 0, d2 = -1;
+    const std::uint32_t exact = index.nearest(q, &best);
+    const float bound = (i % 2 == 0) ? 1e-4f : best * (1.0f + 1e-5f) + 1e-12f;
+    const std::uint32_t j = index.nearest_within(q, bound, &d2);
+    if (best < bound) {
+      ASSERT_EQ(j, exact) << "query " << i;
+      EXPECT_EQ(d2, best);
+      ++found;
+    } else {
+      EXPECT_EQ(j, ModelSearchIndex::kNone)
+          << "query " << i << ": nothing is nearer than the bound";
+      ++none;
+    }
+  }
+  EXPECT_GT(found, 250);
+  EXPECT_GT(none, 50);
+}
+
 TEST(ObjectModel, GridNearestIsWithinOneCellOfTheExactNearest) {
   const test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.006f);
   const ModelSearchIndex index(s.points);

@@ -546,7 +546,9 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
       const ObjectModel* model = nullptr;
       if (!model_errors_.count(c.class_id)) {
         try {
-          model = &models_.get(c.class_id);
+          const auto t_load = Clock::now();
+          model = &models_.get(c.class_id);  // loaded on the class's first use
+          stats_.model_loading_ms += ms_since(t_load);
         } catch (const IoError& e) {
           model_errors_[c.class_id] = e.what();
           spdlog::warn("class {}: model not usable, its objects get no pose: {}", c.class_id,

@@ -168,6 +168,8 @@ struct PipelineStats {
   double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
   /// Asynchronous segmentation: time the pipeline waited for a keyframe's detections (ms).
   double segmentation_wait_ms = 0;
+  /// Loading object models on their class's first pose estimate (ms; inside total_ms, in no stage).
+  double model_loading_ms = 0;
 };
 
 class ObjectRpePipeline {

@@ -525,6 +525,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("timing_ms.total.pipeline", st.total_ms);
   js.set("timing_ms.total.output", summary.output_ms);
   js.set("timing_ms.total.segmentation_wait", st.segmentation_wait_ms);
+  js.set("timing_ms.total.model_loading", st.model_loading_ms);
   js.set("timing_ms.total.wall", summary.wall_ms);
   js.set("timing_ms.per_frame.read", summary.read_ms / n);
   js.set("timing_ms.per_frame.slam", st.slam_ms / n);

@@ -162,6 +162,30 @@ float min_depth_at(const ScoringContext& ctx, int u, int v) {
   return std::isfinite(m) ? m : 0.0f;
 }
 
+constexpr std::uint32_t kNone = ModelSearchIndex::kNone;
+
+/// Exact nearest point of `index` to `q` (what nearest() returns) when its squared distance is at
+/// most `max_d2`, else kNone. `prev` is the point found for this query in the previous ICP
+/// iteration (or kNone): the pose moved little since, so its distance bounds the search, which
+/// then prunes most of the tree. Updated to the point found.
+std::uint32_t nearest_warm(const ModelSearchIndex& index, const Eigen::Vector3f& q, float max_d2,
+                           std::uint32_t& prev, float* d2) {
+  // A relative margin over the bounds: the tree's own float distance of the same point may differ
+  // in the last bit, and a bound a little above the nearest distance changes nothing.
+  constexpr float kMargin = 1.0f + 1e-5f;
+  float bound = max_d2 * kMargin + 1e-12f;
+  bool warm = false;
+  if (prev != kNone) {
+    const float dp = (index.points()[prev] - q).squaredNorm() * kMargin + 1e-12f;
+    if (dp < bound) bound = dp, warm = true;
+  }
+  std::uint32_t j = index.nearest_within(q, bound, d2);
+  if (j == kNone && warm)
+    j = index.nearest(q, d2);  // not reached unless rounding betrays the bound
+  prev = j;
+  return j;
+}
+
 /// Sums of the point-to-point terms w |p + delta x p + dt - m|^2 (Jacobian [I, -hat(p)] per point),
 /// added to the normal equations at once: J^T J = [[I, -hat p], [hat p, |p|^2 I - p p^T]] and
 /// J^T e = [e; p x e] are linear in w, w p, w p p^T, w e and w p x e.
@@ -203,6 +227,10 @@ class Registration {
     const bool grid = coarse && p_.coarse_grid_cells > 0;
     const float cell = static_cast<float>(model_.diameter_m / std::max(1, p_.coarse_grid_cells));
     const float margin = static_cast<float>(p_.coarse_max_corr_factor * model_.diameter_m) + cell;
+    // Per observed point / free-space model point: its nearest point of the previous iteration.
+    std::vector<std::uint32_t> prev(grid ? 0 : obs.size(), kNone);
+    std::vector<std::uint32_t> prev_free(model_subset.size(), kNone);
+    const float unbounded = std::numeric_limits<float>::infinity();
     for (int it = 0; it < iterations; ++it) {
       const double frac = iterations > 1 ? static_cast<double>(it) / (iterations - 1) : 1.0;
       const double corr = corr_start * std::pow(corr_end / corr_start, frac);
@@ -217,12 +245,12 @@ class Registration {
       const double delta = p_.huber_delta_m;
       const double lambda = p_.point_to_point_weight;
       const double half_spacing = 0.5 * model_.mean_spacing_m;
-      for (const auto& q : obs) {
-        const Vec3f pt = R * q + t;
+      for (size_t k = 0; k < obs.size(); ++k) {
+        const Vec3f pt = R * obs[k] + t;
         float d2 = 0;
-        const std::uint32_t j =
-            grid ? index_.nearest_approx(pt, &d2, cell, margin) : index_.nearest(pt, &d2);
-        if (d2 > corr2) continue;
+        const std::uint32_t j = grid ? index_.nearest_approx(pt, &d2, cell, margin)
+                                     : nearest_warm(index_, pt, corr2, prev[k], &d2);
+        if (j == kNone || d2 > corr2) continue;
         const Vec3f& n = model_.normals[j];
         const Vec3f& m = model_.points[j];
         if (p_.reject_back_facing) {
@@ -258,11 +286,14 @@ class Registration {
         const Mat3f Rc = R.transpose();
         const Vec3f tc = -(Rc * t);
         const double wf = p_.free_space_icp_weight;
-        for (const auto& m : model_subset) {
+        for (size_t k = 0; k < model_subset.size(); ++k) {
+          const Vec3f& m = model_subset[k];
           const Vec3f pc = Rc * m + tc;
           if (!violates_free_space(pc)) continue;
           float d2 = 0;
-          const Vec3f& q = ctx_.observed_index->points()[ctx_.observed_index->nearest(pc, &d2)];
+          const Vec3f& q =
+              ctx_.observed_index
+                  ->points()[nearest_warm(*ctx_.observed_index, pc, unbounded, prev_free[k], &d2)];
           const Vec3f pt = R * q + t;
           const Eigen::Vector3d pd = pt.cast<double>();
           const Eigen::Vector3d e = (pt - m).cast<double>();
@@ -293,10 +324,15 @@ class Registration {
     const float spacing = static_cast<float>(model_.mean_spacing_m);
     double fit = 0;
     int inliers = 0;
+    // A point farther than tau + spacing from every model point adds nothing (d >= tau below):
+    // the search is bounded there (with a margin), its result otherwise the exact nearest point.
+    const float reach = static_cast<float>(tau) + spacing;
+    const float reach2 = reach * reach * (1.0f + 1e-4f);
     for (const auto& q : obs) {
       const Vec3f pt = R * q + t;
       float d2 = 0;
-      const std::uint32_t j = index_.nearest(pt, &d2);
+      const std::uint32_t j = index_.nearest_within(pt, reach2, &d2);
+      if (j == kNone) continue;
       // Distance to the surface: the plane distance, unless the point is farther from the nearest
       // sample than the sampling explains.
       const float dp = std::sqrt(d2);

@@ -43,6 +43,19 @@ std::uint32_t ModelSearchIndex::nearest(const Eigen::Vector3f& query, float* dis
   return index;
 }
 
+std::uint32_t ModelSearchIndex::nearest_within(const Eigen::Vector3f& query, float max_distance_sq,
+                                               float* distance_sq) const {
+  std::uint32_t index = kNone;
+  float d2 = 0;
+  nanoflann::KNNResultSet<float, std::uint32_t> result(1);
+  result.init(&index, &d2);
+  d2 = max_distance_sq;  // the result set's worst distance: only nearer points are accepted
+  tree_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams(32, 0.0f, false));
+  if (result.size() == 0) return kNone;
+  if (distance_sq) *distance_sq = d2;
+  return index;
+}
+
 std::uint32_t ModelSearchIndex::nearest_approx(const Eigen::Vector3f& query, float* distance_sq,
                                                float cell_m, float margin_m) const {
   std::call_once(grid_once_, [&] {
@@ -60,15 +73,24 @@ std::uint32_t ModelSearchIndex::nearest_approx(const Eigen::Vector3f& query, flo
     g.ny = std::max(1, static_cast<int>(std::ceil(size.y() / c)));
     g.nz = std::max(1, static_cast<int>(std::ceil(size.z() / c)));
     g.nearest.resize(static_cast<size_t>(g.nx) * g.ny * g.nz);
+    // Along a row, the previous cell's nearest point bounds the search (one cell away at most
+    // one cell farther): the exact nearest point, found without most of the tree's traversal.
 #pragma omp parallel for schedule(static)
     for (int z = 0; z < g.nz; ++z)
-      for (int y = 0; y < g.ny; ++y)
+      for (int y = 0; y < g.ny; ++y) {
+        std::uint32_t prev = kNone;
         for (int x = 0; x < g.nx; ++x) {
           const Eigen::Vector3f centre =
               g.origin + c * Eigen::Vector3f(x + 0.5f, y + 0.5f, z + 0.5f);
           float d2 = 0;
-          g.nearest[(static_cast<size_t>(z) * g.ny + y) * g.nx + x] = nearest(centre, &d2);
+          std::uint32_t j = kNone;
+          if (prev != kNone)
+            j = nearest_within(
+                centre, (points_[prev] - centre).squaredNorm() * (1.0f + 1e-5f) + 1e-12f, &d2);
+          if (j == kNone) j = nearest(centre, &d2);
+          g.nearest[(static_cast<size_t>(z) * g.ny + y) * g.nx + x] = prev = j;
         }
+      }
     grid_ = std::move(g);
   });
   const Eigen::Vector3f r = (query - grid_.origin) * grid_.inv_cell;

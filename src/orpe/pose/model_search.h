@@ -20,6 +20,12 @@ class ModelSearchIndex {
 
   /// Index of the nearest point and its squared distance (m^2). Precondition: size() > 0.
   std::uint32_t nearest(const Eigen::Vector3f& query, float* distance_sq) const;
+  /// The nearest point if its squared distance is below `max_distance_sq` (m^2), else kNone.
+  /// Exactly the point nearest() returns (ties included: the same traversal, only subtrees farther
+  /// than the bound are pruned), found faster the tighter the bound.
+  static constexpr std::uint32_t kNone = 0xffffffffu;
+  std::uint32_t nearest_within(const Eigen::Vector3f& query, float max_distance_sq,
+                               float* distance_sq) const;
   /// Up to k nearest points, closest first; returns how many were found.
   int knn(const Eigen::Vector3f& query, int k, std::uint32_t* indices, float* distances_sq) const;
 

@@ -26,10 +26,10 @@ import os
 import sys
 import time
 
-import cv2
 import numpy as np
 import torch
 import torch.nn.functional as F
+from PIL import Image
 from torch import nn
 
 MEAN = np.array([0.485, 0.456, 0.406], np.float32)
@@ -165,7 +165,16 @@ def posenet(P, num_obj, img, cloud, choose, obj):
 
 def posenet_heads(P, num_obj, emb, cloud, obj):
     """PointNet, dense fusion and the heads on the gathered colour embedding emb [1,32,n]."""
-    n = cloud.shape[1]
+    rot, trans, conf = posenet_heads_batch(P, num_obj, emb, cloud, torch.tensor([obj]))
+    return rot[0], trans[0], conf[0]
+
+
+def posenet_heads_batch(P, num_obj, emb, cloud, obj):
+    """B views at once: emb [B,32,n], cloud [B,n,3], obj [B] (class indices) -> rotation [B,n,4],
+    translation [B,n,3], confidence [B,n]. Every view is independent (the global feature pools over
+    its own points). With B >= 16 PyTorch runs the 1x1 convolutions on oneDNN even with one thread;
+    below that, on the BLAS (Debian's default libblas is the slow reference one)."""
+    b, n = cloud.shape[0], cloud.shape[1]
     pf1, pf2, g = point_features(P, cloud.transpose(2, 1), emb, False)
     ap = torch.cat([pf1, pf2, g.repeat(1, 1, n)], 1)
     heads = []
@@ -177,8 +186,8 @@ def posenet_heads(P, num_obj, emb, cloud, obj):
                 y = F.relu(y)
         if hd == 2:
             y = torch.sigmoid(y)
-        heads.append(y.view(num_obj, dims, n)[obj].transpose(0, 1))
-    return heads[0], heads[1], heads[2][:, 0]
+        heads.append(y.view(b, num_obj, dims, n)[torch.arange(b), obj].transpose(1, 2))
+    return heads[0], heads[1], heads[2][..., 0]
 
 
 def quat_to_mat(q):
@@ -222,6 +231,12 @@ def load_points(path):
     return np.loadtxt(path, dtype=np.float32)
 
 
+def read_png(scene, folder, stem, mode=None):
+    """A BOP image as an array (16-bit depth stays uint16)."""
+    im = Image.open(os.path.join(scene, folder, stem + ".png"))
+    return np.array(im.convert(mode) if mode else im)
+
+
 def load_scene(root, min_visib=0.2, min_pixels=50):
     """Samples of one `orpe synth` dataset: per frame and visible object, its crop and ground truth."""
     scene = sorted(glob.glob(os.path.join(root, "test", "*")))[0]
@@ -230,14 +245,14 @@ def load_scene(root, min_visib=0.2, min_pixels=50):
     cams = json.load(open(os.path.join(scene, "scene_camera.json")))
     samples = []
     for im in sorted(gt, key=int):
-        rgb = cv2.cvtColor(cv2.imread(os.path.join(scene, "rgb", f"{int(im):06d}.png")), cv2.COLOR_BGR2RGB)
-        raw = cv2.imread(os.path.join(scene, "depth", f"{int(im):06d}.png"), cv2.IMREAD_UNCHANGED)
+        rgb = read_png(scene, "rgb", f"{int(im):06d}", "RGB")
+        raw = read_png(scene, "depth", f"{int(im):06d}")
         depth = raw.astype(np.float32) * float(cams[im]["depth_scale"]) / 1000.0  # metres
         K = np.array(cams[im]["cam_K"], np.float64).reshape(3, 3)
         for k, (g, inf) in enumerate(zip(gt[im], info[im])):
             if inf["visib_fract"] < min_visib:
                 continue
-            mask = cv2.imread(os.path.join(scene, "mask_visib", f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_GRAYSCALE) > 0
+            mask = read_png(scene, "mask_visib", f"{int(im):06d}_{k:06d}", "L") > 0
             valid = mask & (depth > 0)
             if valid.sum() < min_pixels:
                 continue
@@ -273,34 +288,55 @@ def adds(pred_pts, gt_pts):
 
 
 def loss_fn(rot, trans, conf, cloud, model_pts, R, t, w=0.015):
-    Rs = quat_to_mat(rot)  # [n,3,3]
-    pred = torch.einsum("nij,mj->nmi", Rs, model_pts) + (cloud[0] + trans)[:, None, :]  # [n,m,3]
-    target = model_pts @ R.T + t
-    dis = adds(pred, target[None].expand(pred.shape[0], -1, -1))  # [n]
+    """DenseFusion's loss on B views: rot [B,n,4], trans [B,n,3] (offsets from the points), conf [B,n],
+    cloud [B,n,3], model_pts [B,m,3], R [B,3,3], t [B,3] -> (mean of dis * c - w log c, dis [B,n]),
+    dis = per point, the mean distance of its posed model points to the nearest ground-truth one."""
+    b, n, m = rot.shape[0], rot.shape[1], model_pts.shape[1]
+    pred = torch.einsum("bnij,bmj->bnmi", quat_to_mat(rot), model_pts) + (cloud + trans)[:, :, None, :]
+    target = torch.einsum("bij,bmj->bmi", R, model_pts) + t[:, None, :]
+    dis = adds(pred.reshape(b * n, m, 3), target.repeat_interleave(n, 0)).view(b, n)
     return (dis * conf - w * torch.log(conf)).mean(), dis
 
 
 def best_pose(rot, trans, conf, cloud):
+    """The reference evaluation's pick on one view (rot [n,4], cloud [n,3]): the most confident point."""
     i = int(torch.argmax(conf))
-    return quat_to_mat(rot[i]), cloud[0, i] + trans[i]
+    return quat_to_mat(rot[i]), cloud[i] + trans[i]
 
 
-def evaluate(P, num_obj, samples, models, index_of, n, seed=3):
+def view_inputs(P, samples, n, seed=3):
+    """Per held-out view, as the C++ back-end: n chosen pixels, their colour embedding [32,n] (one CNN
+    pass over the crop) and cloud [n,3]."""
     rng = np.random.default_rng(seed)
-    out = {"adds": [], "centroid_adds": [], "per_obj": collections.defaultdict(list)}
+    out = []
     with torch.no_grad():
         for s in samples:
             img, cloud, choose = tensors(s, n, rng)
-            obj = index_of[s["obj_id"]]
-            rot, trans, conf, _ = posenet(P, num_obj, img, cloud, choose, obj)
-            R, t = best_pose(rot, trans, conf, cloud)
-            m = models[s["obj_id"]]
-            gt = m @ torch.from_numpy(s["R"]).T + torch.from_numpy(s["t"])
-            d = float(adds((m @ R.T + t)[None], gt[None]))
-            c = float(adds((m + cloud[0].mean(0))[None], gt[None]))  # identity rotation at the centroid
-            out["adds"].append(d)
-            out["centroid_adds"].append(c)
-            out["per_obj"][s["obj_id"]].append(d)
+            emb = torch.gather(pspnet(P, img).view(1, 32, -1), 2, choose.view(1, 1, n).repeat(1, 32, 1))
+            out.append((emb[0], cloud[0]))
+    return out
+
+
+def evaluate(P, num_obj, samples, models, index_of, inputs, batch=16):
+    """ADD-S over each model's points of the most confident point's pose (no refiner); `inputs` from
+    view_inputs (the colour CNN must be the one they were computed with)."""
+    out = {"adds": [], "centroid_adds": [], "per_obj": collections.defaultdict(list)}
+    with torch.no_grad():
+        for i in range(0, len(samples), batch):
+            chunk, ins = samples[i:i + batch], inputs[i:i + batch]
+            obj = torch.tensor([index_of[s["obj_id"]] for s in chunk])
+            rot, trans, conf = posenet_heads_batch(P, num_obj, torch.stack([e for e, _ in ins]),
+                                                   torch.stack([c for _, c in ins]), obj)
+            for j, s in enumerate(chunk):
+                cloud = ins[j][1]
+                R, t = best_pose(rot[j], trans[j], conf[j], cloud)
+                m = models[s["obj_id"]]
+                gt = m @ torch.from_numpy(s["R"]).T + torch.from_numpy(s["t"])
+                d = float(adds((m @ R.T + t)[None], gt[None]))
+                c = float(adds((m + cloud.mean(0))[None], gt[None]))  # identity rotation at the centroid
+                out["adds"].append(d)
+                out["centroid_adds"].append(c)
+                out["per_obj"][s["obj_id"]].append(d)
     return out
 
 
@@ -364,6 +400,70 @@ def cmd_selfcheck(args):
     if worst > 1e-4:
         sys.exit("selfcheck FAILED: the training network is not the reference's")
     print("selfcheck ok: the training network equals the reference implementation on the fixture")
+    # The batched heads (training, evaluation): 16 different views at once = each view alone.
+    b = 16
+    clouds = torch.stack([fx["cloud"] + 0.01 * k for k in range(b)])
+    embs = torch.stack([emb[0].roll(k, 1) for k in range(b)])
+    objs = torch.arange(b) % num_obj
+    with torch.no_grad():
+        batch = posenet_heads_batch(P, num_obj, embs, clouds, objs)
+        err = max(float(((batch[h][k] - posenet_heads(P, num_obj, embs[k:k + 1], clouds[k:k + 1],
+                                                       int(objs[k]))[h]).abs()).max())
+                  for k in range(b) for h in range(3))
+    print(f"selfcheck batched heads ({b} views): max difference to one view at a time {err:.2e}")
+    if err > 1e-4:
+        sys.exit("selfcheck FAILED: the batched heads mix views")
+
+
+def frozen_embeddings(P, train, args, rng):
+    """The colour CNN stays at its initialisation: per training view, the embedding of --pool of its
+    valid pixels, computed once (and cached in --cache)."""
+    t0 = time.time()
+    cache = torch.load(args.cache) if args.cache and os.path.exists(args.cache) else None
+    if cache is not None and len(cache) != len(train):
+        sys.exit(f"{args.cache}: {len(cache)} views cached, {len(train)} loaded (delete it)")
+    with torch.no_grad():
+        for i, s in enumerate(train):
+            if cache is not None:
+                s["pool_emb"], s["pool_cloud"] = cache[i]
+            else:
+                keep = rng.choice(len(s["choose_all"]), min(args.pool, len(s["choose_all"])), replace=False)
+                emb = pspnet(P, torch.from_numpy(s["crop"])[None]).view(32, -1)
+                s["pool_emb"] = emb[:, torch.from_numpy(s["choose_all"][keep].astype(np.int64))].clone()
+                s["pool_cloud"] = torch.from_numpy(s["cloud_all"][keep])
+            del s["crop"]
+    if args.cache and cache is None:
+        torch.save([(s["pool_emb"], s["pool_cloud"]) for s in train], args.cache)
+    print(f"colour embeddings of {len(train)} views (frozen CNN): {time.time() - t0:.0f} s", flush=True)
+
+
+def training_batch(P, num_obj, train, index_of, args, rng):
+    """--batch random views, --points random points of each -> the heads' outputs and the views."""
+    views = [train[i] for i in rng.choice(len(train), args.batch, replace=len(train) < args.batch)]
+    embs, clouds = [], []
+    for s in views:
+        if args.train_cnn:
+            img, cloud, choose = tensors(s, args.points, rng)
+            emb = torch.gather(pspnet(P, img).view(1, 32, -1), 2, choose.view(1, 1, -1).repeat(1, 32, 1))[0]
+            cloud = cloud[0]
+        else:
+            m = s["pool_cloud"].shape[0]
+            idx = torch.from_numpy(rng.choice(m, args.points, replace=False) if m > args.points
+                                   else np.arange(args.points) % m)
+            emb, cloud = s["pool_emb"][:, idx], s["pool_cloud"][idx]
+        embs.append(emb)
+        clouds.append(cloud)
+    clouds = torch.stack(clouds)
+    obj = torch.tensor([index_of[s["obj_id"]] for s in views])
+    return posenet_heads_batch(P, num_obj, torch.stack(embs), clouds, obj), clouds, views
+
+
+def learning_rate(args, step):
+    """Linear warm-up over --warmup steps, then a cosine from --lr down to --lr * --lr-final."""
+    if step < args.warmup:
+        return args.lr * (step + 1) / args.warmup
+    x = min(1.0, (step - args.warmup) / max(1, args.steps - args.warmup))
+    return args.lr * (args.lr_final + (1 - args.lr_final) * 0.5 * (1 + math.cos(math.pi * x)))
 
 
 def cmd_train(args):
@@ -381,74 +481,64 @@ def cmd_train(args):
     test = load_scene(args.test)[:: args.test_stride]
     print(f"data: {len(train)} training views from {len(train_dirs)} scenes, {len(test)} held-out views "
           f"({time.time() - t0:.1f} s); {num_obj} objects", flush=True)
-    loss_models = {k: v[torch.from_numpy(rng.choice(len(v), args.loss_model_points, replace=False))]
-                   for k, v in models.items()}
+    loss_models = torch.stack([v[torch.from_numpy(rng.choice(len(v), args.loss_model_points, replace=False))]
+                               for _, v in sorted(models.items())])
     P = Params(posenet_parameters(num_obj))
-    untrained = P.state()
-    save_orpe(untrained, args.out + "_untrained_posenet.pt")
-    ev0 = evaluate(P, num_obj, test, models, index_of, args.eval_points)
+    save_orpe(P.state(), args.out + "_untrained_posenet.pt")
+    test_in = view_inputs(P, test, args.eval_points)
+    ev0 = evaluate(P, num_obj, test, models, index_of, test_in)
     print(summary("untrained", ev0), flush=True)
     if args.init:  # continue a run: its weights (the frozen CNN is the same initialisation)
         P = load_orpe(args.init, posenet_parameters(num_obj))
-        print(summary("start (" + args.init + ")", evaluate(P, num_obj, test, models, index_of, args.eval_points)),
+        print(summary("start (" + args.init + ")", evaluate(P, num_obj, test, models, index_of, test_in)),
               flush=True)
-    cnn = [p for name, p in P.p.items() if name.startswith("cnn__")]
-    if not args.train_cnn:  # the colour CNN stays at its initialisation: embeddings computed once
-        for p in cnn:
-            p.requires_grad_(False)
-        t0 = time.time()
-        cache = torch.load(args.cache) if args.cache and os.path.exists(args.cache) else None
-        with torch.no_grad():
-            for i, s in enumerate(train):
-                if cache is not None:
-                    s["pool_emb"], s["pool_cloud"] = cache[i]
-                    del s["crop"]
-                    continue
-                keep = rng.choice(len(s["choose_all"]), min(args.pool, len(s["choose_all"])), replace=False)
-                emb = pspnet(P, torch.from_numpy(s["crop"])[None]).view(32, -1)
-                s["pool_emb"] = emb[:, torch.from_numpy(s["choose_all"][keep].astype(np.int64))].clone()
-                s["pool_cloud"] = torch.from_numpy(s["cloud_all"][keep])
-                del s["crop"]
-        if args.cache and cache is None:
-            torch.save([(s["pool_emb"], s["pool_cloud"]) for s in train], args.cache)
-        print(f"colour embeddings of {len(train)} views (frozen CNN): {time.time() - t0:.0f} s", flush=True)
+    if not args.train_cnn:
+        for name, p in P.p.items():
+            p.requires_grad_(not name.startswith("cnn__"))
+        frozen_embeddings(P, train, args, rng)
     opt = torch.optim.Adam([p for p in P.parameters() if p.requires_grad], lr=args.lr)
     log = open(args.out + "_loss.txt", "a" if args.init else "w")
     if not args.init:
-        log.write("# step seconds loss mean_point_adds_m (running means over the last --log-every steps)\n")
-    step, start, acc_l, acc_d = 0, time.time(), 0.0, 0.0
-    while time.time() - start < 60 * args.minutes:
-        s = train[rng.integers(len(train))]
-        obj = index_of[s["obj_id"]]
-        if args.train_cnn:
-            img, cloud, choose = tensors(s, args.points, rng)
-            rot, trans, conf, _ = posenet(P, num_obj, img, cloud, choose, obj)
-        else:
-            m = s["pool_cloud"].shape[0]
-            idx = torch.from_numpy(rng.choice(m, args.points, replace=False) if m > args.points
-                                   else np.arange(args.points) % m)
-            cloud = s["pool_cloud"][idx][None]
-            rot, trans, conf = posenet_heads(P, num_obj, s["pool_emb"][:, idx][None], cloud, obj)
-        loss, dis = loss_fn(rot, trans, conf, cloud, loss_models[s["obj_id"]],
-                            torch.from_numpy(s["R"]), torch.from_numpy(s["t"]))
-        (loss / args.accumulate).backward()
+        log.write("# step wall_s cpu_s lr loss mean_point_adds_m best_point_adds_m heldout_adds_m "
+                  "(running means over the last --log-every steps; held-out: mean ADD-S, --eval-every)\n")
+    start, cpu0, acc = time.time(), time.process_time(), np.zeros(3)
+    step = 0
+    while step < args.steps and time.time() - start < 60 * args.minutes:
+        for g in opt.param_groups:
+            g["lr"] = learning_rate(args, step)
+        (rot, trans, conf), clouds, views = training_batch(P, num_obj, train, index_of, args, rng)
+        obj = torch.tensor([index_of[s["obj_id"]] for s in views])
+        loss, dis = loss_fn(rot, trans, conf, clouds, loss_models[obj],
+                            torch.from_numpy(np.stack([s["R"] for s in views])),
+                            torch.from_numpy(np.stack([s["t"] for s in views])))
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
         step += 1
-        if step % args.accumulate == 0:
-            opt.step()
-            opt.zero_grad()
-        acc_l += float(loss)
-        acc_d += float(dis.mean())
-        if step % args.log_every == 0:
-            line = f"{step} {time.time() - start:.0f} {acc_l / args.log_every:.5f} {acc_d / args.log_every:.5f}"
+        best = dis.detach().gather(1, conf.detach().argmax(1, keepdim=True))
+        acc += [float(loss), float(dis.mean()), float(best.mean())]
+        if step % args.log_every == 0 or step == args.steps:
+            held = ""
+            if args.eval_every and (step % args.eval_every == 0 or step == args.steps):
+                if args.train_cnn:
+                    test_in = view_inputs(P, test, args.eval_points)
+                held = f" {np.mean(evaluate(P, num_obj, test, models, index_of, test_in)['adds']):.5f}"
+                save_orpe(P.state(), args.out + "_posenet.pt")
+            k = step % args.log_every or args.log_every
+            line = (f"{step} {time.time() - start:.0f} {time.process_time() - cpu0:.0f} "
+                    f"{learning_rate(args, step - 1):.2e} " + " ".join(f"{v / k:.5f}" for v in acc) + held)
             print("step " + line, flush=True)
             log.write(line + "\n")
             log.flush()
-            acc_l = acc_d = 0.0
+            acc[:] = 0
     trained = P.state()
     save_orpe(trained, args.out + "_posenet.pt")
     torch.save(trained, args.out + "_pose_model.pth")
-    ev1 = evaluate(P, num_obj, test, models, index_of, args.eval_points)
-    print(f"trained {step} steps in {time.time() - start:.0f} s")
+    if args.train_cnn:
+        test_in = view_inputs(P, test, args.eval_points)
+    ev1 = evaluate(P, num_obj, test, models, index_of, test_in)
+    print(f"trained {step} steps of {args.batch} views x {args.points} points in {time.time() - start:.0f} s "
+          f"wall, {time.process_time() - cpu0:.0f} s CPU")
     print(summary("untrained", ev0))
     print(summary("trained", ev1))
 
@@ -458,8 +548,8 @@ def cmd_eval(args):
     num_obj = len(models)
     index_of = {obj_id: i for i, obj_id in enumerate(sorted(models))}
     P = load_orpe(args.model, posenet_parameters(num_obj))
-    print(summary(args.model, evaluate(P, num_obj, load_scene(args.test)[:: args.test_stride], models,
-                                       index_of, args.points)))
+    test = load_scene(args.test)[:: args.test_stride]
+    print(summary(args.model, evaluate(P, num_obj, test, models, index_of, view_inputs(P, test, args.points))))
 
 
 def main():
@@ -472,7 +562,7 @@ def main():
     t.add_argument("--train", required=True, help="comma-separated `orpe synth` dataset folders")
     t.add_argument("--test", required=True, help="held-out `orpe synth` dataset (same --models)")
     t.add_argument("--out", required=True, help="output prefix")
-    t.add_argument("--minutes", type=float, default=8)
+    t.add_argument("--minutes", type=float, default=60, help="stop earlier when this wall time is spent")
     t.add_argument("--points", type=int, default=100, help="chosen points per view (pose.densefusion_num_points)")
     t.add_argument("--train-cnn", action="store_true",
                    help="train the colour CNN too (a GPU's job); default: frozen at its initialisation")
@@ -482,11 +572,16 @@ def main():
     t.add_argument("--max-views", type=int, default=300, help="training views used (0 = all)")
     t.add_argument("--eval-points", type=int, default=100, help="chosen points per held-out view")
     t.add_argument("--loss-model-points", type=int, default=100)
-    t.add_argument("--lr", type=float, default=3e-4)
-    t.add_argument("--accumulate", type=int, default=4, help="views per optimiser step")
-    t.add_argument("--log-every", type=int, default=20)
+    t.add_argument("--steps", type=int, default=2000, help="optimiser steps (the schedule's length)")
+    t.add_argument("--batch", type=int, default=16, help="views per optimiser step (>= 16: oneDNN, see "
+                   "posenet_heads_batch)")
+    t.add_argument("--lr", type=float, default=1e-3, help="Adam's peak learning rate")
+    t.add_argument("--lr-final", type=float, default=0.01, help="final learning rate / --lr (cosine)")
+    t.add_argument("--warmup", type=int, default=50, help="steps of linear warm-up")
+    t.add_argument("--log-every", type=int, default=25)
+    t.add_argument("--eval-every", type=int, default=250, help="held-out ADD-S every N steps (0 = end only)")
     t.add_argument("--test-stride", type=int, default=2)
-    t.add_argument("--threads", type=int, default=2)
+    t.add_argument("--threads", type=int, default=1)
     t.add_argument("--seed", type=int, default=1)
     t.set_defaults(func=cmd_train)
     e = sub.add_parser("eval")

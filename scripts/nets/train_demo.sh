@@ -6,7 +6,7 @@
 # Steps can be re-run one by one (each is a plain command below). Runs niced; minutes of CPU each.
 set -euo pipefail
 OUT=${1:?output folder}
-DF_MIN=${2:-16}
+DF_MIN=${2:-38}
 MR_MIN=${3:-14}
 ORPE=${ORPE:-build/bin/orpe}
 PY=/usr/bin/python3
@@ -21,10 +21,11 @@ for s in 11 12 13 14 15 16 17 18 21 22; do
       --width 320 --height 240 --preview-stride 0 > /dev/null
 done
 TRAIN=$(ls -d "$OUT"/t1? | paste -sd,)   # t11..t18 train; t21 (DenseFusion) and t22 (Mask R-CNN) held out
-# DenseFusion PoseNet (frozen colour CNN, 32 points per step)
+# DenseFusion PoseNet (frozen colour CNN: its embeddings of every training view computed once; 16 views x
+# 64 points per step, Adam 1e-3 with warm-up and a cosine decay over DF_MIN minutes or 4000 steps)
 $N $PY scripts/nets/densefusion_train.py train --train "$TRAIN" --test "$OUT/t21" --out "$OUT/df" \
-    --minutes "$DF_MIN" --test-stride 6 --max-views 80 --threads 1 --accumulate 1 --lr 1e-3 --points 32 \
-    --log-every 50 --cache "$OUT/df_cache.pt"
+    --minutes "$DF_MIN" --steps 4000 --test-stride 2 --max-views 0 --threads 1 --batch 16 --points 64 \
+    --lr 1e-3 --warmup 50 --log-every 50 --eval-every 250 --cache "$OUT/df_cache.pt"
 # Mask R-CNN (small backbone), exported for the C++ back-end
 $N $PY scripts/nets/maskrcnn_train.py --train "$TRAIN" --out "$OUT/mrcnn" --minutes "$MR_MIN" --log-every 10
 for m in mrcnn mrcnn_untrained; do

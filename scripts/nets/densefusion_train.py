@@ -431,28 +431,30 @@ def cmd_selfcheck(args):
 
 def frozen_embeddings(P, train, args, rng):
     """The colour CNN stays at its initialisation: per training view, the embedding of --pool of its
-    valid pixels, computed once (and cached in --cache)."""
+    valid pixels, computed once and cached in --cache. A cache of the first k views (the same scenes
+    first, the same seed) is used for them and extended: the random draws are the same either way."""
     t0 = time.time()
-    cache = torch.load(args.cache) if args.cache and os.path.exists(args.cache) else None
-    if cache is not None and len(cache) != len(train):
+    cache = torch.load(args.cache) if args.cache and os.path.exists(args.cache) else []
+    if len(cache) > len(train):
         sys.exit(f"{args.cache}: {len(cache)} views cached, {len(train)} loaded (delete it)")
     with torch.no_grad():
         for i, s in enumerate(train):
-            if cache is not None:
+            keep = rng.choice(len(s["choose_all"]), min(args.pool, len(s["choose_all"])), replace=False)
+            if i < len(cache):
                 s["pool_emb"], s["pool_cloud"] = cache[i]
             else:
-                keep = rng.choice(len(s["choose_all"]), min(args.pool, len(s["choose_all"])), replace=False)
                 emb = pspnet(P, torch.from_numpy(s["crop"])[None]).view(32, -1)
                 s["pool_emb"] = emb[:, torch.from_numpy(s["choose_all"][keep].astype(np.int64))].clone()
                 s["pool_cloud"] = torch.from_numpy(s["cloud_all"][keep])
             del s["crop"]
-    if args.cache and cache is None:
+    if args.cache and len(cache) < len(train):
         torch.save([(s["pool_emb"], s["pool_cloud"]) for s in train], args.cache)
     print(f"colour embeddings of {len(train)} views (frozen CNN): {time.time() - t0:.0f} s", flush=True)
 
 
 def training_batch(P, num_obj, train, index_of, args, rng):
-    """--batch random views, --points random points of each -> the heads' outputs and the views."""
+    """--batch random views, --points random points of each -> the heads' outputs, the (shifted)
+    clouds, the views and their shifts."""
     views = [train[i] for i in rng.choice(len(train), args.batch, replace=len(train) < args.batch)]
     embs, clouds = [], []
     for s in views:
@@ -467,9 +469,12 @@ def training_batch(P, num_obj, train, index_of, args, rng):
             emb, cloud = s["pool_emb"][:, idx], s["pool_cloud"][idx]
         embs.append(emb)
         clouds.append(cloud)
-    clouds = torch.stack(clouds)
+    # The reference's training noise (datasets/ycb/dataset.py, add_noise): one random translation of the
+    # cloud and of the target pose per view, here uniform in +-shift_m per axis.
+    shifts = torch.from_numpy(rng.uniform(-args.shift_m, args.shift_m, (len(views), 3)).astype(np.float32))
+    clouds = torch.stack(clouds) + shifts[:, None]
     obj = torch.tensor([index_of[s["obj_id"]] for s in views])
-    return posenet_heads_batch(P, num_obj, torch.stack(embs), clouds, obj), clouds, views
+    return posenet_heads_batch(P, num_obj, torch.stack(embs), clouds, obj), clouds, views, shifts
 
 
 def learning_rate(args, step, elapsed_s=0.0):
@@ -524,11 +529,11 @@ def cmd_train(args):
     while step < args.steps and time.time() - start < 60 * args.minutes:
         for g in opt.param_groups:
             g["lr"] = lr = learning_rate(args, step, time.time() - start)
-        (rot, trans, conf), clouds, views = training_batch(P, num_obj, train, index_of, args, rng)
+        (rot, trans, conf), clouds, views, shifts = training_batch(P, num_obj, train, index_of, args, rng)
         obj = torch.tensor([index_of[s["obj_id"]] for s in views])
         loss, dis = loss_fn(rot, trans, conf, clouds, loss_models[obj],
                             torch.from_numpy(np.stack([s["R"] for s in views])),
-                            torch.from_numpy(np.stack([s["t"] for s in views])))
+                            torch.from_numpy(np.stack([s["t"] for s in views])) + shifts)
         opt.zero_grad()
         loss.backward()
         opt.step()
@@ -594,6 +599,8 @@ def main():
     t.add_argument("--batch", type=int, default=16, help="views per optimiser step; >= 16 keeps the "
                    "backward pass of the 1x1 convolutions on oneDNN (below, PyTorch 1.13 with one thread "
                    "runs it on the BLAS: 2.5 s against 0.2 s per step measured)")
+    t.add_argument("--shift-m", type=float, default=0.05,
+                   help="training noise: random translation of each view's cloud and target, +- m per axis")
     t.add_argument("--lr", type=float, default=1e-3, help="Adam's peak learning rate")
     t.add_argument("--lr-final", type=float, default=0.01, help="final learning rate / --lr (cosine)")
     t.add_argument("--warmup", type=int, default=50, help="steps of linear warm-up")

@@ -6,7 +6,7 @@
 # Steps can be re-run one by one (each is a plain command below). Runs niced; minutes of CPU each.
 set -euo pipefail
 OUT=${1:?output folder}
-DF_MIN=${2:-38}
+DF_MIN=${2:-30}
 MR_MIN=${3:-14}
 ORPE=${ORPE:-build/bin/orpe}
 PY=/usr/bin/python3
@@ -20,12 +20,19 @@ for s in 11 12 13 14 15 16 17 18 21 22; do
   $N $ORPE synth --out "$OUT/t$s" --seed $s --frames 40 --objects 3 --models $M --model-unit-m 0.001 \
       --width 320 --height 240 --preview-stride 0 > /dev/null
 done
+# 8 more placements for DenseFusion (session 9): 20 frames each
+for s in 31 32 33 34 35 36 37 38; do
+  $N $ORPE synth --out "$OUT/t$s" --seed $s --frames 20 --objects 3 --models $M --model-unit-m 0.001 \
+      --width 320 --height 240 --preview-stride 0 > /dev/null
+done
 TRAIN=$(ls -d "$OUT"/t1? | paste -sd,)   # t11..t18 train; t21 (DenseFusion) and t22 (Mask R-CNN) held out
+DF_TRAIN=$(ls -d "$OUT"/t1? "$OUT"/t3? | paste -sd,)
 # DenseFusion PoseNet (frozen colour CNN: its embeddings of every training view computed once; 16 views x
-# 64 points per step, Adam 1e-3 with warm-up and a cosine decay over DF_MIN minutes or 4000 steps)
-$N $PY scripts/nets/densefusion_train.py train --train "$TRAIN" --test "$OUT/t21" --out "$OUT/df" \
+# 64 points per step, +-5 cm translation noise, Adam 1e-3 with warm-up and a cosine decay over DF_MIN
+# minutes or 4000 steps, whichever ends first)
+$N $PY scripts/nets/densefusion_train.py train --train "$DF_TRAIN" --test "$OUT/t21" --out "$OUT/df" \
     --minutes "$DF_MIN" --steps 4000 --test-stride 2 --max-views 0 --threads 1 --batch 16 --points 64 \
-    --lr 1e-3 --warmup 50 --log-every 50 --eval-every 250 --cache "$OUT/df_cache.pt"
+    --shift-m 0.05 --lr 1e-3 --warmup 50 --log-every 50 --eval-every 250 --cache "$OUT/df_cache.pt"
 # Mask R-CNN (small backbone), exported for the C++ back-end
 $N $PY scripts/nets/maskrcnn_train.py --train "$TRAIN" --out "$OUT/mrcnn" --minutes "$MR_MIN" --log-every 10
 for m in mrcnn mrcnn_untrained; do

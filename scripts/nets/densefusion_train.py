@@ -8,7 +8,7 @@ ADD-S weighted by the confidence, minus w log c). docs/NETWORKS.md, docs/RESULTS
   selfcheck  this port against the committed equivalence fixture of the reference implementation
              (tests/nets/data/densefusion_small.pt): must agree to 1e-4.
   train      /usr/bin/python3 scripts/nets/densefusion_train.py train --train DIR1,DIR2,... \\
-                 --test DIR --out PREFIX --minutes 8
+                 --test DIR --out PREFIX --minutes 30 --batch 16 --points 64 --max-views 0
              writes PREFIX_posenet.pt (orpe's tensor file: pose.densefusion_model), PREFIX_pose_model.pth
              (the reference's state_dict format), the loss log, and the ADD-S on the held-out scene of
              the untrained and the trained network.

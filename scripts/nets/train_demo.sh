@@ -48,12 +48,14 @@ for m in mrcnn mrcnn_untrained; do
 done
 # C++: DenseFusion poses on the held-out scene t21 (orpe's pipeline, ground-truth segmentation), scored
 for m in df_posenet df_untrained_posenet; do
-  $N $ORPE run --dataset "$OUT/t21" --out "$OUT/run_$m" --mode full --set dataset.last_frame=11 \
-      --set pipeline.pose_every_n_keyframes=3 --ablation DF-PM-PD --ablation DF-PM-PD-PC \
-      --set pose.backend=densefusion --set pose.densefusion_model="$OUT/$m.pt" \
-      --set pose.densefusion_iterations=0 --set pose.densefusion_num_points=100
-  for v in DF-PM-PD DF-PM-PD-PC; do
-    $ORPE eval poses --dataset "$OUT/t21" --result "$OUT/run_$m/ablation/$v/poses.csv" \
-        --keyframes "$OUT/run_$m/evaluated_frames.txt"
+  for last in 11 39; do  # the first 12 frames (session 8's comparison) and all 40
+    R=$OUT/run_${m}_f$last
+    $N $ORPE run --dataset "$OUT/t21" --out "$R" --mode full --set dataset.last_frame=$last \
+        --set pipeline.pose_every_n_keyframes=3 --ablation DF-PM-PD --ablation DF-PM-PD-PC \
+        --set pose.backend=densefusion --set pose.densefusion_model="$OUT/$m.pt" \
+        --set pose.densefusion_iterations=0 --set pose.densefusion_num_points=100
+    for v in DF-PM-PD DF-PM-PD-PC; do
+      $ORPE eval poses --dataset "$OUT/t21" --result "$R/ablation/$v/poses.csv" --keyframes "$R/evaluated_frames.txt"
+    done
   done
 done

@@ -17,9 +17,9 @@ import os
 import sys
 import time
 
-import cv2
 import numpy as np
 import torch
+from PIL import Image
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from maskrcnn_export import small_maskrcnn  # noqa: E402
@@ -31,12 +31,12 @@ def load_scene(root, stride, min_px):
     info = json.load(open(os.path.join(scene, "scene_gt_info.json")))
     items = []
     for im in sorted(gt, key=int)[::stride]:
-        rgb = cv2.cvtColor(cv2.imread(os.path.join(scene, "rgb", f"{int(im):06d}.png")), cv2.COLOR_BGR2RGB)
+        rgb = np.array(Image.open(os.path.join(scene, "rgb", f"{int(im):06d}.png")).convert("RGB"))
         masks, labels = [], []
         for k, (g, inf) in enumerate(zip(gt[im], info[im])):
             if inf["px_count_visib"] < min_px:
                 continue
-            m = cv2.imread(os.path.join(scene, "mask_visib", f"{int(im):06d}_{k:06d}.png"), cv2.IMREAD_GRAYSCALE) > 0
+            m = np.array(Image.open(os.path.join(scene, "mask_visib", f"{int(im):06d}_{k:06d}.png")).convert("L")) > 0
             masks.append(m)
             labels.append(g["obj_id"])
         items.append((rgb, masks, labels))

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 
@@ -211,6 +212,37 @@ TEST(RosBag, MissingTopicsAndIntrinsicsAreClearErrors) {
   test::write_text(junk, "not a bag at all\n");
   test::expect_io_error_naming([&] { open_dataset(junk, DatasetParams{}); },
                                "cannot read the ROS bag");
+}
+
+/// The bytes of `path` with every `from` replaced by `to` (the same length).
+void patch_file(const std::string& path, const std::string& from, const std::string& to) {
+  std::ifstream is(path, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+  is.close();
+  ASSERT_EQ(from.size(), to.size());
+  size_t n = 0;
+  for (size_t at = bytes.find(from); at != std::string::npos; at = bytes.find(from, at + 1), ++n)
+    bytes.replace(at, to.size(), to);
+  ASSERT_GT(n, 0u) << "nothing to patch in " << path;
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+TEST(RosBag, AnImageOfAnotherDefinitionOrALyingLengthIsAnErrorNotACrash) {
+  // Another md5sum for sensor_msgs/Image: rosbag's instantiate() gave a null pointer, which was
+  // dereferenced (SIGSEGV; fuzz review, fuzz/corpus/rosbag/crash-review-segv-md5-mismatch.bag).
+  const std::string other = write_tum_like_bag("md5.bag", true, true);
+  patch_file(other, "md5sum=060021388200f6f0f447d0fcd9c64743",
+             "md5sum=00000000000000000000000000000000");
+  test::expect_io_error_naming([&] { open_dataset(other, DatasetParams{}); },
+                               "sensor_msgs/Image of another definition");
+  // The first colour image's data length (156 bytes after step 26) claims 200 MB: roscpp
+  // allocated the claimed length before it found the bytes missing (4 GB at most: out of memory;
+  // fuzz/corpus/rosbag/crash-review-oom-image-data-length.bag).
+  const std::string lying = write_tum_like_bag("length.bag", true, true);
+  patch_file(lying, std::string("\x1a\0\0\0\x9c\0\0\0", 8),
+             std::string("\x1a\0\0\0\0\xc2\xeb\x0b", 8));
+  test::expect_io_error_naming([&] { open_dataset(lying, DatasetParams{}); },
+                               "field data needs 200000000 bytes");
 }
 
 /// Every frame of `dataset` written to a bag the TUM way: rgb8 colour, 32FC1 depth (metres, exact)

@@ -440,6 +440,10 @@ TEST(ModelsFolder, NamesUnitsIdsAndSymmetrySidecar) {
   test::write_text(dir + "/mm/symmetry.yaml", "bowl: none\n");
   test::expect_io_error_naming([&] { apply_models_folder(sym, dir + "/mm", "mm"); },
                                "no model named 'bowl'");
+  // A key that is not a plain name (fuzz: the bare YAML::BadConversion it made escaped).
+  test::write_text(dir + "/mm/symmetry.yaml", "box: none\n? [mug, box]\n: none\n");
+  test::expect_io_error_naming([&] { apply_models_folder(sym, dir + "/mm", "mm"); },
+                               "line 2: a model name must be a plain word");
   std::filesystem::remove(dir + "/mm/symmetry.yaml");
   // Two meshes in one object folder without a textured.obj: which one is meant is unclear.
   write_ply(dir + "/mm/mug/mug2.ply", make_box(Eigen::Vector3f(0.08f, 0.08f, 0.1f), 0.02f), mm);

@@ -166,6 +166,7 @@ TEST(ModelRecognizer, SizeTestOfABoxSeenByThreeFacesIsItsDiameter) {
   auto detections_with = [&](bool by_diameter) {
     RecognitionParams p;
     p.extent_test_by_diameter = by_diameter;
+    p.resting_search = false;  // the crop search alone (the resting search has no size test)
     return ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, {model}).detect(f);
   };
   EXPECT_EQ(class_counts(detections_with(true)), (std::map<int, int>{{7, 1}}));

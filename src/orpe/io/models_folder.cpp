@@ -162,6 +162,11 @@ std::map<std::string, std::optional<ModelSymmetrySpec>> read_symmetry_file(
   if (!root.IsMap()) throw IoError(path, "expected 'model name: symmetry' lines");
   for (const auto& kv : root) {
     const int line = kv.first.Mark().line + 1;
+    // A sequence or map as the key made as<std::string>() throw a bare YAML::BadConversion (fuzz).
+    if (!kv.first.IsScalar())
+      throw IoError(path, fmt::format("line {}: a model name must be a plain word, not a list or "
+                                      "a map",
+                                      line));
     const std::string name = kv.first.as<std::string>();
     if (!ids.count(name))
       throw IoError(path, fmt::format("line {}: no model named '{}' in the folder", line, name));

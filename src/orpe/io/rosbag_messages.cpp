@@ -2,6 +2,7 @@
 // standard and ROS headers here; see rosbag_messages.h.
 #include "orpe/io/rosbag_messages.h"
 
+#include <cstring>
 #include <stdexcept>
 
 #if ORPE_HAVE_ROSBAG
@@ -77,10 +78,85 @@ struct BagReader::Impl {
 
 namespace {
 
-void check_type(const rosbag::MessageInstance& m, const std::string& want,
-                const std::string& topic) {
+/// The message's type must be Msg, of the definition orpe was built with (the same md5sum):
+/// rosbag's instantiate() gives a null pointer for another definition.
+template <class Msg>
+void check_type(const rosbag::MessageInstance& m, const std::string& topic) {
+  const std::string want = ros::message_traits::datatype<Msg>();
   if (m.getDataType() != want)
     throw std::runtime_error("topic " + topic + " holds " + m.getDataType() + ", not " + want);
+  const std::string md5 = ros::message_traits::md5sum<Msg>();
+  if (m.getMD5Sum() != md5 && m.getMD5Sum() != "*")
+    throw std::runtime_error("topic " + topic + " holds " + want +
+                             " of another definition (md5sum " + m.getMD5Sum() + "; orpe reads " +
+                             md5 + ")");
+}
+
+/// Walks a message's serialized bytes: every length-prefixed field must fit in the bytes left.
+/// roscpp resizes a vector to its stated length before it checks that the bytes are there, so a
+/// corrupt length allocated up to 4 GB (32 GB for a double vector): a fuzz finding.
+class FieldWalker {
+ public:
+  FieldWalker(const std::vector<std::uint8_t>& bytes, const std::string& what)
+      : p_(bytes.data()), left_(bytes.size()), what_(what) {}
+  void skip(size_t n, const char* field) {
+    if (n > left_)
+      throw std::runtime_error(what_ + ": field " + field + " needs " + std::to_string(n) +
+                               " bytes, the message has " + std::to_string(left_) + " left");
+    p_ += n, left_ -= n;
+  }
+  std::uint32_t u32(const char* field) {
+    std::uint32_t v = 0;
+    if (left_ >= 4) std::memcpy(&v, p_, 4);  // little-endian, as ROS serialises
+    skip(4, field);
+    return v;
+  }
+  void string(const char* field) { skip(u32(field), field); }
+  void vector(size_t element_bytes, const char* field) {
+    skip(static_cast<size_t>(u32(field)) * element_bytes, field);
+  }
+
+ private:
+  const std::uint8_t* p_;
+  size_t left_;
+  std::string what_;
+};
+
+void check_fields(const std::vector<std::uint8_t>& b, const sensor_msgs::Image*,
+                  const std::string& what) {
+  FieldWalker w(b, what);
+  w.skip(12, "header.seq/stamp");
+  w.string("header.frame_id");
+  w.skip(8, "height/width");
+  w.string("encoding");
+  w.skip(5, "is_bigendian/step");
+  w.vector(1, "data");
+}
+
+void check_fields(const std::vector<std::uint8_t>& b, const sensor_msgs::CameraInfo*,
+                  const std::string& what) {
+  FieldWalker w(b, what);
+  w.skip(12, "header.seq/stamp");
+  w.string("header.frame_id");
+  w.skip(8, "height/width");
+  w.string("distortion_model");
+  w.vector(8, "D");
+  w.skip(8 * (9 + 9 + 12) + 8 + 17, "K/R/P/binning/roi");
+}
+
+/// The message, deserialised from its bytes once check_type and check_fields have passed.
+template <class Msg>
+Msg read_message(const rosbag::MessageInstance& m, const std::string& topic, size_t k) {
+  check_type<Msg>(m, topic);
+  std::vector<std::uint8_t> bytes(m.size());
+  ros::serialization::OStream out(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  m.write(out);
+  check_fields(bytes, static_cast<const Msg*>(nullptr),
+               "message " + std::to_string(k) + " on " + topic);
+  Msg msg;
+  ros::serialization::IStream in(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  ros::serialization::deserialize(in, msg);
+  return msg;
 }
 
 template <class Fn>
@@ -121,8 +197,8 @@ std::vector<double> BagReader::image_stamps(const std::string& topic) const {
     std::vector<rosbag::MessageInstance> kept;
     std::vector<double> stamps;
     for (const rosbag::MessageInstance& m : view) {
-      check_type(m, "sensor_msgs/Image", topic);
-      stamps.push_back(m.instantiate<sensor_msgs::Image>()->header.stamp.toSec());
+      stamps.push_back(
+          read_message<sensor_msgs::Image>(m, topic, kept.size()).header.stamp.toSec());
       kept.push_back(m);
     }
     impl_->messages.emplace_back(topic, std::move(kept));
@@ -135,15 +211,13 @@ ImageMessage BagReader::image(const std::string& topic, size_t k) const {
     const auto* v = impl_->find(topic);
     if (!v || k >= v->size())
       throw std::runtime_error("no image " + std::to_string(k) + " on topic " + topic);
-    const auto msg = (*v)[k].instantiate<sensor_msgs::Image>();
-    if (!msg)
-      throw std::runtime_error("message " + std::to_string(k) + " of " + topic + " is unreadable");
+    sensor_msgs::Image msg = read_message<sensor_msgs::Image>((*v)[k], topic, k);
     ImageMessage out;
-    out.stamp_s = msg->header.stamp.toSec();
-    out.encoding = msg->encoding;
-    out.width = msg->width, out.height = msg->height, out.step = msg->step;
-    out.big_endian = msg->is_bigendian != 0;
-    out.data = msg->data;
+    out.stamp_s = msg.header.stamp.toSec();
+    out.encoding = msg.encoding;
+    out.width = msg.width, out.height = msg.height, out.step = msg.step;
+    out.big_endian = msg.is_bigendian != 0;
+    out.data = std::move(msg.data);
     return out;
   });
 }
@@ -152,14 +226,13 @@ std::optional<CameraInfoMessage> BagReader::first_camera_info(const std::string&
   return translate([&]() -> std::optional<CameraInfoMessage> {
     rosbag::View view(impl_->bag, rosbag::TopicQuery(topic));
     for (const rosbag::MessageInstance& m : view) {
-      check_type(m, "sensor_msgs/CameraInfo", topic);
-      const auto info = m.instantiate<sensor_msgs::CameraInfo>();
+      const auto info = read_message<sensor_msgs::CameraInfo>(m, topic, 0);
       CameraInfoMessage out;
-      out.stamp_s = info->header.stamp.toSec();
-      out.width = info->width, out.height = info->height;
-      for (int i = 0; i < 9; ++i) out.K[i] = info->K[i];
-      out.distortion_model = info->distortion_model;
-      out.D = info->D;
+      out.stamp_s = info.header.stamp.toSec();
+      out.width = info.width, out.height = info.height;
+      for (int i = 0; i < 9; ++i) out.K[i] = info.K[i];
+      out.distortion_model = info.distortion_model;
+      out.D = info.D;
       return out;
     }
     return std::nullopt;

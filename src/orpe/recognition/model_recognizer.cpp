@@ -35,6 +35,13 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(crop_radius_factor > 0) || !(crop_spacing_factor > 0))
     return fail("crop_radius_factor and crop_spacing_factor must be > 0");
   if (max_crops < 1) return fail("max_crops must be >= 1");
+  if (!(resting_min_face_fraction >= 0 && resting_min_face_fraction <= 1) ||
+      resting_face_min_cells < 3 || !(resting_face_max_tilt_deg > 0) ||
+      !(resting_face_max_bottom_m > 0) || !(resting_height_tolerance_m > 0) ||
+      !(resting_width_slack_m >= 0))
+    return fail(
+        "resting_min_face_fraction must be in [0, 1], resting_face_min_cells >= 3, the resting "
+        "tilt, bottom and height tolerance > 0, resting_width_slack_m >= 0");
   if (!(inlier_distance_per_m2 >= 0)) return fail("inlier_distance_per_m2 must be >= 0");
   if (!(inlier_distance_m > 0) || !(free_space_margin_m > 0) || !(below_plane_margin_m > 0))
     return fail("inlier_distance_m, free_space_margin_m, below_plane_margin_m must be > 0");
@@ -158,6 +165,7 @@ struct Hypothesis {
   double fit = 0;       // sum over the explained points of 1 - (distance / inlier distance)^2
   double lowest_m = 0;  // lowest model point's height over the support plane (inf: no plane)
   bool from_track = false;
+  bool resting = false;  // placed by the resting search
   int track = -1;
   double rank = 0;
   bool dropped = false;  // by a clutter rule, out of the later selections of the cascade
@@ -440,9 +448,13 @@ MaskImage crop_mask(const SceneGrid& g, const std::vector<int>& cells, int W, in
 
 /// Crops of a region for a model: the whole region when its extents fit the model's, else balls
 /// around seeds spread by farthest-point sampling; crops whose extents do not fit are dropped.
-std::vector<std::vector<int>> region_crops(const SceneGrid& g, const std::vector<int>& cells,
-                                           const ObjectModel& model, const Vec3f& model_extents,
-                                           const RecognitionParams& p) {
+// Not inlined: inlined into search_regions, GCC 12 warns (-Wfree-nonheap-object, a false
+// positive) on its vector's destructor.
+[[gnu::noinline]] std::vector<std::vector<int>> region_crops(const SceneGrid& g,
+                                                             const std::vector<int>& cells,
+                                                             const ObjectModel& model,
+                                                             const Vec3f& model_extents,
+                                                             const RecognitionParams& p) {
   std::vector<std::vector<int>> crops;
   auto extents_of = [&](const std::vector<int>& cs) {
     std::vector<Vec3f> pts;
@@ -506,6 +518,10 @@ ModelRecognizer::ModelRecognizer(const SegmentationParams& segmentation,
   for (auto& m : models_) {
     if (!m.prepared() || !m.has_normals()) prepare_object_model(m);
     model_extents_.push_back(principal_extents(m.points, params_.min_area_extents));
+    model_face_axes_.push_back(model_face_axes(m));
+    spdlog::debug("recognition: {} face axes {:.3f} x {:.3f} x {:.3f} m, {:.2f} of its normals",
+                  m.name, model_face_axes_.back().extents[0], model_face_axes_.back().extents[1],
+                  model_face_axes_.back().extents[2], model_face_axes_.back().face_fraction);
   }
 }
 
@@ -542,6 +558,9 @@ struct ModelRecognizer::Pass {
                      Hypothesis* out) const;
   void refine_tracks();
   void search_regions();
+  void add_resting_tasks(const std::vector<int>& rest,
+                         std::vector<std::pair<int, std::vector<int>>>& tasks,
+                         std::vector<std::optional<SE3>>& priors);
   void select();
   void reject_clutter();
   std::vector<Detection> detections();
@@ -638,28 +657,70 @@ void ModelRecognizer::Pass::search_regions() {
     for (size_t mi = 0; mi < rec.models_.size(); ++mi)
       for (auto& crop : region_crops(g, rest, rec.models_[mi], rec.model_extents_[mi], p))
         tasks.emplace_back(static_cast<int>(mi), std::move(crop));
+    std::vector<std::optional<SE3>> priors(tasks.size());
+    add_resting_tasks(rest, tasks, priors);
     std::vector<Hypothesis> found(tasks.size());
     std::vector<char> ok(tasks.size(), 0);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int k = 0; k < static_cast<int>(tasks.size()); ++k)
-      ok[k] = register_crop(tasks[k].first, tasks[k].second, nullptr, &found[k]);
+      ok[k] = register_crop(tasks[k].first, tasks[k].second, priors[k] ? &*priors[k] : nullptr,
+                            &found[k]);
     searches += static_cast<int>(tasks.size());
     for (size_t k = 0; k < tasks.size(); ++k) {
       if (!ok[k]) continue;
+      found[k].resting = priors[k].has_value();
       spdlog::trace(
           "recognition: {} on {} crop points at px {},{}: explains {} (fit {:.0f}), support "
           "{:.2f}, "
-          "violation {:.2f}, lowest {:.3f}, colour {:.2f}, at {:.3f} {:.3f} {:.3f} (#{})",
+          "violation {:.2f}, lowest {:.3f}, colour {:.2f}, at {:.3f} {:.3f} {:.3f} (#{}{})",
           rec.models_[found[k].model].name, tasks[k].second.size(),
           g.pixel_u(tasks[k].second.front()), g.pixel_v(tasks[k].second.front()),
           found[k].explained.size(), found[k].fit, found[k].support, found[k].violation,
           found[k].lowest_m, found[k].colour, found[k].T_cam_obj.translation().x(),
-          found[k].T_cam_obj.translation().y(), found[k].T_cam_obj.translation().z(), hyps.size());
+          found[k].T_cam_obj.translation().y(), found[k].T_cam_obj.translation().z(), hyps.size(),
+          found[k].resting ? ", resting" : "");
       hyps.push_back(std::move(found[k]));
     }
     searched.push_back({centroid_world});
     spdlog::debug("recognition: region of {} points ({} unexplained): {} searches",
                   region.cells.size(), rest.size(), tasks.size());
+  }
+}
+
+/// Resting search of a region's unexplained cells: each box model placed on the support at each
+/// vertical face they show (resting_search.h), to be refined from there on the cells inside the
+/// placed box (+1.5 cm).
+void ModelRecognizer::Pass::add_resting_tasks(const std::vector<int>& rest,
+                                              std::vector<std::pair<int, std::vector<int>>>& tasks,
+                                              std::vector<std::optional<SE3>>& priors) {
+  if (!p.resting_search || g.planes.empty()) return;
+  if (!normals) normals.emplace(g, p.normal_radius_cells);
+  RestingFaceParams fp;
+  fp.min_cells = p.resting_face_min_cells;
+  fp.max_tilt_deg = p.resting_face_max_tilt_deg;
+  fp.max_bottom_m = p.resting_face_max_bottom_m;
+  fp.height_tolerance_m = p.resting_height_tolerance_m;
+  fp.width_slack_m = p.resting_width_slack_m;
+  const Plane& support = g.planes.front();
+  for (const VerticalFace& f : vertical_faces(g, *normals, rest, support, fp)) {
+    spdlog::trace("recognition: vertical face of {} cells, {:.3f} wide, heights {:.3f}-{:.3f}",
+                  f.cells, f.s_max - f.s_min, f.bottom, f.top);
+    for (size_t mi = 0; mi < rec.models_.size(); ++mi) {
+      const ModelFaceAxes& ax = rec.model_face_axes_[mi];
+      if (ax.face_fraction < p.resting_min_face_fraction) continue;
+      const Vec3f half = 0.5f * ax.extents + Vec3f::Constant(0.015f);
+      for (const SE3& T : resting_poses(ax, f, support, fp)) {
+        const SE3 T_obj_cam = T.inverse();
+        const Eigen::Matrix3f R = ax.axes.transpose() * T_obj_cam.rotation().cast<float>();
+        const Vec3f t = ax.axes.transpose() * (T_obj_cam.translation().cast<float>() - ax.centre);
+        std::vector<int> cells;
+        for (int c : rest)
+          if (((R * g.points[c] + t).cwiseAbs() - half).maxCoeff() <= 0) cells.push_back(c);
+        if (static_cast<int>(cells.size()) < p.min_explained_points) continue;
+        tasks.emplace_back(static_cast<int>(mi), std::move(cells));
+        priors.push_back(T);
+      }
+    }
   }
 }
 
@@ -683,8 +744,11 @@ void ModelRecognizer::Pass::select() {
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;
     if (fresh < p.min_explained_points ||
-        fresh < p.min_new_fraction * static_cast<double>(h.explained.size()))
+        fresh < p.min_new_fraction * static_cast<double>(h.explained.size())) {
+      spdlog::trace("recognition: #{} {} (rank {:.0f}): {} of {} points new", i,
+                    rec.models_[h.model].name, h.rank, fresh, h.explained.size());
       continue;
+    }
     for (int c : h.explained)
       if (explained_by[c] < 0) explained_by[c] = i;
     kept.push_back(i);

@@ -29,6 +29,7 @@
 #include "orpe/core/se3.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/object_model.h"
+#include "orpe/recognition/resting_search.h"
 #include "orpe/recognition/scene_geometry.h"
 #include "orpe/semantic/segmenter.h"
 
@@ -48,6 +49,14 @@ struct RecognitionParams {
   double crop_radius_factor = 0.55;     ///< crops: region points within this x diameter of a seed
   double crop_spacing_factor = 0.45;    ///< seeds this x diameter apart (farthest-point sampling)
   int max_crops = 5;                    ///< per region and model
+  // Resting search: boxes on the support at an observed vertical face (resting_search.h).
+  bool resting_search = true;
+  double resting_min_face_fraction = 0.6;  ///< models with this much of their surface on 3 axes
+  int resting_face_min_cells = 60;
+  double resting_face_max_tilt_deg = 15;
+  double resting_face_max_bottom_m = 0.03;
+  double resting_height_tolerance_m = 0.02;
+  double resting_width_slack_m = 0.02;
   // Verification.
   double inlier_distance_m = 0.01;
   double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
@@ -109,6 +118,28 @@ struct RecognitionParams {
     v("crop_spacing_factor", crop_spacing_factor,
       "Seeds of the crops this x the model diameter apart (farthest-point sampling)");
     v("max_crops", max_crops, "Crops per region and model");
+    v("resting_search", resting_search,
+      "Besides the crops, every region is searched for boxes resting on the support on one of "
+      "their faces at each vertical face it shows (the box's face on the observed face, its "
+      "bottom on the plane), refined from there: a box touched by other objects is held by no "
+      "crop alone; false = crops only");
+    v("resting_min_face_fraction", resting_min_face_fraction,
+      "Resting search: models with at least this fraction of their surface normals within 10 "
+      "degrees of three orthogonal axes (boxes) are placed");
+    v("resting_face_min_cells", resting_face_min_cells,
+      "Resting search: grid cells of a vertical face (normal within resting_face_max_tilt_deg of "
+      "horizontal, one offset within 1.5 cm)");
+    v("resting_face_max_tilt_deg", resting_face_max_tilt_deg,
+      "Resting search: a face's normals at most this far (deg) from the support plane");
+    v("resting_face_max_bottom_m", resting_face_max_bottom_m,
+      "Resting search: a face whose lowest points (2nd percentile) are higher than this (m) over "
+      "the support does not reach it (the plane removal takes its lowest plane_distance_m)");
+    v("resting_height_tolerance_m", resting_height_tolerance_m,
+      "Resting search: the model's extent along the support normal within this (m) of the face's "
+      "top (98th percentile of its heights)");
+    v("resting_width_slack_m", resting_width_slack_m,
+      "Resting search: the face may be this much (m) wider than the model's side along it; a "
+      "face narrower by more is partly hidden and the model is aligned with either end of it");
     v("inlier_distance_m", inlier_distance_m,
       "An observed point within this distance (m) of the model surface is explained");
     v("inlier_distance_per_m2", inlier_distance_per_m2,
@@ -276,6 +307,7 @@ class ModelRecognizer final : public Segmenter {
   SceneGeometryParams geometry_;
   std::vector<ObjectModel> models_;
   std::vector<Eigen::Vector3f> model_extents_;  ///< principal extents, largest first
+  std::vector<ModelFaceAxes> model_face_axes_;  ///< the resting search's box axes
   ModelRegistrationEstimator search_, refine_;
   State state_;
   mutable std::vector<RecognizedObject> last_objects_;

@@ -41,6 +41,7 @@ struct Tally {
   int objects = 0, found = 0, wrong_class = 0, spurious = 0;
   std::vector<double> first_ms, first_cpu_ms, later_ms, later_cpu_ms, adds;
   std::map<std::string, std::pair<int, int>> per_class;
+  std::map<std::string, int> spurious_on;  ///< target (fragment, duplicate), distractor, background
 };
 
 Rgb8 region_colour(int r) {
@@ -87,10 +88,42 @@ void dump_frame(const std::string& path, const RgbdFrame& frame, const OrpeConfi
   write_color_png(path, out);
 }
 
+/// What a spurious detection lies on, by the majority of its mask pixels: "t<name>" an annotated
+/// object (a fragment or duplicate of it), "d<id>" a distractor of an `orpe synth` scene (its
+/// distractor/ image, when there is one), "bg" anything else.
+std::string spurious_on(const RgbdFrame& frame, const DatasetInfo& info,
+                        const LabelImage& distractors, const Detection& det) {
+  std::map<std::string, int> votes;
+  for (size_t p = 0; p < frame.labels_gt.size(); ++p) {
+    if (det.probability[p] < 0.5f) continue;
+    const int l = frame.labels_gt[p];
+    if (l > 0 && l <= static_cast<int>(frame.objects_gt.size()))
+      ++votes["t" + info.class_names.at(frame.objects_gt[static_cast<size_t>(l) - 1].class_id)];
+    else if (!distractors.empty() && distractors[p] > 0)
+      ++votes[fmt::format("d{}", distractors[p])];
+    else
+      ++votes["bg"];
+  }
+  std::string best = "bg";
+  int most = 0;
+  for (const auto& [k, n] : votes)
+    if (n > most) most = n, best = k;
+  return best;
+}
+
+/// The distractor image of frame `index` of an `orpe synth` scene (DIR/test/SCENE/distractor/),
+/// empty when the dataset has none.
+LabelImage distractor_labels(const std::string& root, const std::string& scene, int index) {
+  const std::string path = fmt::format("{}/test/{}/distractor/{:06d}.png", root,
+                                       scene.empty() ? "000000" : scene, index);
+  return std::filesystem::exists(path) ? read_label_image(path) : LabelImage();
+}
+
 /// Scores one frame's detections against its annotations; returns the per-frame summary.
 std::string score_frame(const RgbdFrame& frame, const DatasetInfo& info,
                         const ObjectModelLibrary& library, const ModelRecognizer& rec,
-                        const std::vector<Detection>& dets, Tally& t) {
+                        const std::vector<Detection>& dets, const LabelImage& distractors,
+                        Tally& t) {
   std::vector<int> used(dets.size(), 0);
   std::string line;
   for (size_t k = 0; k < frame.objects_gt.size(); ++k) {
@@ -143,8 +176,10 @@ std::string score_frame(const RgbdFrame& frame, const DatasetInfo& info,
     ++t.spurious;
     const auto& o = rec.last_objects()[d];
     const auto& b = dets[d].box;
-    line += fmt::format(" spurious:{}[n{} s{:.2f} v{:.2f} px {}-{},{}-{}]",
-                        info.class_names.at(dets[d].class_id), o.explained_points, o.support,
+    const std::string on = spurious_on(frame, info, distractors, dets[d]);
+    ++t.spurious_on[on[0] == 't' ? "target" : on[0] == 'd' ? "distractor" : "background"];
+    line += fmt::format(" spurious:{}[on {} n{} s{:.2f} v{:.2f} px {}-{},{}-{}]",
+                        info.class_names.at(dets[d].class_id), on, o.explained_points, o.support,
                         o.violation, b.u_min, b.u_max, b.v_min, b.v_max);
   }
   return line;
@@ -178,7 +213,8 @@ void run_scene(const std::string& root, const std::string& scene, const bench::B
     const auto& tm = rec.last_timing();
     (fi == 0 ? t.first_ms : t.later_ms).push_back(ms);
     (fi == 0 ? t.first_cpu_ms : t.later_cpu_ms).push_back(tm.cpu_ms);
-    const std::string line = score_frame(frame, reader->info(), library, rec, dets, t);
+    const std::string line = score_frame(frame, reader->info(), library, rec, dets,
+                                         distractor_labels(root, scene, frame.index), t);
     std::printf(
         "%s/%06d %zu det %.0f ms (cpu %.0f; geometry %.0f, tracks %.0f, search %.0f, verify %.0f, "
         "masks %.0f; "
@@ -196,9 +232,11 @@ void run_scene(const std::string& root, const std::string& scene, const bench::B
   }
 }
 
-void print_tally(const Tally& t) {
+void print_tally(Tally& t) {
   std::printf("\nobjects %d, right class %d (%.1f %%), wrong class %d, spurious %d\n", t.objects,
               t.found, 100.0 * t.found / std::max(1, t.objects), t.wrong_class, t.spurious);
+  std::printf("spurious on: targets %d, distractors %d, background %d\n", t.spurious_on["target"],
+              t.spurious_on["distractor"], t.spurious_on["background"]);
   std::printf("ADD-S AUC (misses count) %.2f\n", ycb_auc_percent(t.adds));
   auto quantile = [](std::vector<double> v, double q) {
     if (v.empty()) return 0.0;

@@ -309,7 +309,8 @@ TEST(ModelRecognizer, AnObjectRestingOnTheSupportOutranksOneHoveringOverIt) {
   ObjectModel hovering = test::make_model(test::sample_box({0.12f, 0.07f, 0.04f}, 0.004f));
   resting.class_id = 1, resting.name = "resting";
   hovering.class_id = 2, hovering.name = "hovering";
-  const RgbdFrame f = test::render_table_scene({{1, &dense, TestShapes::on_table(0, 0, 0.4, 0.025)}});
+  const RgbdFrame f =
+      test::render_table_scene({{1, &dense, TestShapes::on_table(0, 0, 0.4, 0.025)}});
   auto classes_with = [&](double bonus) {
     RecognitionParams p;
     p.resting_bonus = bonus;
@@ -319,6 +320,43 @@ TEST(ModelRecognizer, AnObjectRestingOnTheSupportOutranksOneHoveringOverIt) {
   };
   EXPECT_EQ(classes_with(RecognitionParams{}.resting_bonus), (std::map<int, int>{{1, 1}}));
   EXPECT_EQ(classes_with(0), (std::map<int, int>{{2, 1}}));  // the rule off: the hovering model
+}
+
+// A model's samples are a fixed number spread over its area, so a large model's lie centimetres
+// apart (2620 samples on a 0.40 x 0.30 x 0.24 m box: 1.5 cm). Here a box modelled by samples 2.5 cm
+// apart at its exact pose: with the distance to the nearest sample about a third of its own visible
+// surface is farther than the 1 cm inlier distance, and its detection mask is full of holes; with
+// the distance to the surface the samples stand for (surface_distance) it covers the box.
+TEST(ModelRecognizer, ALargeSparselySampledModelExplainsItsWholeSurface) {
+  const Eigen::Vector3f size(0.20f, 0.15f, 0.10f);
+  const test::SurfaceSamples dense = test::sample_box(size, 0.0015f);
+  ObjectModel sparse = test::make_model(test::sample_box(size, 0.025f));
+  sparse.class_id = 1, sparse.name = "sparse box";
+  const RgbdFrame f = test::render_table_scene({{1, &dense, TestShapes::on_table(0, 0, 0.3, 0.05)}},
+                                               Vec3(0.05, -0.6, 0.55));
+  // The box's pixels: depth above the table plane by more than 1.5 cm.
+  const SE3 T_world_cam = *f.T_world_cam_gt;
+  auto box_pixel = [&](int u, int v) {
+    const float z = f.depth.at(u, v);
+    return z > 0 && (T_world_cam * f.intrinsics.backproject(u, v, z)).z() > 0.015;
+  };
+  auto covered = [&](bool surface) {
+    RecognitionParams p;
+    p.surface_distance = surface;
+    const auto dets =
+        ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, {sparse}).detect(f);
+    int box = 0, hit = 0;
+    for (int v = 0; v < f.depth.height(); ++v)
+      for (int u = 0; u < f.depth.width(); ++u) {
+        if (!box_pixel(u, v)) continue;
+        ++box;
+        hit += std::any_of(dets.begin(), dets.end(),
+                           [&](const Detection& d) { return d.probability.at(u, v) >= 0.5f; });
+      }
+    return static_cast<double>(hit) / std::max(1, box);
+  };
+  EXPECT_GT(covered(true), 0.9);
+  EXPECT_LT(covered(false), 0.8);  // the rule off: the nearest-sample distance leaves holes
 }
 
 // A printed box (stripes across its length) and a flat-painted box of the same shape and size

@@ -184,6 +184,22 @@ float inlier_distance_at(const RecognitionParams& p, float z) {
   return static_cast<float>(std::max(p.inlier_distance_m, p.inlier_distance_per_m2 * z * z));
 }
 
+/// Squared distance of a point (object frame) to the model: to its nearest sample, or with
+/// `surface` to the surface the samples stand for -- the nearest sample's tangent plane, unless
+/// the point lies farther from it than the sampling explains (the pose stage's fit distance). A
+/// model's samples are a fixed number (2620 by default) spread over its area, so a large model's
+/// are centimetres apart: with the nearest-sample distance a third of a 0.40 m box's own surface
+/// lies beyond a 1 cm inlier distance even at its exact pose.
+float model_distance2(const ObjectModel& model, const Vec3f& q, bool surface) {
+  float d2 = 0;
+  const std::uint32_t j = model.search_index->nearest(q, &d2);
+  if (!surface || !model.has_normals()) return d2;
+  const float plane = std::abs(model.normals[j].dot(q - model.points[j]));
+  const float beyond = std::sqrt(d2) - static_cast<float>(model.mean_spacing_m);
+  const float d = std::max(plane, beyond);
+  return d * d;
+}
+
 /// A hypothesis against the whole scene: explained kept cells, support and violations.
 void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics& K,
             const ObjectModel& model, const RecognitionParams& p, Hypothesis& h) {
@@ -196,8 +212,7 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.fit = 0;
   for (size_t c = 0; c < g.kept.size(); ++c) {
     if (!g.kept[c] || (g.points[c] - centre).squaredNorm() > reach * reach) continue;
-    float dist2 = 0;
-    model.search_index->nearest(R_oc * g.points[c] + t_oc, &dist2);
+    const float dist2 = model_distance2(model, R_oc * g.points[c] + t_oc, p.surface_distance);
     const float d_in = inlier_distance_at(p, g.points[c].z());
     if (dist2 < d_in * d_in) {
       h.explained.push_back(static_cast<int>(c));
@@ -562,8 +577,8 @@ struct ModelRecognizer::Pass {
   SceneGrid g;
   std::vector<SceneRegion> regions;
   std::vector<Hypothesis> hyps;
-  std::vector<int> explained_by;  ///< per grid cell: the kept hypothesis explaining it, or -1
-  std::vector<int> kept;          ///< indices into hyps
+  std::vector<int> explained_by;       ///< per grid cell: the kept hypothesis explaining it, or -1
+  std::vector<int> kept;               ///< indices into hyps
   std::optional<GridNormals> normals;  ///< of the grid, on demand (outline tests)
   struct Searched {
     Vec3 centroid_world;
@@ -823,9 +838,7 @@ std::vector<Detection> ModelRecognizer::Pass::detections() {
         const int c = g.cell(u / g.stride, v / g.stride);
         if (explained_by[c] >= 0 && explained_by[c] != i) continue;
         const Vec3f q = K.backproject(u, v, z).cast<float>();
-        float dist2 = 0;
-        model.search_index->nearest(R * q + t, &dist2);
-        const float dist = std::sqrt(dist2);
+        const float dist = std::sqrt(model_distance2(model, R * q + t, p.surface_distance));
         if (dist < inlier_distance_at(p, z) && dist < best.at(u, v)) {
           best.at(u, v) = dist;
           owner.at(u, v) = i;

@@ -60,6 +60,7 @@ struct RecognitionParams {
   // Verification.
   double inlier_distance_m = 0.01;
   double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
+  bool surface_distance = false;      ///< distance to the model surface, not to its nearest sample
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
   double min_support = 0.55;      ///< visible model points on the observed depth, fraction
@@ -145,6 +146,12 @@ struct RecognitionParams {
       "The inlier distance grows with the depth z as max(inlier_distance_m, this x z^2, m): a "
       "triangulating sensor's depth error grows with z^2 (Kinect-type: quantisation step 2.9 mm "
       "and noise sigma ~2 mm at 1 m, 3x and 2x at 1.3 m); 0 = inlier_distance_m everywhere");
+    v("surface_distance", surface_distance,
+      "An observed point's distance to a model (explained points, fit, masks) is to the surface "
+      "its samples stand for: the nearest sample's tangent plane, unless the point lies farther "
+      "from that sample than the model's mean sample spacing explains (the pose stage's fit "
+      "distance); false = to the nearest sample (a large model's samples are centimetres apart, "
+      "so its own surface is partly unexplained even at the exact pose)");
     v("free_space_margin_m", free_space_margin_m,
       "A visible model point this far (m) in front of the observed depth is a violation");
     v("below_plane_margin_m", below_plane_margin_m,

@@ -169,5 +169,21 @@ TEST(EndToEnd, SemanticModeAndBadInputs) {
   EXPECT_FALSE(std::filesystem::exists(bad + "/o/summary.json")) << "no output after a bad start";
 }
 
+// The CLI makes OpenMP's idle threads wait passively unless the user chose (apps/orpe/main.cpp,
+// docs/PIPELINE.md "Threads"); summary.json records the policy the run had.
+TEST(EndToEnd, TheCliWaitsPassivelyUnlessTheUserChoseAWaitPolicy) {
+  const std::string scene = test::synthetic_scene("e2e", e2e_scene());
+  for (const std::string policy : {"", "active"}) {
+    const std::string out = test::scratch_dir("wait_policy_" + (policy.empty() ? "unset" : policy));
+    const std::string env =
+        policy.empty() ? "env -u OMP_WAIT_POLICY " : "env OMP_WAIT_POLICY=" + policy + " ";
+    const std::string cmd = env + ORPE_CLI_PATH + " -q run --dataset " + scene + " --out " + out +
+                            " --mode slam --set dataset.last_frame=2";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    EXPECT_EQ(read_json(out + "/summary.json")["provenance"]["omp_wait_policy"].get<std::string>(),
+              policy.empty() ? "passive" : policy);
+  }
+}
+
 }  // namespace
 }  // namespace orpe

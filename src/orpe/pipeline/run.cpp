@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -83,6 +84,9 @@ void write_provenance(const RunOptions& options, JsonSummary& js) {
   js.set("provenance.machine.os", m.os);
   js.set("provenance.machine.memory_gb", m.memory_gb);
   js.set("provenance.machine.load_1min_at_end", m.load_1min);
+  // How OpenMP's idle threads waited (the `orpe` CLI sets passive unless told otherwise).
+  const char* wait = std::getenv("OMP_WAIT_POLICY");
+  js.set("provenance.omp_wait_policy", std::string(wait != nullptr ? wait : "unset"));
 }
 
 nlohmann::json pose_json(const SE3& T) {

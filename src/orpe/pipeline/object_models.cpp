@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <thread>
 
 #include "orpe/core/error.h"
 #include "orpe/io/model_io.h"
@@ -166,19 +168,54 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
   return model;
 }
 
+std::unique_ptr<ObjectModel> ObjectModelLibrary::load(int class_id) const {
+  auto model =
+      std::make_unique<ObjectModel>(load_dataset_object_model(info_, class_id, surface_points_));
+  if (!colour_dir_.empty()) {
+    const std::string path = colour_dir_ + "/" + class_name(class_id) + ".colour";
+    if (std::filesystem::is_regular_file(path)) model->colour = read_model_colour(path);
+  }
+  return model;
+}
+
 const ObjectModel& ObjectModelLibrary::get(int class_id) const {
   std::lock_guard<std::mutex> lock(mutex_);
   auto& slot = models_[class_id];
-  if (!slot) {
-    auto model =
-        std::make_unique<ObjectModel>(load_dataset_object_model(info_, class_id, surface_points_));
-    if (!colour_dir_.empty()) {
-      const std::string path = colour_dir_ + "/" + class_name(class_id) + ".colour";
-      if (std::filesystem::is_regular_file(path)) model->colour = read_model_colour(path);
-    }
-    slot = std::move(model);
-  }
+  if (!slot) slot = load(class_id);
   return *slot;
+}
+
+void ObjectModelLibrary::preload(const std::vector<int>& class_ids, int threads) const {
+  std::vector<int> todo;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (int id : class_ids)
+      if (!models_[id] && std::find(todo.begin(), todo.end(), id) == todo.end()) todo.push_back(id);
+  }
+  std::vector<std::unique_ptr<ObjectModel>> loaded(todo.size());
+  std::vector<std::exception_ptr> errors(todo.size());
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i = next++; i < todo.size(); i = next++) {
+      try {
+        loaded[i] = load(todo[i]);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  const size_t n = std::min(todo.size(), static_cast<size_t>(std::max(1, threads)));
+  for (size_t t = 1; t < n; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (size_t i = 0; i < todo.size(); ++i)
+      if (loaded[i] && !models_[todo[i]]) models_[todo[i]] = std::move(loaded[i]);
+  }
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
 }
 
 ObjectSymmetry ObjectModelLibrary::ekf_symmetry(int class_id, const std::string& mode) const {

@@ -18,6 +18,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "orpe/io/dataset.h"
 #include "orpe/pose/object_model.h"
@@ -42,6 +43,11 @@ class ObjectModelLibrary {
   bool has(int class_id) const { return info_.model_points_paths.count(class_id) > 0; }
   /// The prepared model (loaded on the first call). Throws IoError (see above). Thread-safe.
   const ObjectModel& get(int class_id) const;
+  /// Loads the models of `class_ids` not loaded yet on up to `threads` threads (one model per
+  /// thread at a time; each model is the one get() would load, so the order and the thread count
+  /// change nothing). Throws the IoError of the first class, in `class_ids` order, that failed;
+  /// the others are loaded all the same. Thread-safe.
+  void preload(const std::vector<int>& class_ids, int threads) const;
   const DatasetInfo& info() const { return info_; }
   /// Colour models to load with the models (pipeline.model_colour_dir): `<dir>/<class name>.colour`
   /// replaces a model's own colour when the file exists. Call before the first get().
@@ -58,6 +64,8 @@ class ObjectModelLibrary {
   DatasetInfo info_;
   int surface_points_;
   std::string colour_dir_;
+  std::unique_ptr<ObjectModel> load(int class_id) const;  // the model as get() stores it
+
   mutable std::mutex mutex_;  // the cache fills lazily behind a const interface
   mutable std::map<int, std::unique_ptr<ObjectModel>> models_;
 };

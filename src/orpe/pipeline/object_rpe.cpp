@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <future>
+#include <thread>
 #include <tuple>
 
 #include "orpe/core/error.h"
@@ -213,6 +214,10 @@ std::unique_ptr<Segmenter> ObjectRpePipeline::make_model_recognizer() {
   for (const auto& [id, path] : dataset_.model_points_paths) with_models.push_back(id);
   const std::vector<int> classes =
       resolve_model_classes(params_.segmentation.model_classes, dataset_.class_names, with_models);
+  // Every candidate model is needed on the first keyframe: load them on all cores first.
+  const auto t_load = Clock::now();
+  models_.preload(classes, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  stats_.model_loading_ms += ms_since(t_load);
   std::vector<ObjectModel> models;
   for (int id : classes) models.push_back(models_.get(id));  // IoError names a bad model file
   return std::make_unique<ModelRecognizer>(params_.segmentation, params_.recognition,

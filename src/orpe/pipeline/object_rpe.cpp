@@ -412,26 +412,73 @@ void ObjectRpePipeline::learn_colour(Track& track, const ObjectModel& model,
     ++stats_.colour_views_learned;
 }
 
+/// One evaluated frame of the pose stage: its inputs, the map's renders and the candidates.
+struct ObjectRpePipeline::PoseFrame {
+  PoseFrame(const RgbdFrame& f, const SE3& T, PipelineFrameResult& r)
+      : frame(f), T_world_cam(T), result(r), K(f.intrinsics) {}
+  const RgbdFrame& frame;
+  SE3 T_world_cam;
+  PipelineFrameResult& result;
+  PinholeIntrinsics K;
+  std::vector<InstanceView> views;              // per instance: projected mask, depth, colour
+  slam::RenderedView view;                      // PD / PC: the instances' render over the scene's
+  const DepthImage* projected_depth = nullptr;  // view.depth, or the frame's without renders
+  const ColorImage* projected_color = nullptr;
+  std::vector<Candidate> from_map;         // projected masks
+  std::vector<MaskImage> detection_masks;  // raw masks (owned here: candidates point into them)
+  std::vector<Candidate> from_detections;
+  // Single-view estimates, computed once per distinct input. The colour source is part of the key
+  // only for estimators that use colour (the model-based registration does when its colour
+  // ranking is on).
+  std::map<std::tuple<int, int, int, int, int>, SingleViewPose> cache;
+};
+
 void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam,
                                        PipelineFrameResult& result) {
-  const auto& instances = semantic_->fusion().instances();
-  PinholeIntrinsics K = frame.intrinsics;
-  K.width = frame.depth.width();
-  K.height = frame.depth.height();
-  const PipelineParams& pp = params_.pipeline;
+  PoseFrame f(frame, T_world_cam, result);
+  f.K.width = frame.depth.width();
+  f.K.height = frame.depth.height();
+  const bool need_projected = render_projected(f);
+  f.projected_depth = need_projected ? &f.view.depth : &frame.depth;
+  f.projected_color = need_projected ? &f.view.color : &frame.color;
+  candidates_from_map(f);
+  candidates_from_detections(f);
+  result.variants.resize(variants_.size());
+  for (size_t vi = 0; vi < variants_.size(); ++vi) {
+    VariantState& vs = variants_[vi];
+    const std::vector<Candidate>& candidates =
+        vs.config.projected_mask ? f.from_map : f.from_detections;
+    for (const Candidate& c : candidates) {
+      if (c.report_only && !vs.config.ekf) continue;
+      ObjectFrameEstimate est;
+      est.instance_id = c.instance_id;
+      est.class_id = c.class_id;
+      est.class_probability = c.class_probability;
+      est.mask_px = c.mask_px;
+      if (const ObjectModel* model = model_for(c, est)) {
+        Track* track = track_for(vs, c);
+        const bool skip = estimate_single_view(f, vi, c, track, *model, est);
+        vs.records.push_back({frame.index, c.instance_id, c.class_id, c.class_probability,
+                              est.single_view, T_world_cam, c.mask_px});
+        fuse_estimate(f, vs, c, track, *model, skip, est);
+      }
+      result.variants[vi].push_back(std::move(est));
+    }
+  }
+}
 
+bool ObjectRpePipeline::render_projected(PoseFrame& f) {
   // The map at the tracked pose. PM / PD / PC of the instances rendered as the semantic stage
   // renders them (label-aware: young unlabelled surfels do not punch holes into the masks) -- of
   // every instance, not only the semantic stage's confirmed ones, so that an object gets a
   // projected mask from its first keyframe on (pipeline.min_instance_detections filters); around
   // them, depth and colour of a plain render of every surfel.
-  auto t0 = Clock::now();
+  const PipelineParams& pp = params_.pipeline;
+  const auto t0 = Clock::now();
   bool need_projected = false;
   for (const auto& v : variants_)
     need_projected |=
         v.config.projected_mask || v.config.projected_depth || v.config.projected_color;
-  std::vector<InstanceView> views;
-  slam::RenderedView view;
   if (need_projected) {
     InstanceImages images;
     InstanceRenderOptions ro;
@@ -440,27 +487,30 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
     ro.depth_tolerance_m = params_.semantic.mask_depth_tolerance_m;
     ro.want_color = true;
     ro.scene_margin_px = pp.render_margin_px;  // the scene around the instances (windowed)
-    instance_renderer_.render(slam_->map(), T_world_cam, K, ro, &images);
+    instance_renderer_.render(slam_->map(), f.T_world_cam, f.K, ro, &images);
     bool any_ekf = false;
     for (const auto& v : variants_) any_ekf |= v.config.ekf && v.config.projected_mask;
     const int min_view_px = any_ekf && pp.ekf_report_min_mask_px > 0
                                 ? std::min(pp.min_pose_mask_px, pp.ekf_report_min_mask_px)
                                 : pp.min_pose_mask_px;
-    views = split_instance_views(images, instances, min_view_px);
-    view.depth = std::move(images.scene_depth);
-    view.color = std::move(images.scene_color);
-    for (const InstanceView& iv : views)
+    f.views = split_instance_views(images, semantic_->fusion().instances(), min_view_px);
+    f.view.depth = std::move(images.scene_depth);
+    f.view.color = std::move(images.scene_color);
+    for (const InstanceView& iv : f.views)
       for (size_t k = 0; k < iv.projected_mask.size(); ++k)
         if (iv.projected_mask[k]) {
-          view.depth[k] = iv.projected_depth[k];
-          view.color[k] = iv.projected_color[k];
+          f.view.depth[k] = iv.projected_depth[k];
+          f.view.color[k] = iv.projected_color[k];
         }
   }
-  result.render_ms = ms_since(t0);
+  f.result.render_ms = ms_since(t0);
+  return need_projected;
+}
 
-  // Candidates from the map's instances (projected masks).
-  std::vector<Candidate> from_map;
-  for (const InstanceView& iv : views) {
+void ObjectRpePipeline::candidates_from_map(PoseFrame& f) const {
+  const auto& instances = semantic_->fusion().instances();
+  const PipelineParams& pp = params_.pipeline;
+  for (const InstanceView& iv : f.views) {
     const auto info = instances.find(iv.instance_id);
     if (info == instances.end()) continue;
     Candidate c;
@@ -477,219 +527,212 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
       if (pp.ekf_report_min_mask_px <= 0 || c.mask_px < pp.ekf_report_min_mask_px) continue;
       c.report_only = true;
     }
-    from_map.push_back(c);
+    f.from_map.push_back(c);
   }
-  // Candidates from this keyframe's detections (raw masks); the instance each joined is the
-  // majority label of the fused detection labels under its mask.
-  std::vector<MaskImage> detection_masks;
-  std::vector<Candidate> from_detections;
+}
+
+void ObjectRpePipeline::candidates_from_detections(PoseFrame& f) const {
+  // The raw masks of this keyframe's detections; the instance each joined is the majority label
+  // of the fused detection labels under its mask.
   bool need_raw = false;
   for (const auto& v : variants_) need_raw |= !v.config.projected_mask;
-  if (need_raw) {
-    const auto& detections = semantic_->last_step().detections;
-    const LabelImage& fused_labels = semantic_->fusion().last_detection_labels();
-    const float threshold = static_cast<float>(params_.segmentation.mask_threshold);
-    detection_masks.reserve(detections.size());
-    for (const auto& d : detections)
-      detection_masks.push_back(binary_mask(d.probability, threshold));
-    for (size_t i = 0; i < detections.size(); ++i) {
-      const MaskImage& mask = detection_masks[i];
-      std::map<int, int> votes;
-      int area = 0;
-      for (size_t k = 0; k < mask.size(); ++k) {
-        if (!mask[k]) continue;
-        ++area;
-        if (!fused_labels.empty() && fused_labels[k] > 0) ++votes[fused_labels[k]];
+  if (!need_raw) return;
+  const auto& instances = semantic_->fusion().instances();
+  const PipelineParams& pp = params_.pipeline;
+  const auto& detections = semantic_->last_step().detections;
+  const LabelImage& fused_labels = semantic_->fusion().last_detection_labels();
+  const float threshold = static_cast<float>(params_.segmentation.mask_threshold);
+  f.detection_masks.reserve(detections.size());
+  for (const auto& d : detections)
+    f.detection_masks.push_back(binary_mask(d.probability, threshold));
+  for (size_t i = 0; i < detections.size(); ++i) {
+    const MaskImage& mask = f.detection_masks[i];
+    std::map<int, int> votes;
+    int area = 0;
+    for (size_t k = 0; k < mask.size(); ++k) {
+      if (!mask[k]) continue;
+      ++area;
+      if (!fused_labels.empty() && fused_labels[k] > 0) ++votes[fused_labels[k]];
+    }
+    Candidate c;
+    c.class_id = detections[i].class_id;
+    c.class_probability = detections[i].score;
+    for (const auto& [cls, p] : class_distribution(detections[i]))
+      if (cls == c.class_id) c.class_probability = p;
+    c.mask = &mask;
+    c.mask_px = area;
+    c.object_key = static_cast<int>(i);
+    int best_votes = 0;
+    for (const auto& [id, n] : votes)
+      if (n > best_votes && instances.count(id)) {
+        best_votes = n;
+        c.instance_id = id;
       }
-      Candidate c;
-      c.class_id = detections[i].class_id;
-      c.class_probability = detections[i].score;
-      for (const auto& [cls, p] : class_distribution(detections[i]))
-        if (cls == c.class_id) c.class_probability = p;
-      c.mask = &mask;
-      c.mask_px = area;
-      c.object_key = static_cast<int>(i);
-      int best_votes = 0;
-      for (const auto& [id, n] : votes)
-        if (n > best_votes && instances.count(id)) {
-          best_votes = n;
-          c.instance_id = id;
-        }
-      if (area < pp.min_pose_mask_px || c.class_probability < pp.min_class_probability) continue;
-      from_detections.push_back(c);
+    if (area < pp.min_pose_mask_px || c.class_probability < pp.min_class_probability) continue;
+    f.from_detections.push_back(c);
+  }
+}
+
+const ObjectModel* ObjectRpePipeline::model_for(const Candidate& c, ObjectFrameEstimate& est) {
+  if (!models_.has(c.class_id)) {
+    if (model_errors_.emplace(c.class_id, "no model").second)
+      spdlog::warn("class {} has no model in the dataset: its objects get no pose", c.class_id);
+    est.single_view.reason = "no model for the class";
+    return nullptr;
+  }
+  const ObjectModel* model = nullptr;
+  if (!model_errors_.count(c.class_id)) {
+    try {
+      const auto t_load = Clock::now();
+      model = &models_.get(c.class_id);  // loaded on the class's first use
+      stats_.model_loading_ms += ms_since(t_load);
+    } catch (const IoError& e) {
+      model_errors_[c.class_id] = e.what();
+      spdlog::warn("class {}: model not usable, its objects get no pose: {}", c.class_id, e.what());
     }
   }
+  if (!model) est.single_view.reason = "model not usable: " + model_errors_.at(c.class_id);
+  return model;
+}
 
-  const DepthImage& projected_depth = need_projected ? view.depth : frame.depth;
-  const ColorImage& projected_color = need_projected ? view.color : frame.color;
-
-  // Single-view estimates, computed once per distinct input. The colour source is part of the key
-  // only for estimators that use colour (the model-based registration does when its colour ranking
-  // is on).
-  const bool estimator_uses_color = estimator_uses_color_;
-  std::map<std::tuple<int, int, int, int, int>, SingleViewPose> cache;
-  result.variants.resize(variants_.size());
-  for (size_t vi = 0; vi < variants_.size(); ++vi) {
-    VariantState& vs = variants_[vi];
-    const PoseVariant& cfg = vs.config;
-    const std::vector<Candidate>& candidates = cfg.projected_mask ? from_map : from_detections;
-    auto& out = result.variants[vi];
-    for (const Candidate& c : candidates) {
-      if (c.report_only && !cfg.ekf) continue;
-      ObjectFrameEstimate est;
-      est.instance_id = c.instance_id;
-      est.class_id = c.class_id;
-      est.class_probability = c.class_probability;
-      est.mask_px = c.mask_px;
-      if (!models_.has(c.class_id)) {
-        if (model_errors_.emplace(c.class_id, "no model").second)
-          spdlog::warn("class {} has no model in the dataset: its objects get no pose", c.class_id);
-        est.single_view.reason = "no model for the class";
-        out.push_back(est);
-        continue;
-      }
-      const ObjectModel* model = nullptr;
-      if (!model_errors_.count(c.class_id)) {
-        try {
-          const auto t_load = Clock::now();
-          model = &models_.get(c.class_id);  // loaded on the class's first use
-          stats_.model_loading_ms += ms_since(t_load);
-        } catch (const IoError& e) {
-          model_errors_[c.class_id] = e.what();
-          spdlog::warn("class {}: model not usable, its objects get no pose: {}", c.class_id,
-                       e.what());
-        }
-      }
-      if (!model) {
-        est.single_view.reason = "model not usable: " + model_errors_.at(c.class_id);
-        out.push_back(est);
-        continue;
-      }
-      // The instance's track (EKF variants need a map instance to key the filter).
-      Track* track = nullptr;
-      if (c.instance_id > 0) {
-        Track& t = vs.tracks[c.instance_id];
-        if (t.class_id != c.class_id) {  // new, or the instance's argmax class changed: restart
-          t = Track{};
-          t.class_id = c.class_id;
-          if (cfg.ekf) {
-            t.ekf = std::make_unique<ObjectPoseFusion>(
-                params_.pose_ekf, models_.ekf_symmetry(c.class_id, pp.ekf_symmetry),
-                pp.ekf_init_views);
-          }
-        }
-        track = &t;
-      }
-      const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
-                             track->ekf->has_estimate() &&
-                             track->prior_in_a_row < pp.prior_max_consecutive;
-      const bool learned = track && track->colour && track->colour->model();
-      const auto key =
-          std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,
-                          estimator_uses_color ? (cfg.projected_color ? 1 : 0) : -1,
-                          use_prior || learned ? static_cast<int>(vi) : -1);
-      auto cached = cache.find(key);
-      // The skip rule needs a fused pose, not the prior hypothesis: it holds with
-      // ekf_prior_hypothesis off too.
-      const bool fused = cfg.ekf && track && track->ekf && track->ekf->has_estimate();
-      const bool skip = fused && !c.report_only &&
-                        skip_estimate(track->skip, track->ekf->accepted(), T_world_cam, pp);
-      if (c.report_only) {
-        est.single_view = SingleViewPose{};
-        est.single_view.reason = "mask too small for a single-view estimate";
-      } else if (skip) {
-        est.single_view = SingleViewPose{};
-        est.single_view.reason =
-            "skipped: fused pose confident and view unchanged (pipeline.skip_*)";
-        ++track->skip.skipped_in_a_row;
-        ++stats_.single_view_skipped;
-      } else if (cached != cache.end()) {
-        est.single_view = cached->second;
-        ++stats_.single_view_cache_hits;
-      } else {
-        SingleViewInput in;
-        in.mask = c.mask;
-        in.depth = cfg.projected_depth ? &projected_depth : &frame.depth;
-        in.color = cfg.projected_color ? &projected_color : &frame.color;
-        in.intrinsics = K;
-        in.class_id = c.class_id;
-        in.model = learned ? track->colour->model() : model;
-        if (use_prior) in.T_cam_obj_prior = track->ekf->T_cam_obj(T_world_cam);
-        t0 = Clock::now();
-        est.single_view = estimator_->estimate(in);
-        result.single_view_ms += ms_since(t0);
-        ++stats_.single_view_estimates;
-        stats_.single_view_valid += est.single_view.valid;
-        stats_.single_view_from_prior += est.single_view.from_prior;
-        if (track)
-          track->prior_in_a_row = est.single_view.from_prior ? track->prior_in_a_row + 1 : 0;
-        cache.emplace(key, est.single_view);
-      }
-      const SingleViewPose& sv = est.single_view;
-      vs.records.push_back({frame.index, c.instance_id, c.class_id, c.class_probability, sv,
-                            T_world_cam, c.mask_px});
-      const double sv_score = std::clamp(sv.score, 0.01, 1.0);
-      if (cfg.ekf) {
-        if (track && track->ekf) {
-          t0 = Clock::now();
-          ObjectPoseFusion& fusion = *track->ekf;
-          if (sv.valid) {
-            PoseMeasurement m;
-            m.frame_index = frame.index;
-            m.T_world_cam = T_world_cam;
-            m.T_cam_obj = sv.T_cam_obj;
-            m.mu_m = sv.mu_m;
-            if (sv.colour_used)
-              m.mode_weight =
-                  mode_weight_from_colour(sv.colour_margin, params_.pose_ekf.colour_evidence_gain);
-            // A refined prior that inherited its mode is not an independent vote among modes.
-            if (sv.from_prior && !sv.prior_modes_compared) m.mode_weight *= pp.prior_mode_weight;
-            const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
-            est.ekf_accepted = o.accepted;
-            ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);
-            learn_colour(*track, *model, sv, o.accepted, fusion, T_world_cam,
-                         cfg.projected_color ? projected_color : frame.color,
-                         cfg.projected_depth ? projected_depth : frame.depth, *c.mask, K);
-          }
-          if (!skip && !c.report_only) track->skip = {est.ekf_accepted, T_world_cam, 0};
-          if (fusion.has_estimate()) {
-            est.reported = true;
-            est.T_cam_obj = fusion.T_cam_obj(T_world_cam);
-            est.score = c.class_probability * (fusion.accepted() > 0 ? fusion.score() : sv_score);
-          } else if (sv.valid) {  // still collecting the initial views: the single-view estimate
-            est.reported = true;
-            est.T_cam_obj = sv.T_cam_obj;
-            est.score = c.class_probability * sv_score;
-          }
-          result.ekf_ms += ms_since(t0);
-        }
-      } else if (sv.valid) {
-        est.reported = true;
-        est.T_cam_obj = sv.T_cam_obj;
-        est.score = c.class_probability * sv_score;
-        if (track) {
-          ++track->valid_views;
-          if (est.score > track->best_score) {
-            track->have_best = true;
-            track->best_score = est.score;
-            track->best_T_world_obj = T_world_cam * sv.T_cam_obj;
-          }
-        }
-      }
-      if (est.reported) {
-        PoseResultRow row;
-        row.scene_id = dataset_.scene_id;
-        row.im_id = frame.index;
-        row.obj_id = est.class_id;
-        row.score = est.score;
-        row.T_cam_obj = est.T_cam_obj;
-        vs.rows.push_back(row);
-        if (cfg.ekf && est.instance_id > 0)
-          vs.seen.push_back(
-              {frame.index, T_world_cam, est.instance_id, est.class_id, est.score, -1});
-      }
-      out.push_back(std::move(est));
+ObjectRpePipeline::Track* ObjectRpePipeline::track_for(VariantState& vs, const Candidate& c) {
+  // The instance's track (EKF variants need a map instance to key the filter).
+  if (c.instance_id <= 0) return nullptr;
+  Track& t = vs.tracks[c.instance_id];
+  if (t.class_id != c.class_id) {  // new, or the instance's argmax class changed: restart
+    t = Track{};
+    t.class_id = c.class_id;
+    if (vs.config.ekf) {
+      const PipelineParams& pp = params_.pipeline;
+      t.ekf = std::make_unique<ObjectPoseFusion>(
+          params_.pose_ekf, models_.ekf_symmetry(c.class_id, pp.ekf_symmetry), pp.ekf_init_views);
     }
+  }
+  return &t;
+}
+
+bool ObjectRpePipeline::estimate_single_view(PoseFrame& f, size_t vi, const Candidate& c,
+                                             Track* track, const ObjectModel& model,
+                                             ObjectFrameEstimate& est) {
+  const PipelineParams& pp = params_.pipeline;
+  const PoseVariant& cfg = variants_[vi].config;
+  const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
+                         track->ekf->has_estimate() &&
+                         track->prior_in_a_row < pp.prior_max_consecutive;
+  const bool learned = track && track->colour && track->colour->model();
+  const auto key =
+      std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,
+                      estimator_uses_color_ ? (cfg.projected_color ? 1 : 0) : -1,
+                      use_prior || learned ? static_cast<int>(vi) : -1);
+  auto cached = f.cache.find(key);
+  // The skip rule needs a fused pose, not the prior hypothesis: it holds with
+  // ekf_prior_hypothesis off too.
+  const bool fused = cfg.ekf && track && track->ekf && track->ekf->has_estimate();
+  const bool skip = fused && !c.report_only &&
+                    skip_estimate(track->skip, track->ekf->accepted(), f.T_world_cam, pp);
+  if (c.report_only) {
+    est.single_view = SingleViewPose{};
+    est.single_view.reason = "mask too small for a single-view estimate";
+  } else if (skip) {
+    est.single_view = SingleViewPose{};
+    est.single_view.reason = "skipped: fused pose confident and view unchanged (pipeline.skip_*)";
+    ++track->skip.skipped_in_a_row;
+    ++stats_.single_view_skipped;
+  } else if (cached != f.cache.end()) {
+    est.single_view = cached->second;
+    ++stats_.single_view_cache_hits;
+  } else {
+    SingleViewInput in;
+    in.mask = c.mask;
+    in.depth = cfg.projected_depth ? f.projected_depth : &f.frame.depth;
+    in.color = cfg.projected_color ? f.projected_color : &f.frame.color;
+    in.intrinsics = f.K;
+    in.class_id = c.class_id;
+    in.model = learned ? track->colour->model() : &model;
+    if (use_prior) in.T_cam_obj_prior = track->ekf->T_cam_obj(f.T_world_cam);
+    const auto t0 = Clock::now();
+    est.single_view = estimator_->estimate(in);
+    f.result.single_view_ms += ms_since(t0);
+    ++stats_.single_view_estimates;
+    stats_.single_view_valid += est.single_view.valid;
+    stats_.single_view_from_prior += est.single_view.from_prior;
+    if (track) track->prior_in_a_row = est.single_view.from_prior ? track->prior_in_a_row + 1 : 0;
+    f.cache.emplace(key, est.single_view);
+  }
+  return skip;
+}
+
+void ObjectRpePipeline::fuse_estimate(PoseFrame& f, VariantState& vs, const Candidate& c,
+                                      Track* track, const ObjectModel& model, bool skip,
+                                      ObjectFrameEstimate& est) {
+  const PoseVariant& cfg = vs.config;
+  const SingleViewPose& sv = est.single_view;
+  const double sv_score = std::clamp(sv.score, 0.01, 1.0);
+  if (cfg.ekf) {
+    if (track && track->ekf) {
+      const auto t0 = Clock::now();
+      fuse_into_ekf(f, cfg, c, *track, model, skip, est);
+      f.result.ekf_ms += ms_since(t0);
+    }
+  } else if (sv.valid) {
+    est.reported = true;
+    est.T_cam_obj = sv.T_cam_obj;
+    est.score = c.class_probability * sv_score;
+    if (track) {
+      ++track->valid_views;
+      if (est.score > track->best_score) {
+        track->have_best = true;
+        track->best_score = est.score;
+        track->best_T_world_obj = f.T_world_cam * sv.T_cam_obj;
+      }
+    }
+  }
+  if (!est.reported) return;
+  PoseResultRow row;
+  row.scene_id = dataset_.scene_id;
+  row.im_id = f.frame.index;
+  row.obj_id = est.class_id;
+  row.score = est.score;
+  row.T_cam_obj = est.T_cam_obj;
+  vs.rows.push_back(row);
+  if (cfg.ekf && est.instance_id > 0)
+    vs.seen.push_back({f.frame.index, f.T_world_cam, est.instance_id, est.class_id, est.score, -1});
+}
+
+void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, const Candidate& c,
+                                      Track& track, const ObjectModel& model, bool skip,
+                                      ObjectFrameEstimate& est) {
+  const PipelineParams& pp = params_.pipeline;
+  const SingleViewPose& sv = est.single_view;
+  const double sv_score = std::clamp(sv.score, 0.01, 1.0);
+  ObjectPoseFusion& fusion = *track.ekf;
+  if (sv.valid) {
+    PoseMeasurement m;
+    m.frame_index = f.frame.index;
+    m.T_world_cam = f.T_world_cam;
+    m.T_cam_obj = sv.T_cam_obj;
+    m.mu_m = sv.mu_m;
+    if (sv.colour_used)
+      m.mode_weight =
+          mode_weight_from_colour(sv.colour_margin, params_.pose_ekf.colour_evidence_gain);
+    // A refined prior that inherited its mode is not an independent vote among modes.
+    if (sv.from_prior && !sv.prior_modes_compared) m.mode_weight *= pp.prior_mode_weight;
+    const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
+    est.ekf_accepted = o.accepted;
+    ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);
+    learn_colour(track, model, sv, o.accepted, fusion, f.T_world_cam,
+                 cfg.projected_color ? *f.projected_color : f.frame.color,
+                 cfg.projected_depth ? *f.projected_depth : f.frame.depth, *c.mask, f.K);
+  }
+  if (!skip && !c.report_only) track.skip = {est.ekf_accepted, f.T_world_cam, 0};
+  if (fusion.has_estimate()) {
+    est.reported = true;
+    est.T_cam_obj = fusion.T_cam_obj(f.T_world_cam);
+    est.score = c.class_probability * (fusion.accepted() > 0 ? fusion.score() : sv_score);
+  } else if (sv.valid) {  // still collecting the initial views: the single-view estimate
+    est.reported = true;
+    est.T_cam_obj = sv.T_cam_obj;
+    est.score = c.class_probability * sv_score;
   }
 }
 

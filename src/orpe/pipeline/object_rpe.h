@@ -252,7 +252,26 @@ class ObjectRpePipeline {
   void fuse_pending_keyframe();
   /// Adds this call's times to the stats and stamps the BOP "time" column of its rows.
   void finish_result(std::chrono::steady_clock::time_point t_start);
+  struct PoseFrame;
+  /// The pose stage on an evaluated frame: renders, candidates, then per variant and candidate
+  /// the single-view estimate and its fusion.
   void estimate_poses(const RgbdFrame& frame, const SE3& T_world_cam, PipelineFrameResult& result);
+  /// PM / PD / PC from the map when a variant needs them; false when none does.
+  bool render_projected(PoseFrame& f);
+  void candidates_from_map(PoseFrame& f) const;
+  void candidates_from_detections(PoseFrame& f) const;
+  /// The candidate's model, or null (the estimate's reason says why: no model, not usable).
+  const ObjectModel* model_for(const Candidate& c, ObjectFrameEstimate& est);
+  /// The pose track of the candidate's instance (null without an instance).
+  Track* track_for(VariantState& vs, const Candidate& c);
+  /// Fills est.single_view (estimated, cached, skipped or report-only); true when skipped.
+  bool estimate_single_view(PoseFrame& f, size_t variant, const Candidate& c, Track* track,
+                            const ObjectModel& model, ObjectFrameEstimate& est);
+  /// The variant's fusion of the estimate (EKF, or best view) and its result row.
+  void fuse_estimate(PoseFrame& f, VariantState& vs, const Candidate& c, Track* track,
+                     const ObjectModel& model, bool skip, ObjectFrameEstimate& est);
+  void fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, const Candidate& c, Track& track,
+                     const ObjectModel& model, bool skip, ObjectFrameEstimate& est);
   /// Feeds the track's colour learner (pose_registration.colour_learn*; colour_score.h) with a view
   /// the fusion has just seen, for models without colour of their own.
   void learn_colour(Track& track, const ObjectModel& model, const SingleViewPose& sv, bool accepted,

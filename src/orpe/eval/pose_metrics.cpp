@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "orpe/core/error.h"
+#include "orpe/core/text_lines.h"
 #include "orpe/core/parse_number.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/model_io.h"
@@ -303,16 +304,9 @@ PoseEvaluation evaluate_pose_results(const std::vector<PoseGroundTruthInstance>&
 }
 
 FrameSet read_keyframe_list(const std::string& path) {
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open keyframe list");
   FrameSet frames;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(is, line)) {
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+  for_each_data_line(path, "keyframe list", [&](int line_no, const std::string& line) {
     const auto first = line.find_first_not_of(" \t");
-    if (first == std::string::npos || line[first] == '#') continue;
     const auto slash = line.find('/', first);
     const auto end = line.find_last_not_of(" \t");
     auto all_digits = [&](size_t a, size_t b) {
@@ -328,7 +322,7 @@ FrameSet read_keyframe_list(const std::string& path) {
     const std::string where = fmt::format("line {}", line_no);
     frames.emplace(parse_int_field(line.substr(first, slash - first), path, where, 0),
                    parse_int_field(line.substr(slash + 1, end - slash), path, where, 0));
-  }
+  });
   if (frames.empty()) throw IoError(path, "no keyframes listed");
   return frames;
 }

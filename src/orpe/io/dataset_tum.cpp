@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "orpe/core/error.h"
+#include "orpe/core/text_lines.h"
 #include "orpe/io/dataset_common.h"
 #include "orpe/io/trajectory_io.h"
 
@@ -26,21 +27,14 @@ struct StampedFile {
 };
 
 std::vector<StampedFile> read_file_list(const std::string& path) {
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open file list");
   std::vector<StampedFile> out;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(is, line)) {
-    ++line_no;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  for_each_data_line(path, "file list", [&](int line_no, const std::string& line) {
     std::istringstream ls(line);
     StampedFile f;
     if (!(ls >> f.timestamp_s >> f.path) || !std::isfinite(f.timestamp_s))
       throw IoError(path, fmt::format("line {}: expected 'timestamp path'", line_no));
     out.push_back(f);
-  }
+  });
   std::stable_sort(out.begin(), out.end(), [](const StampedFile& a, const StampedFile& b) {
     return a.timestamp_s < b.timestamp_s;
   });
@@ -52,15 +46,8 @@ struct FramePair {
 };
 
 std::vector<FramePair> read_associations(const std::string& path) {
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open associations file");
   std::vector<FramePair> out;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(is, line)) {
-    ++line_no;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  for_each_data_line(path, "associations file", [&](int line_no, const std::string& line) {
     std::istringstream ls(line);
     FramePair p;
     if (!(ls >> p.rgb.timestamp_s >> p.rgb.path >> p.depth.timestamp_s >> p.depth.path) ||
@@ -74,7 +61,7 @@ std::vector<FramePair> read_associations(const std::string& path) {
                              p.depth.path.find("depth") == std::string::npos;
     if (depth_first) std::swap(p.rgb, p.depth);
     out.push_back(p);
-  }
+  });
   std::stable_sort(out.begin(), out.end(), [](const FramePair& a, const FramePair& b) {
     return a.rgb.timestamp_s < b.rgb.timestamp_s;
   });

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "orpe/core/error.h"
+#include "orpe/core/text_lines.h"
 #include "orpe/core/ply_format.h"
 #include "orpe/render/mesh_io.h"
 
@@ -15,15 +16,8 @@ namespace orpe {
 
 std::vector<Vec3> read_xyz_points(const std::string& path, double units_per_m) {
   if (!(units_per_m > 0)) throw IoError(path, "units_per_m must be positive");
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open point file");
   std::vector<Vec3> pts;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(is, line)) {
-    ++line_no;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  for_each_data_line(path, "point file", [&](int line_no, const std::string& line) {
     std::istringstream ls(line);
     double x, y, z;
     if (!(ls >> x >> y >> z))
@@ -31,7 +25,7 @@ std::vector<Vec3> read_xyz_points(const std::string& path, double units_per_m) {
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
       throw IoError(path, fmt::format("line {}: non-finite coordinate", line_no));
     pts.emplace_back(x / units_per_m, y / units_per_m, z / units_per_m);
-  }
+  });
   if (pts.empty()) throw IoError(path, "no points");
   return pts;
 }

@@ -8,19 +8,13 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/text_lines.h"
 
 namespace orpe {
 
 std::vector<StampedPose> read_tum_trajectory(const std::string& path) {
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open trajectory file");
   std::vector<StampedPose> poses;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(is, line)) {
-    ++line_no;
-    const auto first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+  for_each_data_line(path, "trajectory file", [&](int line_no, const std::string& line) {
     std::istringstream ls(line);
     double v[8];
     for (double& x : v) ls >> x;
@@ -39,7 +33,7 @@ std::vector<StampedPose> read_tum_trajectory(const std::string& path) {
       throw IoError(path, fmt::format("line {}: timestamp {:.6f} is not after the previous one ({:.6f}); "
                                       "timestamps must increase", line_no, v[0], poses.back().timestamp_s));
     poses.push_back({v[0], SE3(q.normalized(), Vec3(v[1], v[2], v[3]))});
-  }
+  });
   return poses;
 }
 

@@ -28,12 +28,14 @@
 #include <iostream>
 #include <optional>
 
+#include "orpe/core/openmp_waits.h"
 #include "orpe/eval/trajectory_metrics.h"
 #include "orpe/io/trajectory_io.h"
 #include "orpe/pipeline/config.h"
 #include "slam_bench_common.h"
 
 int main(int argc, char** argv) {
+  orpe::prefer_passive_openmp_waits(argv);  // as the orpe CLI (docs/PIPELINE.md, "Threads")
   using namespace orpe;
   int frames = 500, every = 50;
   std::string dir = bench::seven_scenes_dir();

@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/rgbd/depth.hpp>
 
+#include "orpe/core/openmp_waits.h"
 #include "orpe/pipeline/config.h"
 #include "slam_bench_common.h"
 
@@ -57,6 +58,7 @@ cv::Mat depth_of(const orpe::DepthImage& d) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  orpe::prefer_passive_openmp_waits(argv);  // as the orpe CLI (docs/PIPELINE.md, "Threads")
   using namespace orpe;
   int frames = 100, threads = 0;
   bool skip_opencv = false;

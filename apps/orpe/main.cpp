@@ -2,12 +2,8 @@
 #include <spdlog/sinks/base_sink.h>
 #include <spdlog/spdlog.h>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <exception>
 #include <iostream>
 #include <mutex>
@@ -15,6 +11,7 @@
 #include "command.h"
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/openmp_waits.h"
 #include "orpe/core/version.h"
 
 namespace orpe::cli {
@@ -112,27 +109,11 @@ void route_log_streams() {
   spdlog::set_default_logger(logger);
 }
 
-/// OpenMP threads that wait passively (docs/PIPELINE.md, "Threads"). GCC's OpenMP runtime reads
-/// OMP_WAIT_POLICY once, when it loads (before main); unset, its idle threads spin for a while after
-/// each parallel loop, which on a 2-core machine takes the core from the other stages' threads and
-/// from other processes (measured: SLAM on a YCB-Video clip 3x slower in wall time at load ~5). So,
-/// when the user has not set it, orpe sets `passive` and executes itself again (once: the new
-/// process finds it set). Not under valgrind (its client would be run natively), and not when
-/// /proc/self/exe cannot be executed (then the runtime's default stays).
-void prefer_passive_openmp_waits(char** argv) {
-  if (std::getenv("OMP_WAIT_POLICY") != nullptr) return;
-  const char* preload = std::getenv("LD_PRELOAD");
-  if (preload != nullptr && std::strstr(preload, "vgpreload") != nullptr) return;
-  if (setenv("OMP_WAIT_POLICY", "passive", 1) != 0) return;
-  execv("/proc/self/exe", argv);  // returns only when it failed
-  unsetenv("OMP_WAIT_POLICY");
-}
-
 }  // namespace orpe::cli
 
 int main(int argc, char** argv) {
   using namespace orpe::cli;
-  prefer_passive_openmp_waits(argv);
+  orpe::prefer_passive_openmp_waits(argv);  // docs/PIPELINE.md, "Threads"
   set_command_line(argc, argv);
   CLI::App app{"orpe: object recognition and 6D pose estimation from RGB-D scans (Object-RPE)"};
   app.set_version_flag("--version", std::string("orpe ") + orpe::kVersion);

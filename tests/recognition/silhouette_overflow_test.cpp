@@ -66,8 +66,8 @@ TEST(SilhouetteOverflow, ASparselySampledModelCoversItsOwnOutline) {
   const auto sil = model_silhouette(g, f.intrinsics, sparse, T_cam_obj, 1);
   EXPECT_EQ(silhouette_overflow(g, explained_by, 0, sil, 0.015f, 1000), 0);
   // The model moved 8 cm along the table: the box's surface beyond it overflows.
-  const SE3 moved = f.T_world_cam_gt->inverse() * SE3(Eigen::Matrix3d::Identity(),
-                                                      Vec3(0.08, 0, 0)) * T_world_obj;
+  const SE3 moved = f.T_world_cam_gt->inverse() *
+                    SE3(Eigen::Matrix3d::Identity(), Vec3(0.08, 0, 0)) * T_world_obj;
   const auto off = model_silhouette(g, f.intrinsics, sparse, moved, 1);
   EXPECT_GT(silhouette_overflow(g, explained_by, 0, off, 0.015f, 1000), box_cells / 10);
 }

@@ -831,8 +831,8 @@ int ModelRecognizer::Pass::worst_silhouette_overflow() {
   for (int i : kept) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
     if (h.from_track || h.explained.empty()) continue;
-    const auto sil = model_silhouette(g, K, rec.models_[static_cast<size_t>(h.model)],
-                                      h.T_cam_obj, p.silhouette_margin_cells);
+    const auto sil = model_silhouette(g, K, rec.models_[static_cast<size_t>(h.model)], h.T_cam_obj,
+                                      p.silhouette_margin_cells);
     const int n = static_cast<int>(h.explained.size());
     const int limit = static_cast<int>(std::ceil(4 * p.max_silhouette_overflow * n)) + 1;
     const double f = silhouette_overflow(g, explained_by, i, sil,

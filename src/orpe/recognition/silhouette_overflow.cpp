@@ -36,8 +36,7 @@ int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by
   const float reach2 = continuation_m * continuation_m;
   auto try_step = [&](int from, int to) {
     if (seen[to] || !g.kept[to] || explained_by[to] >= 0 || g.region[to] < 0 ||
-        g.region[to] != g.region[from] ||
-        (g.points[to] - g.points[from]).squaredNorm() >= reach2)
+        g.region[to] != g.region[from] || (g.points[to] - g.points[from]).squaredNorm() >= reach2)
       return;
     seen[to] = 1;
     stack.push_back(to);

@@ -10,13 +10,13 @@
 #
 #   bash scripts/recognition_synth.sh [OUT] [extra orpe run args, e.g. --set recognition.KEY=VALUE]
 # Environment: SEEDS (default "1 2 3 4 5 6"), OBJECTS (8), DISTRACTORS (3), FRAMES (30),
-# SCENE (table), KEYFRAME_EVERY (2), SPAN_DEG (30: the camera's arc; 1 degree per frame at 30
+# ORPE (build/bin/orpe), SCENE (table), KEYFRAME_EVERY (2), SPAN_DEG (30: the camera's arc; 1 degree per frame at 30
 # frames keeps the SLAM tracking, which the default 140 over 30 frames does not).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-/tmp/orpe_recognition_synth}
 shift || true
-ORPE=build/bin/orpe
+ORPE=${ORPE:-build/bin/orpe}
 SEEDS=${SEEDS:-1 2 3 4 5 6}
 OBJECTS=${OBJECTS:-8}
 DISTRACTORS=${DISTRACTORS:-3}

@@ -17,6 +17,7 @@
 #include "orpe/core/error.h"
 #include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
+#include "orpe/recognition/silhouette_overflow.h"
 
 namespace orpe {
 
@@ -57,6 +58,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(crease_min_angle_deg > 0 && crease_min_angle_deg < 180))
     return fail("crease_min_angle_deg must be in (0, 180)");
   if (!(smooth_edge_max_step_m >= 0)) return fail("smooth_edge_max_step_m must be >= 0");
+  if (!(max_silhouette_overflow >= -1) || silhouette_margin_cells < 0)
+    return fail("max_silhouette_overflow must be >= -1 (-1 = off), silhouette_margin_cells >= 0");
   if (!(max_seam_fraction >= 0 && max_seam_fraction <= 1) || min_seam_pairs < 1)
     return fail("max_seam_fraction must be in [0, 1], min_seam_pairs >= 1");
   if (!(smooth_edge_max_colour_step >= 0 && smooth_edge_max_colour_step <= 256))
@@ -563,6 +566,7 @@ struct ModelRecognizer::Pass {
                          std::vector<std::optional<SE3>>& priors);
   void select();
   void reject_clutter();
+  int worst_silhouette_overflow();
   std::vector<Detection> detections();
   void update_tracks();
   void remember_searches();
@@ -778,13 +782,13 @@ void ModelRecognizer::Pass::reject_clutter() {
         seam_drop = hyps[static_cast<size_t>(t.seam_with)].rank < hyps[i].rank ? t.seam_with : i;
       }
     }
-    const bool by_seam = worst < 0;
+    const char* why = worst >= 0 ? "outline leak" : "seam";
     if (worst < 0) worst = seam_drop;
+    if (worst < 0 && (worst = worst_silhouette_overflow()) >= 0) why = "silhouette overflow";
     if (worst >= 0) {
       spdlog::debug("recognition: drop {} ({} points, {}): {}",
                     rec.models_[hyps[static_cast<size_t>(worst)].model].name,
-                    hyps[static_cast<size_t>(worst)].explained.size(), worst,
-                    by_seam ? "seam" : "outline leak");
+                    hyps[static_cast<size_t>(worst)].explained.size(), worst, why);
       hyps[static_cast<size_t>(worst)].dropped = true;  // out of the next selection
       select();
       continue;
@@ -816,6 +820,28 @@ void ModelRecognizer::Pass::reject_clutter() {
     if (!dropped) break;
     select();
   }
+}
+
+/// The kept object (not a known one) whose observed surface continues farthest beyond its model's
+/// silhouette, when that exceeds max_silhouette_overflow x its explained cells; -1 = none.
+int ModelRecognizer::Pass::worst_silhouette_overflow() {
+  if (p.max_silhouette_overflow < 0) return -1;
+  int worst = -1;
+  double worst_f = p.max_silhouette_overflow;
+  for (int i : kept) {
+    const Hypothesis& h = hyps[static_cast<size_t>(i)];
+    if (h.from_track || h.explained.empty()) continue;
+    const auto sil = model_silhouette(g, K, rec.models_[static_cast<size_t>(h.model)], h.T_cam_obj,
+                                      p.silhouette_margin_cells);
+    const int n = static_cast<int>(h.explained.size());
+    const int limit = static_cast<int>(std::ceil(4 * p.max_silhouette_overflow * n)) + 1;
+    const double f = silhouette_overflow(g, explained_by, i, sil,
+                                         static_cast<float>(p.boundary_continuation_m), limit) /
+                     static_cast<double>(n);
+    spdlog::debug("recognition: silhouette of {}: overflow {:.2f}", i, f);
+    if (f > worst_f) worst_f = f, worst = i;
+  }
+  return worst;
 }
 
 /// Per kept object, the pixels within the inlier distance of its model (nearest model wins).

@@ -85,6 +85,8 @@ struct RecognitionParams {
   int normal_radius_cells = 3;              ///< window of the grid normals (edge test)
   double max_seam_fraction = 0.5;  ///< a shared edge more seamless than this is no object boundary
   int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
+  double max_silhouette_overflow = -1;  ///< unexplained surface beyond the model outline (-1 off)
+  int silhouette_margin_cells = 1;      ///< the model silhouette widened by this (grid cells)
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
@@ -222,6 +224,14 @@ struct RecognitionParams {
       "Two kept objects whose shared edge is seamless (surface, normals and colour continue) for "
       "more than this fraction of its outline pairs tile one surface: the lower-ranked is dropped");
     v("min_seam_pairs", min_seam_pairs, "Outline pairs a shared edge needs for the seam test");
+    v("max_silhouette_overflow", max_silhouette_overflow,
+      "An object whose observed surface continues (steps under boundary_continuation_m, one "
+      "region, no kept object explaining it) beyond the outline its model projects to, over more "
+      "grid cells than this fraction of the cells it explains, is a part of something larger (a "
+      "distractor longer than the model fitted to one end of it) and dropped; -1 = off");
+    v("silhouette_margin_cells", silhouette_margin_cells,
+      "The projected model outline of the silhouette test widened by this many grid cells (pose "
+      "error, mixed pixels)");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");

@@ -1,0 +1,64 @@
+#include "orpe/recognition/silhouette_overflow.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace orpe {
+
+std::vector<std::uint8_t> model_silhouette(const SceneGrid& g, const PinholeIntrinsics& K,
+                                           const ObjectModel& model, const SE3& T_cam_obj,
+                                           int margin_cells) {
+  std::vector<std::uint8_t> in(static_cast<size_t>(g.width) * g.height, 0);
+  const Eigen::Matrix3f R = T_cam_obj.rotation().cast<float>();
+  const Eigen::Vector3f t = T_cam_obj.translation().cast<float>();
+  const float spacing = static_cast<float>(model.mean_spacing_m);
+  const float stride = static_cast<float>(g.stride);
+  for (const Eigen::Vector3f& p : model.points) {
+    const Eigen::Vector3f q = R * p + t;
+    if (q.z() <= 0.05f) continue;
+    const float gu = static_cast<float>(K.fx * q.x() / q.z() + K.cx) / stride;
+    const float gv = static_cast<float>(K.fy * q.y() / q.z() + K.cy) / stride;
+    const int r = static_cast<int>(std::ceil(static_cast<float>(K.fx) * spacing / q.z() / stride)) +
+                  margin_cells;
+    const int cu = static_cast<int>(std::lround(gu)), cv = static_cast<int>(std::lround(gv));
+    for (int v = std::max(0, cv - r); v <= std::min(g.height - 1, cv + r); ++v)
+      for (int u = std::max(0, cu - r); u <= std::min(g.width - 1, cu + r); ++u)
+        if ((u - cu) * (u - cu) + (v - cv) * (v - cv) <= r * r) in[g.cell(u, v)] = 1;
+  }
+  return in;
+}
+
+int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by, int i,
+                        const std::vector<std::uint8_t>& silhouette, float continuation_m,
+                        int limit) {
+  std::vector<std::uint8_t> seen(explained_by.size(), 0);
+  std::vector<int> stack;
+  const float reach2 = continuation_m * continuation_m;
+  auto try_step = [&](int from, int to) {
+    if (seen[to] || !g.kept[to] || explained_by[to] >= 0 || g.region[to] < 0 ||
+        g.region[to] != g.region[from] || (g.points[to] - g.points[from]).squaredNorm() >= reach2)
+      return;
+    seen[to] = 1;
+    stack.push_back(to);
+  };
+  auto neighbours = [&](int c, auto&& fn) {
+    const int gu = c % g.width, gv = c / g.width;
+    if (gu > 0) fn(c - 1);
+    if (gu + 1 < g.width) fn(c + 1);
+    if (gv > 0) fn(c - g.width);
+    if (gv + 1 < g.height) fn(c + g.width);
+  };
+  for (size_t c = 0; c < explained_by.size(); ++c)
+    if (explained_by[c] == i)
+      neighbours(static_cast<int>(c), [&](int n) { try_step(static_cast<int>(c), n); });
+  int overflow = 0;
+  while (!stack.empty() && overflow < limit) {
+    const int c = stack.back();
+    stack.pop_back();
+    if (!silhouette[c]) ++overflow;
+    neighbours(c, [&](int n) { try_step(c, n); });
+  }
+  return overflow;
+}
+
+}  // namespace orpe

@@ -1,0 +1,30 @@
+// The model's silhouette against the observed surface it lies on: an object hypothesis whose
+// observed surface continues smoothly well beyond the outline the model projects to is a part of
+// something larger (a distractor box or cylinder longer than the target model fitted to one end of
+// it), however short the leaking part of its outline is.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "orpe/core/se3.h"
+#include "orpe/pose/object_model.h"
+#include "orpe/recognition/scene_geometry.h"
+
+namespace orpe {
+
+/// Grid cells the model covers at T_cam_obj: each model sample projected into the grid, widened by
+/// the sample spacing at its depth (+ `margin_cells`), so a sparsely sampled model has no gaps.
+std::vector<std::uint8_t> model_silhouette(const SceneGrid& g, const PinholeIntrinsics& K,
+                                           const ObjectModel& model, const SE3& T_cam_obj,
+                                           int margin_cells);
+
+/// Observed surface beyond an object's silhouette: the kept cells no kept object explains
+/// (`explained_by` < 0) reached from object `i`'s explained cells through 4-neighbour steps shorter
+/// than `continuation_m` inside one region (regions are split at depth steps and concave creases),
+/// counted outside `silhouette`. Stops counting at `limit`.
+int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by, int i,
+                        const std::vector<std::uint8_t>& silhouette, float continuation_m,
+                        int limit);
+
+}  // namespace orpe

@@ -61,6 +61,7 @@ struct RecognitionParams {
   double inlier_distance_m = 0.01;
   double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
   bool surface_distance = false;      ///< distance to the model surface, not to its nearest sample
+  double explain_max_normal_angle_deg = 0;  ///< observed and model normals within this (0 = off)
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
   double min_support = 0.55;      ///< visible model points on the observed depth, fraction
@@ -70,6 +71,7 @@ struct RecognitionParams {
   double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
   double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count
+  double solo_leak_weight = 0;       ///< rank x (1 - this x its own outline leak) (0 = off)
   double min_new_fraction = 0.6;     ///< of its explained points not explained by a kept one
   double min_inlier_fraction = 0.5;  ///< of the crop's points the fit explains
   double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
@@ -87,6 +89,7 @@ struct RecognitionParams {
   int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
+  double track_crop_distance_m = 0;  ///< refine on points this close to the predicted surface
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
   int reject_memory_keyframes = 10;  ///< keyframes a searched region is not searched again
   double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
@@ -152,6 +155,12 @@ struct RecognitionParams {
       "from that sample than the model's mean sample spacing explains (the pose stage's fit "
       "distance); false = to the nearest sample (a large model's samples are centimetres apart, "
       "so its own surface is partly unexplained even at the exact pose)");
+    v("explain_max_normal_angle_deg", explain_max_normal_angle_deg,
+      "An observed point is explained by a model (explained points, fit, selection) only where "
+      "its normal (grid plane fit, normal_radius_cells) is within this angle (deg) of the model's "
+      "at its nearest sample: a curved model 1 cm from a flat face crosses it at an angle where "
+      "it curves away (a bottle lying on its side against a box's face); points without a normal "
+      "pass; 0 = off (distance alone)");
     v("free_space_margin_m", free_space_margin_m,
       "A visible model point this far (m) in front of the observed depth is a violation");
     v("below_plane_margin_m", below_plane_margin_m,
@@ -183,6 +192,13 @@ struct RecognitionParams {
       "points of 1 - (distance / inlier distance)^2, times the support): of two models of "
       "nearly one size (cans whose radii differ by 4 mm) the one that fits the surface wins, not "
       "the one whose inlier band happens to hold a few more points; false = the explained count");
+    v("solo_leak_weight", solo_leak_weight,
+      "A hypothesis' rank is multiplied by 1 - this x its own outline leak: the fraction of its "
+      "outline where the observed surface continues (boundary_continuation_m, no concave crease) "
+      "into points it does not explain, measured as if it were alone. Of two models explaining "
+      "one face, the one whose surface ends where the object's does wins (a wood block explains "
+      "its front face, its top and its edges; a bottle lying against that face leaves the top "
+      "and the ends as continuing surface); 0 = off");
     v("min_new_fraction", min_new_fraction,
       "Fraction of a hypothesis' explained points that no kept hypothesis explains");
     v("min_inlier_fraction", min_inlier_fraction,
@@ -223,6 +239,11 @@ struct RecognitionParams {
       "more than this fraction of its outline pairs tile one surface: the lower-ranked is dropped");
     v("min_seam_pairs", min_seam_pairs, "Outline pairs a shared edge needs for the seam test");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
+    v("track_crop_distance_m", track_crop_distance_m,
+      "A known object is refined on the kept points within this distance (m) of its model at the "
+      "predicted pose (its last pose seen from the tracked camera), not on every point within 0.6 "
+      "diameters of its centre: a box next to another object otherwise slides over to explain "
+      "both, and its track bonus then outranks the neighbour; 0 = the ball");
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");
     v("reject_memory_keyframes", reject_memory_keyframes,

@@ -588,6 +588,7 @@ struct ModelRecognizer::Pass {
   void add_resting_tasks(const std::vector<int>& rest,
                          std::vector<std::pair<int, std::vector<int>>>& tasks,
                          std::vector<std::optional<SE3>>& priors);
+  RecognizedObject score(int mi, const SE3& T_cam_obj);
   void measure_solo_leaks();
   void select();
   void reject_clutter();
@@ -768,6 +769,29 @@ void ModelRecognizer::Pass::add_resting_tasks(const std::vector<int>& rest,
   }
 }
 
+/// One given pose of model mi, verified and ranked alone.
+RecognizedObject ModelRecognizer::Pass::score(int mi, const SE3& T_cam_obj) {
+  Hypothesis h;
+  h.model = mi;
+  h.T_cam_obj = T_cam_obj;
+  VerifyAids aids;
+  if (!cell_normals.empty()) aids.cell_normals = &cell_normals;
+  verify(g, frame.depth, K, rec.models_[static_cast<size_t>(mi)], p, aids, h);
+  hyps = {h};
+  select();
+  const Hypothesis& s = hyps.front();
+  RecognizedObject out{rec.models_[static_cast<size_t>(mi)].class_id,
+                       s.T_cam_obj,
+                       static_cast<int>(s.explained.size()),
+                       s.support,
+                       s.violation,
+                       false};
+  out.fit = s.fit;
+  out.solo_leak = s.solo_leak;
+  out.rank = s.rank;
+  return out;
+}
+
 /// Each admissible hypothesis' outline leak as if it were alone (solo_leak_weight > 0), once.
 void ModelRecognizer::Pass::measure_solo_leaks() {
   if (!(p.solo_leak_weight > 0)) return;
@@ -927,7 +951,7 @@ std::vector<Detection> ModelRecognizer::Pass::detections() {
     out.push_back(std::move(d));
     rec.last_objects_.push_back({out.back().class_id, h.T_cam_obj,
                                  static_cast<int>(h.explained.size()), h.support, h.violation,
-                                 h.from_track});
+                                 h.from_track, h.fit, h.solo_leak, h.rank});
   }
   return out;
 }
@@ -980,6 +1004,16 @@ void ModelRecognizer::Pass::remember_searches() {
   std::erase_if(state->rejected, [&](const Rejected& r) {
     return state->keyframe - r.keyframe >= p.reject_memory_keyframes;
   });
+}
+
+RecognizedObject ModelRecognizer::score_pose(const RgbdFrame& frame, int class_id,
+                                             const SE3& T_cam_obj) const {
+  for (size_t mi = 0; mi < models_.size(); ++mi)
+    if (models_[mi].class_id == class_id) {
+      Pass pass(*this, frame, SE3(), nullptr);
+      return pass.score(static_cast<int>(mi), T_cam_obj);
+    }
+  throw ConfigError(fmt::format("recognition: no model of class {}", class_id));
 }
 
 std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T_world_cam,

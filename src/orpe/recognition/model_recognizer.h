@@ -61,7 +61,7 @@ struct RecognitionParams {
   double inlier_distance_m = 0.01;
   double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
   bool surface_distance = false;      ///< distance to the model surface, not to its nearest sample
-  double explain_max_normal_angle_deg = 0;  ///< observed and model normals within this (0 = off)
+  double explain_max_normal_angle_deg = 25;  ///< observed and model normals within this (0 = off)
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
   double min_support = 0.55;      ///< visible model points on the observed depth, fraction
@@ -71,7 +71,7 @@ struct RecognitionParams {
   double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
   double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count
-  double solo_leak_weight = 0;       ///< rank x (1 - this x its own outline leak) (0 = off)
+  double solo_leak_weight = 1;       ///< rank x (1 - this x its own outline leak) (0 = off)
   double min_new_fraction = 0.6;     ///< of its explained points not explained by a kept one
   double min_inlier_fraction = 0.5;  ///< of the crop's points the fit explains
   double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
@@ -89,7 +89,7 @@ struct RecognitionParams {
   int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;          ///< ranking factor of a refined known object
-  double track_crop_distance_m = 0;  ///< refine on points this close to the predicted surface
+  double track_crop_distance_m = 0.02;  ///< refine on points this close to the predicted surface
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
   int reject_memory_keyframes = 10;  ///< keyframes a searched region is not searched again
   double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
@@ -286,6 +286,9 @@ struct RecognizedObject {
   double support = 0;
   double violation = 0;
   bool from_track = false;
+  double fit = 0;         ///< sum over the explained points of 1 - (d / inlier distance)^2
+  double solo_leak = -1;  ///< outline leak as if alone (-1: not measured)
+  double rank = 0;
 };
 
 class ModelRecognizer final : public Segmenter {
@@ -299,6 +302,10 @@ class ModelRecognizer final : public Segmenter {
   /// With the tracked pose: known objects are refined, then the rest is searched.
   std::vector<Detection> detect_in_context(const RgbdFrame& frame,
                                            const SegmentationContext& context) override;
+  /// The model of `class_id` at a given pose, scored against the frame as a searched hypothesis
+  /// would be (explained points, fit, support, violation, solo leak, rank; diagnosis and tests).
+  /// Throws ConfigError for a class without a model.
+  RecognizedObject score_pose(const RgbdFrame& frame, int class_id, const SE3& T_cam_obj) const;
   /// The objects kept in the last call.
   const std::vector<RecognizedObject>& last_objects() const { return last_objects_; }
   /// Registrations run in the last call (searches and refinements).

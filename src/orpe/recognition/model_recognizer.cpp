@@ -174,8 +174,8 @@ struct Hypothesis {
   bool resting = false;  // placed by the resting search
   int track = -1;
   double rank = 0;
-  bool dropped = false;  // by a clutter rule, out of the later selections of the cascade
-  double colour = 1;     // best colour NCC over the pose and its confusable turns (1: not tested)
+  bool dropped = false;   // by a clutter rule, out of the later selections of the cascade
+  double colour = 1;      // best colour NCC over the pose and its confusable turns (1: not tested)
   double solo_leak = -1;  // outline leak of the hypothesis alone (-1: not measured)
 };
 
@@ -227,8 +227,7 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   const Vec3f centre = (h.T_cam_obj * Vec3::Zero()).cast<float>();
   const float reach = static_cast<float>(model.diameter_m + 2 * p.inlier_distance_m);
   const bool by_normal = cell_normals && model.has_normals();
-  const float min_cos =
-      static_cast<float>(std::cos(p.explain_max_normal_angle_deg * M_PI / 180.0));
+  const float min_cos = static_cast<float>(std::cos(p.explain_max_normal_angle_deg * M_PI / 180.0));
   h.explained.clear();
   h.fit = 0;
   for (size_t c = 0; c < g.kept.size(); ++c) {
@@ -1038,7 +1037,8 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
   for (int i : pass.kept)
     spdlog::debug("recognition: kept #{} {} (rank {:.0f}, solo leak {:.2f})", i,
                   models_[pass.hyps[static_cast<size_t>(i)].model].name,
-                  pass.hyps[static_cast<size_t>(i)].rank, pass.hyps[static_cast<size_t>(i)].solo_leak);
+                  pass.hyps[static_cast<size_t>(i)].rank,
+                  pass.hyps[static_cast<size_t>(i)].solo_leak);
   timing.verify_ms = ms_since(t);
   t = std::chrono::steady_clock::now();
   std::vector<Detection> out = pass.detections();

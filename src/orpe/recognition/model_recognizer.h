@@ -88,7 +88,7 @@ struct RecognitionParams {
   double max_seam_fraction = 0.5;  ///< a shared edge more seamless than this is no object boundary
   int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
   // Tracks (objects known from earlier keyframes).
-  double track_bonus = 1.5;          ///< ranking factor of a refined known object
+  double track_bonus = 1.5;             ///< ranking factor of a refined known object
   double track_crop_distance_m = 0.02;  ///< refine on points this close to the predicted surface
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
   int reject_memory_keyframes = 10;  ///< keyframes a searched region is not searched again

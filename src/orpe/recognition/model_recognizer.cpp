@@ -66,6 +66,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("smooth_edge_max_colour_step must be in [0, 256]");
   if (normal_radius_cells < 1 || normal_radius_cells > 10)
     return fail("normal_radius_cells must be in [1, 10]");
+  if (!(min_in_image_fraction >= 0 && min_in_image_fraction <= 1))
+    return fail("min_in_image_fraction must be in [0, 1]");
   if (!(solo_leak_weight >= 0 && solo_leak_weight <= 1))
     return fail("solo_leak_weight must be in [0, 1]");
   if (!(resting_bonus >= 0) || !(resting_tolerance_m > 0))
@@ -177,6 +179,7 @@ struct Hypothesis {
   bool dropped = false;   // by a clutter rule, out of the later selections of the cascade
   double colour = 1;      // best colour NCC over the pose and its confusable turns (1: not tested)
   double solo_leak = -1;  // outline leak of the hypothesis alone (-1: not measured)
+  double in_image = 1;    // of its camera-facing model points, the fraction inside the image
 };
 
 }  // namespace recognition_detail
@@ -246,7 +249,7 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   const Vec3f t = h.T_cam_obj.translation().cast<float>();
   const size_t n = model.points.size();
   const size_t step = std::max<size_t>(1, n / 400);
-  int supported = 0, violated = 0, checked = 0, below = 0;
+  int supported = 0, violated = 0, checked = 0, below = 0, facing = 0, inside = 0;
   h.lowest_m = std::numeric_limits<double>::infinity();
   const float margin = static_cast<float>(p.free_space_margin_m);
   for (size_t k = 0; k < n; k += step) {
@@ -263,7 +266,9 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
     if (model.has_normals() && (R * model.normals[k]).dot(q) >= 0) continue;  // back-facing
     const int u = static_cast<int>(std::lround(K.fx * q.x() / q.z() + K.cx));
     const int v = static_cast<int>(std::lround(K.fy * q.y() / q.z() + K.cy));
+    ++facing;
     if (!depth.in_bounds(u, v)) continue;
+    ++inside;
     const float z = depth.at(u, v);
     if (!(z > 0)) continue;
     if (q.z() < z - margin)
@@ -274,6 +279,7 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.support =
       supported + violated > 0 ? static_cast<double>(supported) / (supported + violated) : 0;
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
+  h.in_image = facing > 0 ? static_cast<double>(inside) / facing : 0;
 }
 
 /// How the image's grey levels agree with a model's own colour (texture, vertex colours) at a
@@ -822,7 +828,7 @@ void ModelRecognizer::Pass::select() {
   for (int i : order) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
     if (h.dropped || h.support < p.min_support || h.violation > p.max_violation ||
-        h.colour < p.min_colour_ncc)
+        h.colour < p.min_colour_ncc || (!h.from_track && h.in_image < p.min_in_image_fraction))
       continue;
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;

@@ -65,6 +65,7 @@ struct RecognitionParams {
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
   double min_support = 0.55;      ///< visible model points on the observed depth, fraction
+  double min_in_image_fraction = 0;  ///< of its camera-facing model points inside the image
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
   double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
@@ -167,6 +168,10 @@ struct RecognitionParams {
       "A model point this far (m) below the support plane is a violation");
     v("min_support", min_support,
       "A hypothesis needs this fraction of its visible model points on the observed depth");
+    v("min_in_image_fraction", min_in_image_fraction,
+      "A searched hypothesis (not a known object) needs this fraction of its camera-facing model "
+      "points to project inside the image: a model fitted to a strip of clutter at the image "
+      "border is held by the little of it the frame shows; 0 = off");
     v("max_violation", max_violation,
       "A hypothesis may have at most this fraction of model points in free space / below the "
       "support");

@@ -136,7 +136,8 @@ TEST(RecognitionExplanation, AModelHeldByAStripAtTheImageBorderIsNotKept) {
     RecognitionParams p;
     p.min_in_image_fraction = fraction;
     const ModelRecognizer rec(SegmentationParams{}, p, SceneGeometryParams{}, sh.models());
-    const RgbdFrame f = test::render_table_scene({{1, &sh.box, TestShapes::on_table(x, 0, 0, 0.025)}});
+    const RgbdFrame f =
+        test::render_table_scene({{1, &sh.box, TestShapes::on_table(x, 0, 0, 0.025)}});
     int boxes = 0;
     for (const auto& d : rec.detect(f)) boxes += d.class_id == 1;
     return boxes;

@@ -64,8 +64,8 @@ struct RecognitionParams {
   double explain_max_normal_angle_deg = 25;  ///< observed and model normals within this (0 = off)
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
-  double min_support = 0.55;      ///< visible model points on the observed depth, fraction
-  double min_in_image_fraction = 0;  ///< of its camera-facing model points inside the image
+  double min_support = 0.55;           ///< visible model points on the observed depth, fraction
+  double min_in_image_fraction = 0.5;  ///< of its camera-facing model points inside the image
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
   double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)

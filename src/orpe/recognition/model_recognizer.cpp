@@ -17,6 +17,7 @@
 #include "orpe/core/error.h"
 #include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
+#include "orpe/recognition/normal_agreement.h"
 #include "orpe/recognition/silhouette_overflow.h"
 
 namespace orpe {
@@ -44,6 +45,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
         "resting_min_face_fraction must be in [0, 1], resting_face_min_cells >= 3, the resting "
         "tilt, bottom and height tolerance > 0, resting_width_slack_m >= 0");
   if (!(inlier_distance_per_m2 >= 0)) return fail("inlier_distance_per_m2 must be >= 0");
+  if (!(explain_max_normal_angle_deg >= 0 && explain_max_normal_angle_deg < 90))
+    return fail("explain_max_normal_angle_deg must be in [0, 90)");
   if (!(inlier_distance_m > 0) || !(free_space_margin_m > 0) || !(below_plane_margin_m > 0))
     return fail("inlier_distance_m, free_space_margin_m, below_plane_margin_m must be > 0");
   for (double f :
@@ -66,9 +69,14 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("smooth_edge_max_colour_step must be in [0, 256]");
   if (normal_radius_cells < 1 || normal_radius_cells > 10)
     return fail("normal_radius_cells must be in [1, 10]");
+  if (!(min_in_image_fraction >= 0 && min_in_image_fraction <= 1))
+    return fail("min_in_image_fraction must be in [0, 1]");
+  if (!(solo_leak_weight >= 0 && solo_leak_weight <= 1))
+    return fail("solo_leak_weight must be in [0, 1]");
   if (!(resting_bonus >= 0) || !(resting_tolerance_m > 0))
     return fail("resting_bonus must be >= 0 and resting_tolerance_m > 0");
   if (!(track_bonus >= 1)) return fail("track_bonus must be >= 1");
+  if (!(track_crop_distance_m >= 0)) return fail("track_crop_distance_m must be >= 0");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
   if (!(min_colour_ncc >= -1 && min_colour_ncc <= 1))
@@ -171,8 +179,10 @@ struct Hypothesis {
   bool resting = false;  // placed by the resting search
   int track = -1;
   double rank = 0;
-  bool dropped = false;  // by a clutter rule, out of the later selections of the cascade
-  double colour = 1;     // best colour NCC over the pose and its confusable turns (1: not tested)
+  bool dropped = false;   // by a clutter rule, out of the later selections of the cascade
+  double colour = 1;      // best colour NCC over the pose and its confusable turns (1: not tested)
+  double solo_leak = -1;  // outline leak of the hypothesis alone (-1: not measured)
+  double in_image = 1;    // of its camera-facing model points, the fraction inside the image
 };
 
 }  // namespace recognition_detail
@@ -193,9 +203,11 @@ float inlier_distance_at(const RecognitionParams& p, float z) {
 /// model's samples are a fixed number (2620 by default) spread over its area, so a large model's
 /// are centimetres apart: with the nearest-sample distance a third of a 0.40 m box's own surface
 /// lies beyond a 1 cm inlier distance even at its exact pose.
-float model_distance2(const ObjectModel& model, const Vec3f& q, bool surface) {
+float model_distance2(const ObjectModel& model, const Vec3f& q, bool surface,
+                      std::uint32_t* nearest = nullptr) {
   float d2 = 0;
   const std::uint32_t j = model.search_index->nearest(q, &d2);
+  if (nearest) *nearest = j;
   if (!surface || !model.has_normals()) return d2;
   const float plane = std::abs(model.normals[j].dot(q - model.points[j]));
   const float beyond = std::sqrt(d2) - static_cast<float>(model.mean_spacing_m);
@@ -203,23 +215,36 @@ float model_distance2(const ObjectModel& model, const Vec3f& q, bool surface) {
   return d * d;
 }
 
-/// A hypothesis against the whole scene: explained kept cells, support and violations.
+/// What verify may use beyond the grid: the kept cells' normals (explain_max_normal_angle_deg >
+/// 0); null = not used.
+struct VerifyAids {
+  const std::vector<Vec3f>* cell_normals = nullptr;
+};
+
+/// A hypothesis against the whole scene: explained kept cells, support and violations. With
+/// cell normals, an explained cell adds to the fit only where its normal agrees with the model's.
 void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics& K,
-            const ObjectModel& model, const RecognitionParams& p, Hypothesis& h) {
+            const ObjectModel& model, const RecognitionParams& p, const VerifyAids& aids,
+            Hypothesis& h) {
+  const std::vector<Vec3f>* cell_normals = aids.cell_normals;
   const SE3 T_obj_cam = h.T_cam_obj.inverse();
   const Eigen::Matrix3f R_oc = T_obj_cam.rotation().cast<float>();
   const Vec3f t_oc = T_obj_cam.translation().cast<float>();
   const Vec3f centre = (h.T_cam_obj * Vec3::Zero()).cast<float>();
   const float reach = static_cast<float>(model.diameter_m + 2 * p.inlier_distance_m);
+  const bool by_normal = cell_normals && model.has_normals();
+  const float min_cos = static_cast<float>(std::cos(p.explain_max_normal_angle_deg * M_PI / 180.0));
   h.explained.clear();
   h.fit = 0;
   for (size_t c = 0; c < g.kept.size(); ++c) {
     if (!g.kept[c] || (g.points[c] - centre).squaredNorm() > reach * reach) continue;
-    const float dist2 = model_distance2(model, R_oc * g.points[c] + t_oc, p.surface_distance);
+    std::uint32_t j = 0;
+    const float dist2 = model_distance2(model, R_oc * g.points[c] + t_oc, p.surface_distance, &j);
     const float d_in = inlier_distance_at(p, g.points[c].z());
     if (dist2 < d_in * d_in) {
       h.explained.push_back(static_cast<int>(c));
-      h.fit += 1.0 - dist2 / (d_in * d_in);
+      if (!by_normal || normal_agrees(R_oc * (*cell_normals)[c], model.normals[j], min_cos))
+        h.fit += 1.0 - dist2 / (d_in * d_in);
     }
   }
   // Visible model points against the observed depth; every model point against the support.
@@ -227,7 +252,7 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   const Vec3f t = h.T_cam_obj.translation().cast<float>();
   const size_t n = model.points.size();
   const size_t step = std::max<size_t>(1, n / 400);
-  int supported = 0, violated = 0, checked = 0, below = 0;
+  int supported = 0, violated = 0, checked = 0, below = 0, facing = 0, inside = 0;
   h.lowest_m = std::numeric_limits<double>::infinity();
   const float margin = static_cast<float>(p.free_space_margin_m);
   for (size_t k = 0; k < n; k += step) {
@@ -244,7 +269,9 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
     if (model.has_normals() && (R * model.normals[k]).dot(q) >= 0) continue;  // back-facing
     const int u = static_cast<int>(std::lround(K.fx * q.x() / q.z() + K.cx));
     const int v = static_cast<int>(std::lround(K.fy * q.y() / q.z() + K.cy));
+    ++facing;
     if (!depth.in_bounds(u, v)) continue;
+    ++inside;
     const float z = depth.at(u, v);
     if (!(z > 0)) continue;
     if (q.z() < z - margin)
@@ -255,6 +282,7 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   h.support =
       supported + violated > 0 ? static_cast<double>(supported) / (supported + violated) : 0;
   h.violation = checked > 0 ? static_cast<double>(violated + below) / checked : 1;
+  h.in_image = facing > 0 ? static_cast<double>(inside) / facing : 0;
 }
 
 /// How the image's grey levels agree with a model's own colour (texture, vertex colours) at a
@@ -555,15 +583,21 @@ struct ModelRecognizer::Pass {
     g = make_scene_grid(frame.depth, K, rec.geometry_);
     remove_support_planes(g, rec.geometry_);
     regions = split_regions(g, rec.geometry_);
+    if (p.explain_max_normal_angle_deg > 0)
+      cell_normals = kept_cell_normals(g, p.normal_radius_cells);
   }
 
   bool register_crop(int mi, const std::vector<int>& cells, const SE3* prior,
                      Hypothesis* out) const;
   void refine_tracks();
+  void keep_near_model(const ObjectModel& model, const SE3& T_cam_obj,
+                       std::vector<int>& cells) const;
   void search_regions();
   void add_resting_tasks(const std::vector<int>& rest,
                          std::vector<std::pair<int, std::vector<int>>>& tasks,
                          std::vector<std::optional<SE3>>& priors);
+  RecognizedObject score(int mi, const SE3& T_cam_obj);
+  void measure_solo_leaks();
   void select();
   void reject_clutter();
   int worst_silhouette_overflow();
@@ -584,6 +618,7 @@ struct ModelRecognizer::Pass {
   std::vector<int> explained_by;       ///< per grid cell: the kept hypothesis explaining it, or -1
   std::vector<int> kept;               ///< indices into hyps
   std::optional<GridNormals> normals;  ///< of the grid, on demand (outline tests)
+  std::vector<Vec3f> cell_normals;     ///< every kept cell's, with explain_max_normal_angle_deg
   struct Searched {
     Vec3 centroid_world;
   };
@@ -610,10 +645,24 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
   }
   out->model = mi;
   out->T_cam_obj = pose.T_cam_obj;
-  verify(g, frame.depth, K, *in.model, p, *out);
+  VerifyAids aids;
+  if (!cell_normals.empty()) aids.cell_normals = &cell_normals;
+  verify(g, frame.depth, K, *in.model, p, aids, *out);
   if (p.min_colour_ncc > -1 && out->support >= p.min_support && out->violation <= p.max_violation)
     out->colour = best_colour_ncc(*in.model, out->T_cam_obj, frame, K);
   return true;
+}
+
+/// Of `cells`, those within track_crop_distance_m of the model at pose T_cam_obj.
+void ModelRecognizer::Pass::keep_near_model(const ObjectModel& model, const SE3& T_cam_obj,
+                                            std::vector<int>& cells) const {
+  const SE3 T_obj_cam = T_cam_obj.inverse();
+  const Eigen::Matrix3f R = T_obj_cam.rotation().cast<float>();
+  const Vec3f t = T_obj_cam.translation().cast<float>();
+  const float d = static_cast<float>(p.track_crop_distance_m);
+  std::erase_if(cells, [&](int c) {
+    return model_distance2(model, R * g.points[c] + t, p.surface_distance) >= d * d;
+  });
 }
 
 /// Known objects, refined from their last pose on the kept points around it.
@@ -632,6 +681,7 @@ void ModelRecognizer::Pass::refine_tracks() {
     for (size_t k = 0; k < g.kept.size(); ++k)
       if (g.kept[k] && (g.points[k] - c).squaredNorm() < r * r)
         cells.push_back(static_cast<int>(k));
+    if (p.track_crop_distance_m > 0) keep_near_model(rec.models_[mi], prior, cells);
     Hypothesis h;
     ++refinements;
     if (!register_crop(mi, cells, &prior, &h)) continue;
@@ -728,12 +778,51 @@ void ModelRecognizer::Pass::add_resting_tasks(const std::vector<int>& rest,
   }
 }
 
+/// One given pose of model mi, verified and ranked alone.
+RecognizedObject ModelRecognizer::Pass::score(int mi, const SE3& T_cam_obj) {
+  Hypothesis h;
+  h.model = mi;
+  h.T_cam_obj = T_cam_obj;
+  VerifyAids aids;
+  if (!cell_normals.empty()) aids.cell_normals = &cell_normals;
+  verify(g, frame.depth, K, rec.models_[static_cast<size_t>(mi)], p, aids, h);
+  hyps = {h};
+  select();
+  const Hypothesis& s = hyps.front();
+  RecognizedObject out{rec.models_[static_cast<size_t>(mi)].class_id,
+                       s.T_cam_obj,
+                       static_cast<int>(s.explained.size()),
+                       s.support,
+                       s.violation,
+                       false};
+  out.fit = s.fit;
+  out.solo_leak = s.solo_leak;
+  out.rank = s.rank;
+  return out;
+}
+
+/// Each admissible hypothesis' outline leak as if it were alone (solo_leak_weight > 0), once.
+void ModelRecognizer::Pass::measure_solo_leaks() {
+  if (!(p.solo_leak_weight > 0)) return;
+  if (!normals) normals.emplace(g, p.normal_radius_cells);
+  std::vector<int> alone(g.kept.size(), -1);
+  for (size_t i = 0; i < hyps.size(); ++i) {
+    Hypothesis& h = hyps[i];
+    if (h.solo_leak >= 0 || h.support < p.min_support || h.violation > p.max_violation) continue;
+    for (int c : h.explained) alone[c] = static_cast<int>(i);
+    h.solo_leak = boundary_leak(g, frame.color, alone, static_cast<int>(i), p, *normals).leak;
+    for (int c : h.explained) alone[c] = -1;
+  }
+}
+
 /// Greedy selection, best first: a hypothesis is kept when it newly explains enough points.
 void ModelRecognizer::Pass::select() {
+  measure_solo_leaks();
   for (auto& h : hyps)
     h.rank = (p.rank_by_residual ? h.fit : static_cast<double>(h.explained.size())) * h.support *
              (h.from_track ? p.track_bonus : 1.0) *
-             (std::abs(h.lowest_m) < p.resting_tolerance_m ? 1.0 + p.resting_bonus : 1.0);
+             (std::abs(h.lowest_m) < p.resting_tolerance_m ? 1.0 + p.resting_bonus : 1.0) *
+             (h.solo_leak > 0 ? std::max(0.0, 1.0 - p.solo_leak_weight * h.solo_leak) : 1.0);
   std::vector<int> order(hyps.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
@@ -743,14 +832,14 @@ void ModelRecognizer::Pass::select() {
   for (int i : order) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
     if (h.dropped || h.support < p.min_support || h.violation > p.max_violation ||
-        h.colour < p.min_colour_ncc)
+        h.colour < p.min_colour_ncc || (!h.from_track && h.in_image < p.min_in_image_fraction))
       continue;
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;
     if (fresh < p.min_explained_points ||
         fresh < p.min_new_fraction * static_cast<double>(h.explained.size())) {
-      spdlog::trace("recognition: #{} {} (rank {:.0f}): {} of {} points new", i,
-                    rec.models_[h.model].name, h.rank, fresh, h.explained.size());
+      spdlog::trace("recognition: #{} {} (rank {:.0f}, solo leak {:.2f}): {} of {} points new", i,
+                    rec.models_[h.model].name, h.rank, h.solo_leak, fresh, h.explained.size());
       continue;
     }
     for (int c : h.explained)
@@ -893,7 +982,7 @@ std::vector<Detection> ModelRecognizer::Pass::detections() {
     out.push_back(std::move(d));
     rec.last_objects_.push_back({out.back().class_id, h.T_cam_obj,
                                  static_cast<int>(h.explained.size()), h.support, h.violation,
-                                 h.from_track});
+                                 h.from_track, h.fit, h.solo_leak, h.rank});
   }
   return out;
 }
@@ -948,6 +1037,16 @@ void ModelRecognizer::Pass::remember_searches() {
   });
 }
 
+RecognizedObject ModelRecognizer::score_pose(const RgbdFrame& frame, int class_id,
+                                             const SE3& T_cam_obj) const {
+  for (size_t mi = 0; mi < models_.size(); ++mi)
+    if (models_[mi].class_id == class_id) {
+      Pass pass(*this, frame, SE3(), nullptr);
+      return pass.score(static_cast<int>(mi), T_cam_obj);
+    }
+  throw ConfigError(fmt::format("recognition: no model of class {}", class_id));
+}
+
 std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T_world_cam,
                                             State* state) const {
   const auto t0 = std::chrono::steady_clock::now();
@@ -968,9 +1067,10 @@ std::vector<Detection> ModelRecognizer::run(const RgbdFrame& frame, const SE3& T
   pass.select();
   pass.reject_clutter();
   for (int i : pass.kept)
-    spdlog::debug("recognition: kept #{} {} (rank {:.0f})", i,
+    spdlog::debug("recognition: kept #{} {} (rank {:.0f}, solo leak {:.2f})", i,
                   models_[pass.hyps[static_cast<size_t>(i)].model].name,
-                  pass.hyps[static_cast<size_t>(i)].rank);
+                  pass.hyps[static_cast<size_t>(i)].rank,
+                  pass.hyps[static_cast<size_t>(i)].solo_leak);
   timing.verify_ms = ms_since(t);
   t = std::chrono::steady_clock::now();
   std::vector<Detection> out = pass.detections();

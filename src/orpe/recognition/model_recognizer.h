@@ -61,15 +61,18 @@ struct RecognitionParams {
   double inlier_distance_m = 0.01;
   double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
   bool surface_distance = false;      ///< distance to the model surface, not to its nearest sample
+  double explain_max_normal_angle_deg = 25;  ///< observed and model normals within this (0 = off)
   double free_space_margin_m = 0.015;
   double below_plane_margin_m = 0.02;
-  double min_support = 0.55;      ///< visible model points on the observed depth, fraction
+  double min_support = 0.55;           ///< visible model points on the observed depth, fraction
+  double min_in_image_fraction = 0.5;  ///< of its camera-facing model points inside the image
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
   double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
   double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
   double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count
+  double solo_leak_weight = 1;       ///< rank x (1 - this x its own outline leak) (0 = off)
   double min_new_fraction = 0.6;     ///< of its explained points not explained by a kept one
   double min_inlier_fraction = 0.5;  ///< of the crop's points the fit explains
   double min_region_coverage = 0.6;  ///< of a region's points the kept objects must explain
@@ -88,7 +91,8 @@ struct RecognitionParams {
   double max_silhouette_overflow = -1;  ///< unexplained surface beyond the model outline (-1 off)
   int silhouette_margin_cells = 1;      ///< the model silhouette widened by this (grid cells)
   // Tracks (objects known from earlier keyframes).
-  double track_bonus = 1.5;          ///< ranking factor of a refined known object
+  double track_bonus = 1.5;             ///< ranking factor of a refined known object
+  double track_crop_distance_m = 0.02;  ///< refine on points this close to the predicted surface
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
   int reject_memory_keyframes = 10;  ///< keyframes a searched region is not searched again
   double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
@@ -154,12 +158,22 @@ struct RecognitionParams {
       "from that sample than the model's mean sample spacing explains (the pose stage's fit "
       "distance); false = to the nearest sample (a large model's samples are centimetres apart, "
       "so its own surface is partly unexplained even at the exact pose)");
+    v("explain_max_normal_angle_deg", explain_max_normal_angle_deg,
+      "An observed point is explained by a model (explained points, fit, selection) only where "
+      "its normal (grid plane fit, normal_radius_cells) is within this angle (deg) of the model's "
+      "at its nearest sample: a curved model 1 cm from a flat face crosses it at an angle where "
+      "it curves away (a bottle lying on its side against a box's face); points without a normal "
+      "pass; 0 = off (distance alone)");
     v("free_space_margin_m", free_space_margin_m,
       "A visible model point this far (m) in front of the observed depth is a violation");
     v("below_plane_margin_m", below_plane_margin_m,
       "A model point this far (m) below the support plane is a violation");
     v("min_support", min_support,
       "A hypothesis needs this fraction of its visible model points on the observed depth");
+    v("min_in_image_fraction", min_in_image_fraction,
+      "A searched hypothesis (not a known object) needs this fraction of its camera-facing model "
+      "points to project inside the image: a model fitted to a strip of clutter at the image "
+      "border is held by the little of it the frame shows; 0 = off");
     v("max_violation", max_violation,
       "A hypothesis may have at most this fraction of model points in free space / below the "
       "support");
@@ -185,6 +199,13 @@ struct RecognitionParams {
       "points of 1 - (distance / inlier distance)^2, times the support): of two models of "
       "nearly one size (cans whose radii differ by 4 mm) the one that fits the surface wins, not "
       "the one whose inlier band happens to hold a few more points; false = the explained count");
+    v("solo_leak_weight", solo_leak_weight,
+      "A hypothesis' rank is multiplied by 1 - this x its own outline leak: the fraction of its "
+      "outline where the observed surface continues (boundary_continuation_m, no concave crease) "
+      "into points it does not explain, measured as if it were alone. Of two models explaining "
+      "one face, the one whose surface ends where the object's does wins (a wood block explains "
+      "its front face, its top and its edges; a bottle lying against that face leaves the top "
+      "and the ends as continuing surface); 0 = off");
     v("min_new_fraction", min_new_fraction,
       "Fraction of a hypothesis' explained points that no kept hypothesis explains");
     v("min_inlier_fraction", min_inlier_fraction,
@@ -233,6 +254,11 @@ struct RecognitionParams {
       "The projected model outline of the silhouette test widened by this many grid cells (pose "
       "error, mixed pixels)");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
+    v("track_crop_distance_m", track_crop_distance_m,
+      "A known object is refined on the kept points within this distance (m) of its model at the "
+      "predicted pose (its last pose seen from the tracked camera), not on every point within 0.6 "
+      "diameters of its centre: a box next to another object otherwise slides over to explain "
+      "both, and its track bonus then outranks the neighbour; 0 = the ball");
     v("track_max_misses", track_max_misses,
       "A known object in view but not confirmed this many keyframes is forgotten");
     v("reject_memory_keyframes", reject_memory_keyframes,
@@ -275,6 +301,9 @@ struct RecognizedObject {
   double support = 0;
   double violation = 0;
   bool from_track = false;
+  double fit = 0;         ///< sum over the explained points of 1 - (d / inlier distance)^2
+  double solo_leak = -1;  ///< outline leak as if alone (-1: not measured)
+  double rank = 0;
 };
 
 class ModelRecognizer final : public Segmenter {
@@ -288,6 +317,10 @@ class ModelRecognizer final : public Segmenter {
   /// With the tracked pose: known objects are refined, then the rest is searched.
   std::vector<Detection> detect_in_context(const RgbdFrame& frame,
                                            const SegmentationContext& context) override;
+  /// The model of `class_id` at a given pose, scored against the frame as a searched hypothesis
+  /// would be (explained points, fit, support, violation, solo leak, rank; diagnosis and tests).
+  /// Throws ConfigError for a class without a model.
+  RecognizedObject score_pose(const RgbdFrame& frame, int class_id, const SE3& T_cam_obj) const;
   /// The objects kept in the last call.
   const std::vector<RecognizedObject>& last_objects() const { return last_objects_; }
   /// Registrations run in the last call (searches and refinements).

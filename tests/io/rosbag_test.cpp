@@ -261,6 +261,19 @@ TEST(RosBag, AnImageOfAnotherDefinitionOrALyingLengthIsAnErrorNotACrash) {
                                "field data needs 200000000 bytes");
 }
 
+TEST(RosBag, ARecordLengthBeyondTheFileIsAnErrorBeforeRosbagAllocatesIt) {
+  // The file header record's header length (byte 13, after "#ROSBAG V2.0\n") patched to 1.6 GB:
+  // rosbag allocated it before reading (libFuzzer, fuzz/corpus/rosbag/crash-oom-file-header-length.bag).
+  const std::string bag = write_tum_like_bag("record.bag", true, true);
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(13);
+    f.write("\x45\x00\x00\x60", 4);
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "the record at byte 13 states a header of 1610612805 bytes");
+}
+
 /// Every frame of `dataset` written to a bag the TUM way: rgb8 colour, 32FC1 depth (metres, exact)
 /// recorded out of order, the colour camera's CameraInfo.
 void write_as_bag(const std::string& dataset, const std::string& bag_path) {

@@ -272,6 +272,14 @@ TEST(RosBag, ARecordLengthBeyondTheFileIsAnErrorBeforeRosbagAllocatesIt) {
   }
   test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
                                "the record at byte 13 states a header of 1610612805 bytes");
+  // rosbag reads any "#ROS<word> V2.0" line as version 2.0 (libFuzzer: "#ROSBG V2.0",
+  // fuzz/corpus/rosbag/crash-oom-short-version-line.bag).
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    f.write("#ROSBG V2.0\n\x45\x00\x00\x60", 16);
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "the record at byte 12 states a header of 1610612805 bytes");
 }
 
 /// Every frame of `dataset` written to a bag the TUM way: rgb8 colour, 32FC1 depth (metres, exact)

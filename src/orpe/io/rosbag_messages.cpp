@@ -2,6 +2,7 @@
 // standard and ROS headers here; see rosbag_messages.h.
 #include "orpe/io/rosbag_messages.h"
 
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <stdexcept>
@@ -183,14 +184,19 @@ std::uint64_t read_u32_at(std::ifstream& in, std::uint64_t pos) {
 /// 2.7 KB file: 1.6 GB, fuzz/corpus/rosbag/crash-oom-file-header-length.bag). Every top-level
 /// length must fit in the bytes left. Other versions are left to rosbag.
 void check_bag_records(const std::string& path) {
-  static const std::string magic = "#ROSBAG V2.0\n";
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return;  // rosbag names the problem
   const std::uint64_t size = static_cast<std::uint64_t>(in.tellg());
-  std::string head(magic.size(), '\0');
+  // The version line as rosbag reads it (any "#ROS<word> V2.0": "#ROSBG V2.0" is 2.0 too).
+  std::string line;
   in.seekg(0);
-  if (!in.read(head.data(), static_cast<std::streamsize>(head.size())) || head != magic) return;
-  for (std::uint64_t pos = magic.size(); pos + 4 <= size;) {
+  std::getline(in, line);
+  char kind[64] = {};
+  int major = 0, minor = 0;
+  if (!in || std::sscanf(line.c_str(), "#ROS%63s V%d.%d", kind, &major, &minor) != 3 ||
+      major != 2 || minor != 0)
+    return;
+  for (std::uint64_t pos = line.size() + 1; pos + 4 <= size;) {
     for (const char* part : {"header", "data"}) {
       const std::uint64_t len = read_u32_at(in, pos);
       if (len > size - pos - 4)

@@ -263,7 +263,8 @@ TEST(RosBag, AnImageOfAnotherDefinitionOrALyingLengthIsAnErrorNotACrash) {
 
 TEST(RosBag, ARecordLengthBeyondTheFileIsAnErrorBeforeRosbagAllocatesIt) {
   // The file header record's header length (byte 13, after "#ROSBAG V2.0\n") patched to 1.6 GB:
-  // rosbag allocated it before reading (libFuzzer, fuzz/corpus/rosbag/crash-oom-file-header-length.bag).
+  // rosbag allocated it before reading (libFuzzer,
+  // fuzz/corpus/rosbag/crash-oom-file-header-length.bag).
   const std::string bag = write_tum_like_bag("record.bag", true, true);
   {
     std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
@@ -280,6 +281,15 @@ TEST(RosBag, ARecordLengthBeyondTheFileIsAnErrorBeforeRosbagAllocatesIt) {
   }
   test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
                                "the record at byte 12 states a header of 1610612805 bytes");
+  // The word after "#ROS" may be of any length (libFuzzer: 73 bytes,
+  // fuzz/corpus/rosbag/crash-oom-long-version-word.bag).
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string line = "#ROS" + std::string(80, 'x') + std::string(" V2.0\n\x45\0\0\x60", 10);
+    f.write(line.data(), static_cast<std::streamsize>(line.size()));
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "the record at byte 90 states a header of 1610612805 bytes");
 }
 
 /// Every frame of `dataset` written to a bag the TUM way: rgb8 colour, 32FC1 depth (metres, exact)

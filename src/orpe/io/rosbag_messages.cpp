@@ -191,10 +191,9 @@ void check_bag_records(const std::string& path) {
   std::string line;
   in.seekg(0);
   std::getline(in, line);
-  char kind[64] = {};
   int major = 0, minor = 0;
-  if (!in || std::sscanf(line.c_str(), "#ROS%63s V%d.%d", kind, &major, &minor) != 3 ||
-      major != 2 || minor != 0)
+  if (!in || std::sscanf(line.c_str(), "#ROS%*s V%d.%d", &major, &minor) != 2 || major != 2 ||
+      minor != 0)
     return;
   for (std::uint64_t pos = line.size() + 1; pos + 4 <= size;) {
     for (const char* part : {"header", "data"}) {

@@ -290,6 +290,15 @@ TEST(RosBag, ARecordLengthBeyondTheFileIsAnErrorBeforeRosbagAllocatesIt) {
   }
   test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
                                "the record at byte 90 states a header of 1610612805 bytes");
+  // rosbag's version line ends at a NUL as well as at a newline (libFuzzer,
+  // crash-oom-nul-in-version-line.bag).
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string line("#ROSBAG V2.0*\xff\xff\xff\xff\0\n", 19);
+    f.write(line.data(), static_cast<std::streamsize>(line.size()));
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "its version line holds a NUL byte");
 }
 
 /// Every frame of `dataset` written to a bag the TUM way: rgb8 colour, 32FC1 depth (metres, exact)

@@ -261,6 +261,46 @@ TEST(RosBag, AnImageOfAnotherDefinitionOrALyingLengthIsAnErrorNotACrash) {
                                "field data needs 200000000 bytes");
 }
 
+TEST(RosBag, ARecordLengthBeyondTheFileIsAnErrorBeforeRosbagAllocatesIt) {
+  // The file header record's header length (byte 13, after "#ROSBAG V2.0\n") patched to 1.6 GB:
+  // rosbag allocated it before reading (libFuzzer,
+  // fuzz/corpus/rosbag/crash-oom-file-header-length.bag).
+  const std::string bag = write_tum_like_bag("record.bag", true, true);
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(13);
+    f.write("\x45\x00\x00\x60", 4);
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "the record at byte 13 states a header of 1610612805 bytes");
+  // rosbag reads any "#ROS<word> V2.0" line as version 2.0 (libFuzzer: "#ROSBG V2.0",
+  // fuzz/corpus/rosbag/crash-oom-short-version-line.bag).
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    f.write("#ROSBG V2.0\n\x45\x00\x00\x60", 16);
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "the record at byte 12 states a header of 1610612805 bytes");
+  // The word after "#ROS" may be of any length (libFuzzer: 73 bytes,
+  // fuzz/corpus/rosbag/crash-oom-long-version-word.bag).
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string line = "#ROS" + std::string(80, 'x') + std::string(" V2.0\n\x45\0\0\x60", 10);
+    f.write(line.data(), static_cast<std::streamsize>(line.size()));
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "the record at byte 90 states a header of 1610612805 bytes");
+  // rosbag's version line ends at a NUL as well as at a newline (libFuzzer,
+  // crash-oom-nul-in-version-line.bag).
+  {
+    std::fstream f(bag, std::ios::in | std::ios::out | std::ios::binary);
+    const std::string line("#ROSBAG V2.0*\xff\xff\xff\xff\0\n", 19);
+    f.write(line.data(), static_cast<std::streamsize>(line.size()));
+  }
+  test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
+                               "its version line holds a NUL byte");
+}
+
 /// Every frame of `dataset` written to a bag the TUM way: rgb8 colour, 32FC1 depth (metres, exact)
 /// recorded out of order, the colour camera's CameraInfo.
 void write_as_bag(const std::string& dataset, const std::string& bag_path) {

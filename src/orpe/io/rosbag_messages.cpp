@@ -2,7 +2,10 @@
 // standard and ROS headers here; see rosbag_messages.h.
 #include "orpe/io/rosbag_messages.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <stdexcept>
 
 #if ORPE_HAVE_ROSBAG
@@ -170,9 +173,62 @@ auto translate(Fn&& fn) -> decltype(fn()) {
   }
 }
 
+std::uint64_t read_u32_at(std::ifstream& in, std::uint64_t pos) {
+  unsigned char b[4] = {};
+  in.seekg(static_cast<std::streamoff>(pos));
+  in.read(reinterpret_cast<char*>(b), 4);
+  return b[0] | b[1] << 8 | b[2] << 16 | static_cast<std::uint64_t>(b[3]) << 24;
+}
+
+/// The version line as rosbag reads it (ChunkedFile::getline: fgets of at most 1023 bytes, then a
+/// std::string of the buffer, cut at a NUL): the first record starts right after it. Any
+/// "#ROS<word> V2.0" is version 2.0 to rosbag ("#ROSBG V2.0" too).
+std::string bag_version_line(std::ifstream& in, std::uint64_t size) {
+  std::string buf(static_cast<size_t>(std::min<std::uint64_t>(size, 1023)), '\0');
+  in.seekg(0);
+  in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+  const size_t newline = buf.find('\n');
+  if (newline != std::string::npos) buf.resize(newline + 1);
+  // rosbag's offsets disagree for such a line (a valid bag has none): refused.
+  if (buf.find('\0') != std::string::npos && buf.rfind("#ROS", 0) == 0)
+    throw std::runtime_error("cannot read the ROS bag: its version line holds a NUL byte");
+  return buf;
+}
+
+/// A bag (format 2.0) is a sequence of records, each a header and a data part, each led by its
+/// length; rosbag allocates the stated length before it reads (a header length of 1.6 GB in a
+/// 2.7 KB file: 1.6 GB, fuzz/corpus/rosbag/crash-oom-file-header-length.bag). Every top-level
+/// length must fit in the bytes left. Other versions are left to rosbag.
+void check_bag_records(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return;  // rosbag names the problem
+  const std::uint64_t size = static_cast<std::uint64_t>(in.tellg());
+  const std::string line = bag_version_line(in, size);
+  int major = 0, minor = 0;
+  if (std::sscanf(line.c_str(), "#ROS%*s V%d.%d", &major, &minor) != 2 || major != 2 || minor != 0)
+    return;
+  // rosbag scans the word after "#ROS" into a char[100] with an unbounded %s.
+  if (line.find_first_of(" \t\n") > 4 + 99)
+    throw std::runtime_error("cannot read the ROS bag: its version line is too long");
+  for (std::uint64_t pos = line.size(); pos + 4 <= size;) {
+    for (const char* part : {"header", "data"}) {
+      const std::uint64_t len = read_u32_at(in, pos);
+      if (len > size - pos - 4)
+        throw std::runtime_error("cannot read the ROS bag: the record at byte " +
+                                 std::to_string(pos) + " states a " + part + " of " +
+                                 std::to_string(len) + " bytes, the file has " +
+                                 std::to_string(size - pos - 4) + " left");
+      pos += 4 + len;
+      if (pos + 4 > size && std::string(part) == "header")
+        throw std::runtime_error("cannot read the ROS bag: the file ends inside a record");
+    }
+  }
+}
+
 }  // namespace
 
 BagReader::BagReader(const std::string& path) : impl_(std::make_unique<Impl>()) {
+  check_bag_records(path);
   translate([&] {
     impl_->bag.open(path, rosbag::bagmode::Read);
     return 0;

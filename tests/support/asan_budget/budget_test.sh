@@ -36,7 +36,9 @@ start=$(date +%s)
 ASAN_BUDGET_SLEEP_S=0 run_case clean 600
 check "within the budget: exit 0" test "$rc" = 0
 check "within the budget: no warning" test "$(has clean "WARNING: the ASan" && echo y)" = ""
-check "within the budget: all 4 tests passed" has clean "100% tests passed, 0 tests failed out of 4"
+check "within the budget: all 5 tests passed" has clean "100% tests passed, 0 tests failed out of 5"
+check "within the budget: the parameterised and the disabled test are not named as cut" \
+  test "$(ls "$tmp/clean/asan_not_run.txt" 2> /dev/null)" = ""
 margin=$((2 * ($(date +%s) - start) + 6))
 
 run_case spent -10
@@ -55,6 +57,8 @@ check "tests cut: a warning" has tests "WARNING: the ASan + UBSan pass was cut"
 check "tests cut: slow_a listed as not run" listed tests slow_a
 check "tests cut: slow_b listed as not run" listed tests slow_b
 check "tests cut: late listed as not run" listed tests late
+check "tests cut: the parameterised test listed by its name" listed tests "Terms/Param.Case/Icp"
+check "tests cut: the disabled test not listed" test "$(listed tests disabled_one && echo y)" = ""
 check "tests cut: fail_one (it passed) not listed" test "$(listed tests fail_one && echo y)" = ""
 
 ASAN_BUDGET_FAIL=1 run_case failed "$margin"

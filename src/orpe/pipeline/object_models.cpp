@@ -3,15 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
-#include <thread>
 
 #include "orpe/core/error.h"
 #include "orpe/io/model_io.h"
@@ -23,7 +22,8 @@ namespace {
 
 std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -38,7 +38,8 @@ void sample_mesh_surface(const TriangleMesh& mesh, int count, ObjectModel& model
     const Eigen::Vector3f n = (b - a).cross(c - a);
     total += 0.5 * n.norm();
     cumulative_area.push_back(total);
-    face_normal.push_back(n.norm() > 0 ? Eigen::Vector3f(n.normalized()) : Eigen::Vector3f::UnitZ());
+    face_normal.push_back(n.norm() > 0 ? Eigen::Vector3f(n.normalized())
+                                       : Eigen::Vector3f::UnitZ());
   }
   if (!(total > 0)) return;
   std::mt19937 rng(12345);
@@ -47,9 +48,10 @@ void sample_mesh_surface(const TriangleMesh& mesh, int count, ObjectModel& model
   model.normals.reserve(count);
   for (int i = 0; i < count; ++i) {
     const double r = uni(rng) * total;
-    const size_t k = std::min<size_t>(
-        std::lower_bound(cumulative_area.begin(), cumulative_area.end(), r) - cumulative_area.begin(),
-        mesh.triangles.size() - 1);
+    const size_t k =
+        std::min<size_t>(std::lower_bound(cumulative_area.begin(), cumulative_area.end(), r) -
+                             cumulative_area.begin(),
+                         mesh.triangles.size() - 1);
     double s = uni(rng), t = uni(rng);
     if (s + t > 1) {
       s = 1 - s;
@@ -82,7 +84,8 @@ std::optional<ObjectSymmetry> read_bop_symmetry(const std::string& path, int cla
   try {
     if (m.contains("symmetries_discrete"))
       for (const auto& d : m.at("symmetries_discrete")) {
-        if (!d.is_array() || d.size() != 16) throw IoError(path, "a discrete symmetry needs 16 numbers");
+        if (!d.is_array() || d.size() != 16)
+          throw IoError(path, "a discrete symmetry needs 16 numbers");
         Mat3 R;
         Vec3 t;
         for (int r = 0; r < 3; ++r) {
@@ -160,8 +163,8 @@ ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int
       mo.mesh_path = mesh->second;
     model = load_object_model(points->second, mo, class_id, name);
   }
-  model.symmetric_for_metric = std::count(info.symmetric_classes.begin(),
-                                          info.symmetric_classes.end(), class_id) > 0;
+  model.symmetric_for_metric =
+      std::count(info.symmetric_classes.begin(), info.symmetric_classes.end(), class_id) > 0;
   if (const auto spec = info.model_symmetry.find(class_id);
       spec != info.model_symmetry.end() && !spec->second.detected)
     model.symmetry = symmetry_from_spec(spec->second);
@@ -194,21 +197,15 @@ void ObjectModelLibrary::preload(const std::vector<int>& class_ids, int threads)
   }
   std::vector<std::unique_ptr<ObjectModel>> loaded(todo.size());
   std::vector<std::exception_ptr> errors(todo.size());
-  std::atomic<size_t> next{0};
-  auto work = [&] {
-    for (size_t i = next++; i < todo.size(); i = next++) {
-      try {
-        loaded[i] = load(todo[i]);
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
+  const int n = static_cast<int>(todo.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(std::max(1, threads))
+  for (int i = 0; i < n; ++i) {
+    try {
+      loaded[i] = load(todo[i]);
+    } catch (...) {  // an exception must not leave the parallel loop
+      errors[i] = std::current_exception();
     }
-  };
-  std::vector<std::thread> pool;
-  const size_t n = std::min(todo.size(), static_cast<size_t>(std::max(1, threads)));
-  for (size_t t = 1; t < n; ++t) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (size_t i = 0; i < todo.size(); ++i)
@@ -228,7 +225,8 @@ ObjectSymmetry ObjectModelLibrary::ekf_symmetry(int class_id, const std::string&
     if (mesh != info_.model_mesh_paths.end()) {
       const std::string path =
           (std::filesystem::path(mesh->second).parent_path() / "models_info.json").string();
-      if (auto annotated = read_bop_symmetry(path, class_id, info_.model_units_per_m)) return *annotated;
+      if (auto annotated = read_bop_symmetry(path, class_id, info_.model_units_per_m))
+        return *annotated;
     }
   }
   return model.symmetry;

@@ -2,12 +2,14 @@
 // chained frame to frame, on the same 640x480 7-Scenes frames (preloaded: no file I/O is timed).
 //
 //   build/bin/orpe_bench_slam_speed [--frames N] [--threads T] [--skip-opencv] [--preset NAME]
+//   [--trajectory FILE]
 //   [--set section.key=value ...]
 //
 // Prints wall-clock frames/s, CPU time per frame, both ATEs and the speed ratio.
 #include <fmt/format.h>
 #include <omp.h>
 #include <time.h>
+#include <fstream>
 
 #include <Eigen/Core>
 #include <chrono>
@@ -55,6 +57,13 @@ cv::Mat depth_of(const orpe::DepthImage& d) {
   return m;
 }
 
+/// One line per frame, "x y z" with 17 significant digits (exact doubles).
+void write_positions(const std::string& path, const std::vector<orpe::Vec3>& est) {
+  std::ofstream out(path);
+  for (const orpe::Vec3& p : est)
+    out << fmt::format("{:.17g} {:.17g} {:.17g}\n", p.x(), p.y(), p.z());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -62,6 +71,7 @@ int main(int argc, char** argv) {
   using namespace orpe;
   int frames = 100, threads = 0;
   bool skip_opencv = false;
+  std::string trajectory_path;  // --trajectory FILE: orpe's positions, to compare runs bit for bit
   OrpeConfig config;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -71,6 +81,8 @@ int main(int argc, char** argv) {
       threads = std::atoi(argv[++i]);
     else if (a == "--skip-opencv")
       skip_opencv = true;
+    else if (a == "--trajectory" && i + 1 < argc)
+      trajectory_path = argv[++i];
     else if ((a == "--set" || a == "--preset") && i + 1 < argc) {
       if (!bench::apply_config_flag(config, a, argv[++i])) return 2;
     } else {
@@ -102,6 +114,7 @@ int main(int argc, char** argv) {
       ours.wall_s = wall_seconds() - w0;
       ours.cpu_s = cpu_seconds() - c0;
       ours.ate_m = bench::ate_rmse(est, gt);
+      if (!trajectory_path.empty()) write_positions(trajectory_path, est);
       std::cout << fmt::format(
           "orpe SlamSystem:          {:6.1f} frames/s  ({:5.1f} ms/frame wall, {:5.1f} ms CPU)  "
           "ATE {:.4f} m  surfels {}\n",

@@ -45,6 +45,11 @@ bool skip_estimate(const SkipState& s, int fused_views, const SE3& T_world_cam,
          motion.rotation_angle_deg() < pp.skip_max_rotation_deg;
 }
 
+/// The single-view estimate's score as the weight of its pose row and of its EKF measurement:
+/// clamped to [0.01, 1] (a registration score can exceed 1; a valid estimate never weighs 0).
+double single_view_weight(const SingleViewPose& sv) {
+  return std::clamp(sv.score, 0.01, 1.0);
+}
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------
@@ -667,7 +672,7 @@ void ObjectRpePipeline::fuse_estimate(PoseFrame& f, VariantState& vs, const Cand
                                       ObjectFrameEstimate& est) {
   const PoseVariant& cfg = vs.config;
   const SingleViewPose& sv = est.single_view;
-  const double sv_score = std::clamp(sv.score, 0.01, 1.0);
+  const double sv_score = single_view_weight(sv);
   if (cfg.ekf) {
     if (track && track->ekf) {
       const auto t0 = Clock::now();
@@ -704,7 +709,7 @@ void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, cons
                                       ObjectFrameEstimate& est) {
   const PipelineParams& pp = params_.pipeline;
   const SingleViewPose& sv = est.single_view;
-  const double sv_score = std::clamp(sv.score, 0.01, 1.0);
+  const double sv_score = single_view_weight(sv);
   ObjectPoseFusion& fusion = *track.ekf;
   if (sv.valid) {
     PoseMeasurement m;

@@ -57,11 +57,13 @@ cv::Mat depth_of(const orpe::DepthImage& d) {
   return m;
 }
 
-/// One line per frame, "x y z" with 17 significant digits (exact doubles).
-void write_positions(const std::string& path, const std::vector<orpe::Vec3>& est) {
-  std::ofstream out(path);
+/// One line per frame, "x y z" with 17 significant digits (exact doubles). False when the write
+/// failed.
+bool write_positions(std::ofstream& out, const std::vector<orpe::Vec3>& est) {
   for (const orpe::Vec3& p : est)
     out << fmt::format("{:.17g} {:.17g} {:.17g}\n", p.x(), p.y(), p.z());
+  out.flush();
+  return static_cast<bool>(out);
 }
 
 }  // namespace
@@ -92,6 +94,14 @@ int main(int argc, char** argv) {
   }
   if (threads > 0) omp_set_num_threads(threads);
   try {
+    std::ofstream trajectory;  // opened before the run: a bad path fails now, not after it
+    if (!trajectory_path.empty()) {
+      trajectory.open(trajectory_path);
+      if (!trajectory) {
+        std::cerr << "error: --trajectory " << trajectory_path << ": cannot open for writing\n";
+        return 2;
+      }
+    }
     const std::string dir = bench::seven_scenes_dir();
     std::vector<RgbdFrame> seq;
     for (int i = 0; i < frames; ++i) seq.push_back(bench::load_7scenes_frame(dir, i));
@@ -114,7 +124,10 @@ int main(int argc, char** argv) {
       ours.wall_s = wall_seconds() - w0;
       ours.cpu_s = cpu_seconds() - c0;
       ours.ate_m = bench::ate_rmse(est, gt);
-      if (!trajectory_path.empty()) write_positions(trajectory_path, est);
+      if (trajectory.is_open() && !write_positions(trajectory, est)) {
+        std::cerr << "error: --trajectory " << trajectory_path << ": write failed\n";
+        return 2;
+      }
       std::cout << fmt::format(
           "orpe SlamSystem:          {:6.1f} frames/s  ({:5.1f} ms/frame wall, {:5.1f} ms CPU)  "
           "ATE {:.4f} m  surfels {}\n",

@@ -21,6 +21,7 @@
 namespace orpe {
 namespace {
 
+using detail::rosbag_io::BagCompression;
 using detail::rosbag_io::BagWriter;
 using detail::rosbag_io::CameraInfoMessage;
 using detail::rosbag_io::ImageMessage;
@@ -299,6 +300,129 @@ TEST(RosBag, ARecordLengthBeyondTheFileIsAnErrorBeforeRosbagAllocatesIt) {
   }
   test::expect_io_error_naming([&] { open_dataset(bag, DatasetParams{}); },
                                "its version line holds a NUL byte");
+}
+
+/// Opens `bag` and reads every frame: an IoError naming the bag and `needle` is expected.
+void expect_bag_error(const std::string& bag, const std::string& needle) {
+  try {
+    auto reader = open_dataset(bag, DatasetParams{});
+    for (size_t i = 0; i < reader->size(); ++i) (void)reader->read(i);
+    ADD_FAILURE() << bag << ": expected an IoError naming " << needle;
+  } catch (const IoError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(bag), std::string::npos) << what;
+    EXPECT_NE(what.find(needle), std::string::npos) << what;
+  }
+}
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream is(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+}
+
+/// The little-endian integer of `bytes` bytes at `at` of the file `path` set to `value`; its old
+/// value.
+std::uint64_t set_field(const std::string& path, size_t at, int bytes, std::uint64_t value) {
+  std::string b = file_bytes(path);
+  std::uint64_t old = 0;
+  for (int i = 0; i < bytes; ++i) {
+    old |= std::uint64_t{static_cast<unsigned char>(b[at + i])} << 8 * i;
+    b[at + i] = static_cast<char>(value >> 8 * i);
+  }
+  std::ofstream(path, std::ios::binary) << b;
+  return old;
+}
+
+std::uint64_t get_field(const std::string& path, size_t at, int bytes) {
+  const std::uint64_t v = set_field(path, at, bytes, 0);
+  set_field(path, at, bytes, v);
+  return v;
+}
+
+/// Where the value of the header field `name` (`value_bytes` long) starts, its `nth` occurrence
+/// from the end (0: the last) in the file.
+size_t field_value_at(const std::string& path, const std::string& name, int value_bytes,
+                      int nth = 0) {
+  const std::string b = file_bytes(path);
+  const std::uint32_t len = static_cast<std::uint32_t>(name.size() + 1 + value_bytes);
+  std::string key(4, '\0');
+  std::memcpy(key.data(), &len, 4);
+  key += name + "=";
+  size_t at = b.size();
+  for (int i = 0; i <= nth; ++i) {
+    at = b.rfind(key, at - 1);
+    EXPECT_NE(at, std::string::npos) << name << " not in " << path;
+    if (at == std::string::npos) return 0;
+  }
+  return at + key.size();
+}
+
+TEST(RosBag, ALyingLengthOrPositionInsideAChunkIsAnErrorNamingItsByte) {
+  // The records inside a chunk were read by rosbag unchecked (docs/FUZZING.md, session 12).
+  // The last message record of the (uncompressed) chunk states 1000 bytes more than the chunk has:
+  // rosbag copied them from beyond its buffer and the bag read as good.
+  // A header field of the file header record claiming more bytes than the header has: roscpp's
+  // Header::parse copied them from beyond its buffer (ASan: heap-buffer-overflow; libFuzzer,
+  // fuzz/corpus/rosbag/crash-asan-header-field-overread.bag), then rosbag failed with "Error
+  // reading FILE_HEADER record".
+  const std::string field = write_tum_like_bag("field.bag", true, true);
+  set_field(field, 17, 4, 1295);  // its first field's length (after the header length at 13)
+  expect_bag_error(field,
+                   "the record at byte 13: a header field states 1295 bytes, the header has ");
+  const std::string inner = write_tum_like_bag("inner.bag", true, true);
+  // A message record's header: conn, op (0x02), time (map order), then its data length.
+  const size_t time_at = field_value_at(inner, "time", 8);
+  ASSERT_EQ(file_bytes(inner)[time_at - 10], '\x02');  // op, before the time field
+  const std::uint64_t len = get_field(inner, time_at + 8, 4);
+  set_field(inner, time_at + 8, 4, len + 1000);
+  expect_bag_error(inner, "states a data part of " + std::to_string(len + 1000) + " bytes, the " +
+                              "chunk has " + std::to_string(len) + " left");
+  expect_bag_error(inner, "of the chunk at byte 4117");  // after the 4096 bytes of file header
+  // A chunk info pointing 4 bytes into its chunk: rosbag read a length from there ("Error reading
+  // CHUNK record", or an allocation of what it read).
+  const std::string pos = write_tum_like_bag("chunkpos.bag", true, true);
+  const size_t chunk_pos_at = field_value_at(pos, "chunk_pos", 8);
+  set_field(pos, chunk_pos_at, 8, get_field(pos, chunk_pos_at, 8) + 4);
+  expect_bag_error(pos, "points at byte 4121, where no chunk starts");
+  // An index entry's message offset 1 byte off: rosbag parsed a record header from there.
+  // The last index record (the chunk info's count is the last one): conn, count, op, ver, then
+  // the data length and the entries (time, offset).
+  const std::string index = write_tum_like_bag("index.bag", true, true);
+  const size_t offset_at = field_value_at(index, "count", 4, 1) + 4 + 8 + 12 + 4 + 8;
+  set_field(index, offset_at, 4, get_field(index, offset_at, 4) + 1);
+  expect_bag_error(index, "where no message record starts");
+}
+
+TEST(RosBag, ACompressedChunkStatingMoreThanItHoldsIsAnErrorBeforeRosbagAllocatesIt) {
+  // A chunk's stated uncompressed size was allocated by rosbag before it decompressed: 200 MB from
+  // a 2 KB lz4 chunk (rosbag then failed with "Decompression size mismatch in LZ4 chunk"), 300 MB
+  // from bz2 (and the bag read as good). Compressed bags read as the uncompressed ones first.
+  for (const auto& [compression, name] :
+       {std::pair{BagCompression::lz4, "lz4"}, {BagCompression::bz2, "bz2"}}) {
+    const std::string bag = test::scratch_dir("rosbag") + "/" + name + ".bag";
+    {
+      BagWriter w(bag, compression);
+      w.write("/camera/rgb/image_color", 1.0, colour_message(1.0, 0, "rgb8"));
+      w.write("/camera/depth/image", 1.0, depth16_message(1.0, 1000));
+      w.write("/camera/rgb/camera_info", 1.0, camera_info(1.0));
+    }
+    {
+      auto reader = open_dataset(bag, DatasetParams{});
+      ASSERT_EQ(reader->size(), 1u) << name;
+      EXPECT_NEAR(reader->read(0).depth.at(1, 0), 1.001, 1e-6) << name;
+    }
+    const std::string good = file_bytes(bag);
+    const size_t size_at = field_value_at(bag, "size", 4);
+    const std::uint32_t want = compression == BagCompression::lz4 ? 200000000 : 300000000;
+    const std::uint64_t size = set_field(bag, size_at, 4, want);
+    expect_bag_error(
+        bag, "the chunk at byte 4117 states " + std::to_string(want) + " uncompressed bytes from ");
+    // A few bytes more than the data gives.
+    std::ofstream(bag, std::ios::binary) << good;
+    set_field(bag, size_at, 4, size + 16);
+    expect_bag_error(bag, std::string("its ") + name + " data does not decompress to the " +
+                              std::to_string(size + 16) + " bytes it states");
+  }
 }
 
 /// Every frame of `dataset` written to a bag the TUM way: rgb8 colour, 32FC1 depth (metres, exact)

@@ -6,11 +6,17 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
+#include <optional>
+#include <set>
 #include <stdexcept>
+#include <string_view>
 
 #if ORPE_HAVE_ROSBAG
+#include <bzlib.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <roslz4/lz4s.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #endif
@@ -50,7 +56,7 @@ std::optional<CameraInfoMessage> BagReader::first_camera_info(const std::string&
   unavailable();
 }
 struct BagWriter::Impl {};
-BagWriter::BagWriter(const std::string&) {
+BagWriter::BagWriter(const std::string&, BagCompression) {
   unavailable();
 }
 BagWriter::~BagWriter() = default;
@@ -173,11 +179,13 @@ auto translate(Fn&& fn) -> decltype(fn()) {
   }
 }
 
-std::uint64_t read_u32_at(std::ifstream& in, std::uint64_t pos) {
-  unsigned char b[4] = {};
-  in.seekg(static_cast<std::streamoff>(pos));
-  in.read(reinterpret_cast<char*>(b), 4);
-  return b[0] | b[1] << 8 | b[2] << 16 | static_cast<std::uint64_t>(b[3]) << 24;
+std::uint32_t le32(const char* p) {
+  const auto* b = reinterpret_cast<const unsigned char*>(p);
+  return b[0] | b[1] << 8 | b[2] << 16 | static_cast<std::uint32_t>(b[3]) << 24;
+}
+
+[[noreturn]] void refuse(const std::string& what) {
+  throw std::runtime_error("cannot read the ROS bag: " + what);
 }
 
 /// The version line as rosbag reads it (ChunkedFile::getline: fgets of at most 1023 bytes, then a
@@ -191,36 +199,246 @@ std::string bag_version_line(std::ifstream& in, std::uint64_t size) {
   if (newline != std::string::npos) buf.resize(newline + 1);
   // rosbag's offsets disagree for such a line (a valid bag has none): refused.
   if (buf.find('\0') != std::string::npos && buf.rfind("#ROS", 0) == 0)
-    throw std::runtime_error("cannot read the ROS bag: its version line holds a NUL byte");
+    refuse("its version line holds a NUL byte");
   return buf;
 }
 
-/// A bag (format 2.0) is a sequence of records, each a header and a data part, each led by its
-/// length; rosbag allocates the stated length before it reads (a header length of 1.6 GB in a
-/// 2.7 KB file: 1.6 GB, fuzz/corpus/rosbag/crash-oom-file-header-length.bag). Every top-level
-/// length must fit in the bytes left. Other versions are left to rosbag.
+/// A record's header: "name=value" fields, each led by its length (roscpp's ros::Header::parse,
+/// which reads a field's stated length before it checks that the bytes are there: here every
+/// field must fit exactly). A repeated name keeps its last value, as in roscpp.
+using Fields = std::map<std::string, std::string>;
+
+Fields parse_fields(const char* p, std::uint32_t n, const std::string& where) {
+  Fields fields;
+  for (std::uint32_t i = 0; i < n;) {
+    if (n - i < 4) refuse(where + ": its header ends inside the length of a field");
+    const std::uint32_t len = le32(p + i);
+    i += 4;
+    if (len > n - i)
+      refuse(where + ": a header field states " + std::to_string(len) + " bytes, the header has " +
+             std::to_string(n - i) + " left");
+    const std::string_view field(p + i, len);
+    i += len;
+    const size_t eq = field.find('=');
+    if (eq == std::string_view::npos) refuse(where + ": a header field without '='");
+    fields[std::string(field.substr(0, eq))] = std::string(field.substr(eq + 1));
+  }
+  return fields;
+}
+
+/// The field `name` as a little-endian unsigned integer of exactly `bytes` bytes (as rosbag's
+/// readField requires); nullopt when missing or of another size (rosbag then refuses the bag).
+std::optional<std::uint64_t> uint_field(const Fields& f, const std::string& name, size_t bytes) {
+  const auto it = f.find(name);
+  if (it == f.end() || it->second.size() != bytes) return std::nullopt;
+  std::uint64_t v = 0;
+  for (size_t i = 0; i < bytes; ++i)
+    v |= static_cast<std::uint64_t>(static_cast<unsigned char>(it->second[i])) << (8 * i);
+  return v;
+}
+
+/// One record: a header (fields) and a data part, each led by its 4-byte length.
+struct Record {
+  std::uint64_t pos = 0;       ///< of its header length (in the file, or in the chunk's data)
+  std::uint64_t data_pos = 0;  ///< of its data part
+  std::uint32_t data_len = 0;
+  Fields fields;
+  int op() const { return static_cast<int>(uint_field(fields, "op", 1).value_or(0x100)); }
+};
+
+/// Walks the records of bytes [begin, end), read with `read(pos, n, out)`: every header and data
+/// length must fit in the bytes left, and every header must parse. `where(pos)` names a record in
+/// the messages, `unit` the whole ("the file", "the chunk").
+template <class Read, class Where>
+std::vector<Record> walk_records(Read&& read, std::uint64_t begin, std::uint64_t end, Where&& where,
+                                 const char* unit) {
+  std::vector<Record> records;
+  std::string header;
+  for (std::uint64_t pos = begin; pos + 4 <= end;) {
+    Record r;
+    r.pos = pos;
+    std::uint32_t len[2] = {};
+    for (int part = 0; part < 2; ++part) {
+      char b[4];
+      read(pos, 4, b);
+      len[part] = le32(b);
+      if (len[part] > end - pos - 4)
+        refuse(where(r.pos) + " states a " + (part == 0 ? "header" : "data part") + " of " +
+               std::to_string(len[part]) + " bytes, " + unit + " has " +
+               std::to_string(end - pos - 4) + " left");
+      if (part == 0) {
+        header.resize(len[0]);
+        read(pos + 4, len[0], header.data());
+        r.fields = parse_fields(header.data(), len[0], where(r.pos));
+      }
+      pos += 4 + len[part];
+      if (part == 0 && pos + 4 > end) refuse(std::string(unit) + " ends inside a record");
+    }
+    r.data_pos = r.pos + 8 + len[0];
+    r.data_len = len[1];
+    records.push_back(std::move(r));
+  }
+  return records;
+}
+
+/// A compressed chunk may state at most this many uncompressed bytes (rosbag allocates them before
+/// it decompresses; rosbag writes chunks of 768 KiB plus one message).
+constexpr std::uint64_t kMaxChunkBytes = std::uint64_t{256} << 20;
+
+/// The uncompressed bytes of the chunk record `c` (its data part: `data`), after checking the
+/// size the chunk states against what its compression can give.
+/// nullopt when the chunk's header lacks its compression or size (rosbag refuses the bag then).
+std::optional<std::string> chunk_bytes(const Record& c, std::string data) {
+  const auto it = c.fields.find("compression");
+  const auto size = uint_field(c.fields, "size", 4);
+  if (it == c.fields.end() || !size) return std::nullopt;
+  const std::string at = "the chunk at byte " + std::to_string(c.pos);
+  if (it->second == "none") return data;
+  if (it->second != "bz2" && it->second != "lz4") refuse(at + " has an unknown compression");
+  // lz4 expands at most 255 times (a match length byte stands for at most 255 bytes); bzip2 far
+  // more, so the cap alone bounds it.
+  const std::uint64_t limit = it->second == "lz4"
+                                  ? std::min(kMaxChunkBytes, 256 * std::uint64_t{c.data_len} + 64)
+                                  : kMaxChunkBytes;
+  if (*size > limit)
+    refuse(at + " states " + std::to_string(*size) + " uncompressed bytes from " +
+           std::to_string(c.data_len) + " " + it->second + " bytes (at most " +
+           std::to_string(limit) + ")");
+  std::string out(static_cast<size_t>(*size), '\0');
+  unsigned int out_len = static_cast<unsigned int>(out.size());
+  bool ok = false;
+  if (it->second == "bz2")
+    ok = BZ2_bzBuffToBuffDecompress(out.data(), &out_len, data.data(),
+                                    static_cast<unsigned int>(data.size()), 0, 0) == BZ_OK;
+  else
+    ok = roslz4_buffToBuffDecompress(data.data(), static_cast<unsigned int>(data.size()),
+                                     out.data(), &out_len) == ROSLZ4_OK;
+  if (!ok || out_len != out.size())
+    refuse(at + ": its " + it->second + " data does not decompress to the " +
+           std::to_string(*size) + " bytes it states");
+  return out;
+}
+
+/// rosbag's reading of a version 2.0 bag (Bag::startReadingVersion200, and each message through
+/// the index) trusts every length and position it reads: a length is allocated before it is read
+/// (a header length of 1.6 GB in a 2.7 KB file: 1.6 GB, fuzz/corpus/rosbag/crash-oom-*), a
+/// position is read as the start of a record, a chunk's stated size is allocated before it is
+/// decompressed, a message is copied from its chunk at the length its record states. So before
+/// rosbag opens the bag:
+/// - every top-level record's header and data length fit in the bytes left, every header parses;
+/// - the file header's index position is the start of a record, its encryptor (if any) is none;
+/// - each chunk info record rosbag reads lists 8 bytes a connection and points at a chunk;
+/// - each index record after such a chunk lists 12 bytes a message, of a known connection, each
+///   at the start of a message data record inside the chunk;
+/// - each such chunk: its compressed stated size bounded (kMaxChunkBytes; lz4: 256 x its data), its
+///   data decompressing to exactly that size, and its inner records' lengths fitting in it.
+/// Other versions than 2.0 (rosbag also reads 1.2, unchecked) are refused.
 void check_bag_records(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return;  // rosbag names the problem
   const std::uint64_t size = static_cast<std::uint64_t>(in.tellg());
   const std::string line = bag_version_line(in, size);
   int major = 0, minor = 0;
-  if (std::sscanf(line.c_str(), "#ROS%*s V%d.%d", &major, &minor) != 2 || major != 2 || minor != 0)
-    return;
+  if (std::sscanf(line.c_str(), "#ROS%*s V%d.%d", &major, &minor) != 2) return;  // rosbag refuses
   // rosbag scans the word after "#ROS" into a char[100] with an unbounded %s.
-  if (line.find_first_of(" \t\n") > 4 + 99)
-    throw std::runtime_error("cannot read the ROS bag: its version line is too long");
-  for (std::uint64_t pos = line.size(); pos + 4 <= size;) {
-    for (const char* part : {"header", "data"}) {
-      const std::uint64_t len = read_u32_at(in, pos);
-      if (len > size - pos - 4)
-        throw std::runtime_error("cannot read the ROS bag: the record at byte " +
-                                 std::to_string(pos) + " states a " + part + " of " +
-                                 std::to_string(len) + " bytes, the file has " +
-                                 std::to_string(size - pos - 4) + " left");
-      pos += 4 + len;
-      if (pos + 4 > size && std::string(part) == "header")
-        throw std::runtime_error("cannot read the ROS bag: the file ends inside a record");
+  if (line.find_first_of(" \t\n") > 4 + 99) refuse("its version line is too long");
+  if (major != 2 || minor != 0)
+    refuse("format version " + std::to_string(major) + "." + std::to_string(minor) +
+           " (orpe reads bags of version 2.0, ROS since 2010)");
+  const auto read_file = [&](std::uint64_t pos, size_t n, char* out) {
+    in.seekg(static_cast<std::streamoff>(pos));
+    in.read(out, static_cast<std::streamsize>(n));
+  };
+  const auto at = [](std::uint64_t pos) { return "the record at byte " + std::to_string(pos); };
+  const std::vector<Record> records = walk_records(read_file, line.size(), size, at, "the file");
+  if (records.empty() || records[0].op() != 3) return;  // rosbag refuses: no file header
+  const auto record_at = [&](std::uint64_t pos) -> const Record* {
+    const auto it = std::lower_bound(records.begin(), records.end(), pos,
+                                     [](const Record& r, std::uint64_t p) { return r.pos < p; });
+    return it != records.end() && it->pos == pos ? &*it : nullptr;
+  };
+  const Fields& file_header = records[0].fields;
+  if (const auto e = file_header.find("encryptor");
+      e != file_header.end() && !e->second.empty() && e->second != "rosbag/NoEncryptor")
+    refuse("it is encrypted (" + e->second + "), which orpe does not read");
+  const auto index_pos = uint_field(file_header, "index_pos", 8);
+  const auto conn_count = uint_field(file_header, "conn_count", 4);
+  const auto chunk_count = uint_field(file_header, "chunk_count", 4);
+  if (!index_pos || *index_pos == 0 || !conn_count || !chunk_count) return;  // rosbag refuses
+  const Record* index = record_at(*index_pos);
+  if (!index)
+    refuse("the file header gives the index at byte " + std::to_string(*index_pos) +
+           ", where no record starts");
+  // The records rosbag reads from there: conn_count connections, then chunk_count chunk infos.
+  size_t k = static_cast<size_t>(index - records.data());
+  std::set<std::uint32_t> connections;
+  for (std::uint64_t i = 0; i < *conn_count && k < records.size(); ++i, ++k) {
+    const Record& r = records[k];
+    const auto id = uint_field(r.fields, "conn", 4);
+    if (r.op() != 7 || !id) return;        // rosbag refuses
+    std::string header(r.data_len, '\0');  // the connection header: rosbag parses it as a header
+    read_file(r.data_pos, r.data_len, header.data());
+    parse_fields(header.data(), r.data_len, at(r.pos));
+    connections.insert(static_cast<std::uint32_t>(*id));
+  }
+  std::map<std::uint64_t, std::set<std::uint64_t> > messages;  // per chunk: its messages' offsets
+  for (std::uint64_t i = 0; i < *chunk_count && k < records.size(); ++i, ++k) {
+    const Record& info = records[k];
+    const auto count = uint_field(info.fields, "count", 4);
+    const auto chunk_pos = uint_field(info.fields, "chunk_pos", 8);
+    if (info.op() != 6 || uint_field(info.fields, "ver", 4) != 1u || !count || !chunk_pos) return;
+    if (info.data_len != 8 * *count)
+      refuse(at(info.pos) + " (a chunk info) lists " + std::to_string(*count) +
+             " connections (8 bytes each) in a data part of " + std::to_string(info.data_len) +
+             " bytes");
+    std::string data(info.data_len, '\0');
+    read_file(info.data_pos, info.data_len, data.data());
+    std::set<std::uint32_t> chunk_connections;
+    for (size_t j = 0; j < data.size(); j += 8) chunk_connections.insert(le32(data.data() + j));
+    const Record* chunk = record_at(*chunk_pos);
+    if (!chunk || chunk->op() != 5)
+      refuse(at(info.pos) + " (a chunk info) points at byte " + std::to_string(*chunk_pos) +
+             ", where no chunk starts");
+    const std::string chunk_at = "the chunk at byte " + std::to_string(chunk->pos);
+    if (!messages.count(chunk->pos)) {
+      std::string raw(chunk->data_len, '\0');
+      read_file(chunk->data_pos, chunk->data_len, raw.data());
+      const std::optional<std::string> decompressed = chunk_bytes(*chunk, std::move(raw));
+      if (!decompressed) return;  // rosbag refuses
+      const std::string& bytes = *decompressed;
+      const auto read_chunk = [&](std::uint64_t pos, size_t n, char* out) {
+        std::memcpy(out, bytes.data() + pos, n);
+      };
+      const auto inner = [&](std::uint64_t pos) {
+        return "the record at byte " + std::to_string(pos) + " of " + chunk_at;
+      };
+      auto& offsets = messages[chunk->pos];
+      for (const Record& r : walk_records(read_chunk, 0, bytes.size(), inner, "the chunk"))
+        if (r.op() == 2) offsets.insert(r.pos);
+    }
+    const std::set<std::uint64_t>& offsets = messages[chunk->pos];
+    // After the chunk rosbag reads one index record for each of the chunk info's connections.
+    const size_t c = static_cast<size_t>(chunk - records.data());
+    for (size_t j = c + 1; j < c + 1 + chunk_connections.size() && j < records.size(); ++j) {
+      const Record& ix = records[j];
+      const auto conn = uint_field(ix.fields, "conn", 4);
+      const auto n = uint_field(ix.fields, "count", 4);
+      if (ix.op() != 4 || uint_field(ix.fields, "ver", 4) != 1u || !conn || !n) break;
+      if (ix.data_len != 12 * *n)
+        refuse(at(ix.pos) + " (an index) lists " + std::to_string(*n) +
+               " messages (12 bytes each) in a data part of " + std::to_string(ix.data_len) +
+               " bytes");
+      if (!connections.count(static_cast<std::uint32_t>(*conn)))
+        refuse(at(ix.pos) + " (an index) is of connection " + std::to_string(*conn) +
+               ", which the bag does not have");
+      std::string entries(ix.data_len, '\0');
+      read_file(ix.data_pos, ix.data_len, entries.data());
+      for (size_t e = 0; e < entries.size(); e += 12) {
+        const std::uint32_t offset = le32(entries.data() + e + 8);
+        if (!offsets.count(offset))
+          refuse(at(ix.pos) + " (an index) gives a message at byte " + std::to_string(offset) +
+                 " of " + chunk_at + ", where no message record starts");
+      }
     }
   }
 }
@@ -299,9 +517,14 @@ struct BagWriter::Impl {
   rosbag::Bag bag;
 };
 
-BagWriter::BagWriter(const std::string& path) : impl_(std::make_unique<Impl>()) {
+BagWriter::BagWriter(const std::string& path, BagCompression compression)
+    : impl_(std::make_unique<Impl>()) {
   translate([&] {
     impl_->bag.open(path, rosbag::bagmode::Write);
+    impl_->bag.setCompression(compression == BagCompression::bz2 ? rosbag::compression::BZ2
+                              : compression == BagCompression::lz4
+                                  ? rosbag::compression::LZ4
+                                  : rosbag::compression::Uncompressed);
     return 0;
   });
 }

@@ -59,10 +59,14 @@ class BagReader {
   std::unique_ptr<Impl> impl_;
 };
 
+/// How a written bag's chunks are compressed (rosbag::compression).
+enum class BagCompression { none, bz2, lz4 };
+
 /// A bag opened for writing (tests, conversions); closed by the destructor.
 class BagWriter {
  public:
-  explicit BagWriter(const std::string& path);  ///< throws std::runtime_error
+  /// Throws std::runtime_error.
+  explicit BagWriter(const std::string& path, BagCompression compression = BagCompression::none);
   ~BagWriter();
   BagWriter(const BagWriter&) = delete;
   BagWriter& operator=(const BagWriter&) = delete;

@@ -48,7 +48,11 @@ struct Scratch {
 }
 
 RefusalCount g_count;
-bool g_print_refusals = false;
+// ORPE_FUZZ_PRINT_REFUSALS=1: a libFuzzer binary prints them too (to see why an input is refused).
+bool g_print_refusals = [] {
+  const char* env = std::getenv("ORPE_FUZZ_PRINT_REFUSALS");
+  return env && *env == '1';
+}();
 
 void refused(const char* what) {
   ++g_count.refused;

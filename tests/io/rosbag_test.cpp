@@ -391,6 +391,16 @@ TEST(RosBag, ALyingLengthOrPositionInsideAChunkIsAnErrorNamingItsByte) {
   const size_t offset_at = field_value_at(index, "count", 4, 1) + 4 + 8 + 12 + 4 + 8;
   set_field(index, offset_at, 4, get_field(index, offset_at, 4) + 1);
   expect_bag_error(index, "where no message record starts");
+  // The first index record lists one message more than its data holds: rosbag read the entry from
+  // the next record, and the next record from inside it.
+  const std::string list = write_tum_like_bag("list.bag", true, true);
+  const size_t count_at =
+      field_value_at(list, "count", 4, 3);  // (after 2 index records, chunk info)
+  const std::uint64_t n = get_field(list, count_at, 4);
+  set_field(list, count_at, 4, n + 1);
+  expect_bag_error(list, "(an index) lists " + std::to_string(n + 1) +
+                             " messages (12 bytes each) in a data part of " +
+                             std::to_string(12 * n) + " bytes");
 }
 
 TEST(RosBag, ACompressedChunkStatingMoreThanItHoldsIsAnErrorBeforeRosbagAllocatesIt) {

@@ -381,18 +381,25 @@ void check_bag_records(const std::string& path) {
     parse_fields(header.data(), r.data_len, at(r.pos));
     connections.insert(static_cast<std::uint32_t>(*id));
   }
+  // A chunk info's or an index's list: `count` entries of `bytes`, exactly its data part (rosbag
+  // reads count x bytes, then the next record from there).
+  const auto entries = [&](const Record& r, const char* what, std::uint64_t count, unsigned bytes,
+                           const char* entry) {
+    if (r.data_len != bytes * count)
+      refuse(at(r.pos) + " (" + what + ") lists " + std::to_string(count) + " " + entry + " (" +
+             std::to_string(bytes) + " bytes each) in a data part of " +
+             std::to_string(r.data_len) + " bytes");
+    std::string data(r.data_len, '\0');
+    read_file(r.data_pos, r.data_len, data.data());
+    return data;
+  };
   std::map<std::uint64_t, std::set<std::uint64_t> > messages;  // per chunk: its messages' offsets
   for (std::uint64_t i = 0; i < *chunk_count && k < records.size(); ++i, ++k) {
     const Record& info = records[k];
     const auto count = uint_field(info.fields, "count", 4);
     const auto chunk_pos = uint_field(info.fields, "chunk_pos", 8);
     if (info.op() != 6 || uint_field(info.fields, "ver", 4) != 1u || !count || !chunk_pos) return;
-    if (info.data_len != 8 * *count)
-      refuse(at(info.pos) + " (a chunk info) lists " + std::to_string(*count) +
-             " connections (8 bytes each) in a data part of " + std::to_string(info.data_len) +
-             " bytes");
-    std::string data(info.data_len, '\0');
-    read_file(info.data_pos, info.data_len, data.data());
+    const std::string data = entries(info, "a chunk info", *count, 8, "connections");
     std::set<std::uint32_t> chunk_connections;
     for (size_t j = 0; j < data.size(); j += 8) chunk_connections.insert(le32(data.data() + j));
     const Record* chunk = record_at(*chunk_pos);
@@ -424,17 +431,12 @@ void check_bag_records(const std::string& path) {
       const auto conn = uint_field(ix.fields, "conn", 4);
       const auto n = uint_field(ix.fields, "count", 4);
       if (ix.op() != 4 || uint_field(ix.fields, "ver", 4) != 1u || !conn || !n) break;
-      if (ix.data_len != 12 * *n)
-        refuse(at(ix.pos) + " (an index) lists " + std::to_string(*n) +
-               " messages (12 bytes each) in a data part of " + std::to_string(ix.data_len) +
-               " bytes");
       if (!connections.count(static_cast<std::uint32_t>(*conn)))
         refuse(at(ix.pos) + " (an index) is of connection " + std::to_string(*conn) +
                ", which the bag does not have");
-      std::string entries(ix.data_len, '\0');
-      read_file(ix.data_pos, ix.data_len, entries.data());
-      for (size_t e = 0; e < entries.size(); e += 12) {
-        const std::uint32_t offset = le32(entries.data() + e + 8);
+      const std::string list = entries(ix, "an index", *n, 12, "messages");
+      for (size_t e = 0; e < list.size(); e += 12) {
+        const std::uint32_t offset = le32(list.data() + e + 8);
         if (!offsets.count(offset))
           refuse(at(ix.pos) + " (an index) gives a message at byte " + std::to_string(offset) +
                  " of " + chunk_at + ", where no message record starts");

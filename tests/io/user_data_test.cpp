@@ -127,6 +127,9 @@ TEST(CameraFile, WrongOrMissingValuesAreErrorsNamingTheKey) {
       // not a map: OpenCV's FileNode::operator[] asserted (fuzz camera_yaml)
       {"%YAML:1.0\nimage_width: 64\nimage_height: 48\ncamera_matrix: 5\n",
        "camera_matrix: expected an !!opencv-matrix"},
+      // a list at the top level: OpenCV's FileNode::operator[] asserted (fuzz camera_yaml,
+      // session 12: crash-cv-assert-top-level-list.yaml)
+      {"%YAML:1.0\n- Camera.fx: 500\n", "its top level is a list or a value, not keys"},
       // OpenCV allocates rows x cols before it reads the data (fuzz camera_yaml: 64 GB)
       {opencv_style("depth_camera_matrix: !!opencv-matrix\n  rows: 100000\n  cols: 100000\n"
                     "  dt: d\n  data: [ 1. ]\n" +

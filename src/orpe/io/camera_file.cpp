@@ -239,6 +239,10 @@ std::vector<std::string> camera_preset_names() {
   return out;
 }
 
+namespace {
+CameraFileInfo read_camera_keys(const cv::FileStorage& fs, const std::string& path, bool preset);
+}  // namespace
+
 CameraFileInfo read_camera_file(const std::string& path) {
   const CameraPreset* preset = std::filesystem::exists(path) ? nullptr : find_preset(path);
   if (!preset && !std::filesystem::is_regular_file(path)) {
@@ -260,6 +264,21 @@ CameraFileInfo read_camera_file(const std::string& path) {
     throw IoError(path, std::string("not a readable YAML camera file: ") + e.what());
   }
   if (!fs.isOpened()) throw IoError(path, "not a readable YAML camera file");
+  // Keys are looked up in the top-level map: OpenCV's FileNode::operator[] asserts on a list or a
+  // value there (fuzz camera_yaml, session 12: crash-cv-assert-top-level-list.yaml).
+  if (!fs.root().isMap() && !fs.root().isNone())
+    throw IoError(path,
+                  "not a camera file: its top level is a list or a value, not keys (name: value)");
+  try {
+    return read_camera_keys(fs, path, preset != nullptr);
+  } catch (const cv::Exception& e) {  // any other OpenCV assertion while reading the keys
+    throw IoError(path, std::string("not a readable camera file: ") + e.what());
+  }
+}
+
+namespace {
+
+CameraFileInfo read_camera_keys(const cv::FileStorage& fs, const std::string& path, bool preset) {
   const Keys k(fs, path);
   CameraFileInfo c;
   c.path = preset ? "preset:" + path : path;
@@ -284,6 +303,8 @@ CameraFileInfo read_camera_file(const std::string& path) {
   read_depth_camera(k, c);
   return c;
 }
+
+}  // namespace
 
 DepthImage register_depth_to_colour(const DepthImage& depth, const CameraFileInfo& c) {
   const int w = c.colour.width > 0 ? c.colour.width : depth.width();

@@ -595,8 +595,8 @@ struct ModelRecognizer::Pass {
       cell_normals = kept_cell_normals(g, p.normal_radius_cells);
   }
 
-  bool register_crop(int mi, const std::vector<int>& cells, const SE3* prior,
-                     Hypothesis* out) const;
+  bool register_crop(int mi, const std::vector<int>& cells, const SE3* prior, Hypothesis* out,
+                     bool track = false) const;
   void refine_tracks();
   void keep_near_model(const ObjectModel& model, const SE3& T_cam_obj,
                        std::vector<int>& cells) const;
@@ -635,7 +635,7 @@ struct ModelRecognizer::Pass {
 };
 
 bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells, const SE3* prior,
-                                          Hypothesis* out) const {
+                                          Hypothesis* out, bool track) const {
   if (static_cast<int>(cells.size()) < p.min_explained_points) return false;
   const MaskImage mask = crop_mask(g, cells, W, H);
   SingleViewInput in;
@@ -657,7 +657,11 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
   if (!cell_normals.empty()) aids.cell_normals = &cell_normals;
   verify(g, frame.depth, K, *in.model, p, aids, *out);
   if (p.min_colour_ncc > -1 && out->support >= p.min_support && out->violation <= p.max_violation)
-    out->colour = best_colour_ncc(*in.model, out->T_cam_obj, frame, K, p.colour_shading_correction);
+    // A known object passed the shading-corrected test when it was found: it is held to the
+    // plain one (a print of little contrast besides its shading, the YCB-Video banana, passes
+    // the corrected test in some views only).
+    out->colour =
+        best_colour_ncc(*in.model, out->T_cam_obj, frame, K, p.colour_shading_correction && !track);
   return true;
 }
 
@@ -692,7 +696,7 @@ void ModelRecognizer::Pass::refine_tracks() {
     if (p.track_crop_distance_m > 0) keep_near_model(rec.models_[mi], prior, cells);
     Hypothesis h;
     ++refinements;
-    if (!register_crop(mi, cells, &prior, &h)) continue;
+    if (!register_crop(mi, cells, &prior, &h, true)) continue;
     h.from_track = true;
     h.track = static_cast<int>(ti);
     hyps.push_back(std::move(h));

@@ -157,23 +157,36 @@ std::shared_ptr<ModelColour> load_mesh_colour(const std::string& mesh_path, doub
   return model_colour_from_mesh(load_mesh(mesh_path, mo), samples);
 }
 
+std::vector<VisibleColourSample> visible_colour_samples(
+    const ModelColour& colour, const SE3& T_cam_obj, const ColorImage& image,
+    const DepthImage& depth, const MaskImage& mask, const PinholeIntrinsics& K,
+    double depth_tolerance_m) {
+  std::vector<VisibleColourSample> out;
+  if (image.empty() || image.width() != depth.width() || image.height() != depth.height())
+    return out;
+  const Eigen::Matrix3f R = T_cam_obj.rotation().cast<float>();
+  for_each_visible(colour.points, colour.normals, T_cam_obj, depth, mask, K, depth_tolerance_m,
+                   [&](size_t i, int u, int v) {
+                     if (colour.weight[i] <= 0) return;
+                     out.push_back({i, box_grey(image, u, v), R * colour.normals[i]});
+                   });
+  return out;
+}
+
 ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj,
                                  const ColorImage& image, const DepthImage& depth,
                                  const MaskImage& mask, const PinholeIntrinsics& K,
                                  const ColourScoreParams& params) {
   ColourAgreement out;
-  if (image.empty() || image.width() != depth.width() || image.height() != depth.height())
-    return out;
   double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-  for_each_visible(colour.points, colour.normals, T_cam_obj, depth, mask, K,
-                   params.depth_tolerance_m, [&](size_t i, int u, int v) {
-                     const double w = colour.weight[i];
-                     if (w <= 0) return;
-                     const double x = colour.grey[i], y = box_grey(image, u, v);
-                     sw += w, sx += w * x, sy += w * y;
-                     sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
-                     ++out.pixels;
-                   });
+  for (const VisibleColourSample& s :
+       visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m)) {
+    const double w = colour.weight[s.index];
+    const double x = colour.grey[s.index], y = s.image_grey;
+    sw += w, sx += w * x, sy += w * y;
+    sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
+    ++out.pixels;
+  }
   if (out.pixels < params.min_pixels || sw <= 0) return out;
   const double mx = sx / sw, my = sy / sw;
   const double vx = sxx / sw - mx * mx, vy = syy / sw - my * my, cxy = sxy / sw - mx * my;

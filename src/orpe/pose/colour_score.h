@@ -115,6 +115,21 @@ ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj
                                  const MaskImage& mask, const PinholeIntrinsics& K,
                                  const ColourScoreParams& params);
 
+/// One model colour sample seen in the image (colour_agreement's visibility test).
+struct VisibleColourSample {
+  size_t index = 0;        ///< into the ModelColour's samples
+  float image_grey = 0;    ///< 3x3 box-filtered grey level of its pixel, [0, 1]
+  Eigen::Vector3f normal;  ///< the sample's normal in the camera frame
+};
+
+/// The samples of `colour` with a known colour (weight > 0) that colour_agreement correlates at
+/// T_cam_obj: facing the camera, inside `mask` (when not empty), on a pixel whose observed depth
+/// lies within `depth_tolerance_m` of the sample's. Empty when the image and depth sizes differ.
+std::vector<VisibleColourSample> visible_colour_samples(
+    const ModelColour& colour, const SE3& T_cam_obj, const ColorImage& image,
+    const DepthImage& depth, const MaskImage& mask, const PinholeIntrinsics& K,
+    double depth_tolerance_m);
+
 /// The poses geometry tends to confuse with T_cam_obj: T_cam_obj * S for S = 180-degree turns about
 /// the three principal axes of the model points (through their bounding-box centre), and 60-degree
 /// steps about the model's continuous symmetry axis when it has one.

@@ -18,6 +18,7 @@
 #include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
 #include "orpe/recognition/normal_agreement.h"
+#include "orpe/recognition/shading_corrected_colour.h"
 #include "orpe/recognition/silhouette_overflow.h"
 
 namespace orpe {
@@ -63,6 +64,11 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(smooth_edge_max_step_m >= 0)) return fail("smooth_edge_max_step_m must be >= 0");
   if (!(max_silhouette_overflow >= -1) || silhouette_margin_cells < 0)
     return fail("max_silhouette_overflow must be >= -1 (-1 = off), silhouette_margin_cells >= 0");
+  if (!(silhouette_support_max_tilt_deg >= 0 && silhouette_support_max_tilt_deg < 90) ||
+      !(silhouette_support_height_m > 0))
+    return fail(
+        "silhouette_support_max_tilt_deg must be in [0, 90) (0 = off), "
+        "silhouette_support_height_m > 0");
   if (!(max_seam_fraction >= 0 && max_seam_fraction <= 1) || min_seam_pairs < 1)
     return fail("max_seam_fraction must be in [0, 1], min_seam_pairs >= 1");
   if (!(smooth_edge_max_colour_step >= 0 && smooth_edge_max_colour_step <= 256))
@@ -292,7 +298,7 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
 /// correlates ~0 with any turn of a printed model. 1 when there is no evidence (no colour image,
 /// a model without colour, too few visible samples).
 double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const RgbdFrame& frame,
-                       const PinholeIntrinsics& K) {
+                       const PinholeIntrinsics& K, bool shading_correction) {
   const ColourScoreParams cp;
   if (frame.color.empty() || !has_usable_colour(model, cp)) return 1;
   std::vector<SE3> poses = confusable_poses(model, T_cam_obj);
@@ -301,7 +307,9 @@ double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const Rgb
   bool any = false;
   for (const SE3& T : poses) {
     const ColourAgreement a =
-        colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
+        shading_correction
+            ? shading_corrected_agreement(*model.colour, T, frame.color, frame.depth, K, cp)
+            : colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
     if (!a.valid) continue;
     any = true;
     best = std::max(best, a.ncc);
@@ -587,8 +595,8 @@ struct ModelRecognizer::Pass {
       cell_normals = kept_cell_normals(g, p.normal_radius_cells);
   }
 
-  bool register_crop(int mi, const std::vector<int>& cells, const SE3* prior,
-                     Hypothesis* out) const;
+  bool register_crop(int mi, const std::vector<int>& cells, const SE3* prior, Hypothesis* out,
+                     bool track = false) const;
   void refine_tracks();
   void keep_near_model(const ObjectModel& model, const SE3& T_cam_obj,
                        std::vector<int>& cells) const;
@@ -627,7 +635,7 @@ struct ModelRecognizer::Pass {
 };
 
 bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells, const SE3* prior,
-                                          Hypothesis* out) const {
+                                          Hypothesis* out, bool track) const {
   if (static_cast<int>(cells.size()) < p.min_explained_points) return false;
   const MaskImage mask = crop_mask(g, cells, W, H);
   SingleViewInput in;
@@ -649,7 +657,11 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
   if (!cell_normals.empty()) aids.cell_normals = &cell_normals;
   verify(g, frame.depth, K, *in.model, p, aids, *out);
   if (p.min_colour_ncc > -1 && out->support >= p.min_support && out->violation <= p.max_violation)
-    out->colour = best_colour_ncc(*in.model, out->T_cam_obj, frame, K);
+    // A known object passed the shading-corrected test when it was found: it is held to the
+    // plain one (a print of little contrast besides its shading, the YCB-Video banana, passes
+    // the corrected test in some views only).
+    out->colour =
+        best_colour_ncc(*in.model, out->T_cam_obj, frame, K, p.colour_shading_correction && !track);
   return true;
 }
 
@@ -684,7 +696,7 @@ void ModelRecognizer::Pass::refine_tracks() {
     if (p.track_crop_distance_m > 0) keep_near_model(rec.models_[mi], prior, cells);
     Hypothesis h;
     ++refinements;
-    if (!register_crop(mi, cells, &prior, &h)) continue;
+    if (!register_crop(mi, cells, &prior, &h, true)) continue;
     h.from_track = true;
     h.track = static_cast<int>(ti);
     hyps.push_back(std::move(h));
@@ -924,9 +936,19 @@ int ModelRecognizer::Pass::worst_silhouette_overflow() {
                                       p.silhouette_margin_cells);
     const int n = static_cast<int>(h.explained.size());
     const int limit = static_cast<int>(std::ceil(4 * p.max_silhouette_overflow * n)) + 1;
-    const double f = silhouette_overflow(g, explained_by, i, sil,
-                                         static_cast<float>(p.boundary_continuation_m), limit) /
-                     static_cast<double>(n);
+    std::function<bool(int)> support;
+    if (p.silhouette_support_max_tilt_deg > 0 && !g.planes.empty() && std::isfinite(h.lowest_m)) {
+      if (!normals) normals.emplace(g, p.normal_radius_cells);
+      support = [&](int c) {
+        return is_support_cell(g, *normals, g.planes.front(), c, static_cast<float>(h.lowest_m),
+                               static_cast<float>(p.silhouette_support_height_m),
+                               static_cast<float>(p.silhouette_support_max_tilt_deg));
+      };
+    }
+    const double f =
+        silhouette_overflow(g, explained_by, i, sil, static_cast<float>(p.boundary_continuation_m),
+                            limit, support) /
+        static_cast<double>(n);
     spdlog::debug("recognition: silhouette of {}: overflow {:.2f}", i, f);
     if (f > worst_f) worst_f = f, worst = i;
   }

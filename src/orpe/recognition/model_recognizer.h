@@ -69,7 +69,8 @@ struct RecognitionParams {
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
   double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
-  double resting_bonus = 0.1;     ///< rank x (1 + this) for an object resting on the support
+  bool colour_shading_correction = true;  ///< regress a + b . normal out of both greys first
+  double resting_bonus = 0.1;          ///< rank x (1 + this) for an object resting on the support
   double resting_tolerance_m = 0.006;  ///< lowest model point this close to the support plane
   bool rank_by_residual = true;      ///< rank by sum of 1 - (d / inlier distance)^2, not the count
   double solo_leak_weight = 1;       ///< rank x (1 - this x its own outline leak) (0 = off)
@@ -90,6 +91,8 @@ struct RecognitionParams {
   int min_seam_pairs = 10;         ///< outline pairs a shared edge needs for that test
   double max_silhouette_overflow = -1;  ///< unexplained surface beyond the model outline (-1 off)
   int silhouette_margin_cells = 1;      ///< the model silhouette widened by this (grid cells)
+  double silhouette_support_max_tilt_deg = 0;  ///< the walk stops at the object's support (0 off)
+  double silhouette_support_height_m = 0.02;   ///< support: this close to the object's foot
   // Tracks (objects known from earlier keyframes).
   double track_bonus = 1.5;             ///< ranking factor of a refined known object
   double track_crop_distance_m = 0.02;  ///< refine on points this close to the predicted surface
@@ -183,6 +186,11 @@ struct RecognitionParams {
       "geometry confuses with it) less than this is rejected: a flat-painted object of the "
       "model's shape and size correlates ~0 with its print; no colour image, a model without "
       "colour or too few visible samples: no test; -1 = off");
+    v("colour_shading_correction", colour_shading_correction,
+      "The colour test's NCC is taken after a least-squares fit of a constant and the three "
+      "components of the sample normal (camera frame) is subtracted from the model's and the "
+      "image's grey levels: under a distant light a flat-painted surface's shading is linear in "
+      "its normal and can correlate with some turn of a print by chance; false = the plain NCC");
     v("min_explained_points", min_explained_points,
       "Grid points a hypothesis must newly explain to be kept");
     v("resting_bonus", resting_bonus,
@@ -253,6 +261,15 @@ struct RecognitionParams {
     v("silhouette_margin_cells", silhouette_margin_cells,
       "The projected model outline of the silhouette test widened by this many grid cells (pose "
       "error, mixed pixels)");
+    v("silhouette_support_max_tilt_deg", silhouette_support_max_tilt_deg,
+      "Silhouette test: the walk does not enter what the object stands on -- cells within "
+      "silhouette_support_height_m of the height of its lowest model point over the support "
+      "plane whose normal is within this angle (deg) of the plane's (the top of an unexplained "
+      "crate a can is stacked on); the vertical side of a distractor below a model fitted to its "
+      "top end is no support; 0 = off");
+    v("silhouette_support_height_m", silhouette_support_height_m,
+      "Silhouette test: a support cell lies within this distance (m) of the height of the "
+      "object's lowest model point over the support plane");
     v("track_bonus", track_bonus, "Ranking factor of a known object refined from its last pose");
     v("track_crop_distance_m", track_crop_distance_m,
       "A known object is refined on the kept points within this distance (m) of its model at the "

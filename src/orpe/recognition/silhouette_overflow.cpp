@@ -30,7 +30,7 @@ std::vector<std::uint8_t> model_silhouette(const SceneGrid& g, const PinholeIntr
 
 int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by, int i,
                         const std::vector<std::uint8_t>& silhouette, float continuation_m,
-                        int limit) {
+                        int limit, const std::function<bool(int)>& stop) {
   std::vector<std::uint8_t> seen(explained_by.size(), 0);
   std::vector<int> stack;
   const float reach2 = continuation_m * continuation_m;
@@ -38,6 +38,10 @@ int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by
     if (seen[to] || !g.kept[to] || explained_by[to] >= 0 || g.region[to] < 0 ||
         g.region[to] != g.region[from] || (g.points[to] - g.points[from]).squaredNorm() >= reach2)
       return;
+    if (stop && stop(to)) {
+      seen[to] = 1;
+      return;
+    }
     seen[to] = 1;
     stack.push_back(to);
   };
@@ -59,6 +63,15 @@ int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by
     neighbours(c, [&](int n) { try_step(c, n); });
   }
   return overflow;
+}
+
+bool is_support_cell(const SceneGrid& g, GridNormals& normals, const Plane& support, int c,
+                     float base_m, float height_tolerance_m, float max_tilt_deg) {
+  if (std::abs(support.signed_distance(g.points[c]) - base_m) > height_tolerance_m) return false;
+  const Eigen::Vector3f& n = normals.at(c);
+  if (n.squaredNorm() < 0.5f) return false;  // no normal
+  return std::abs(n.dot(support.normal)) >=
+         std::cos(max_tilt_deg * static_cast<float>(M_PI) / 180.0f);
 }
 
 }  // namespace orpe

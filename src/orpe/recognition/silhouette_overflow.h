@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "orpe/core/se3.h"
@@ -22,9 +23,18 @@ std::vector<std::uint8_t> model_silhouette(const SceneGrid& g, const PinholeIntr
 /// Observed surface beyond an object's silhouette: the kept cells no kept object explains
 /// (`explained_by` < 0) reached from object `i`'s explained cells through 4-neighbour steps shorter
 /// than `continuation_m` inside one region (regions are split at depth steps and concave creases),
-/// counted outside `silhouette`. Stops counting at `limit`.
+/// counted outside `silhouette`. Stops counting at `limit`. The walk does not enter the cells for
+/// which `stop` (when given) is true (support_cells: what the object stands on).
 int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by, int i,
                         const std::vector<std::uint8_t>& silhouette, float continuation_m,
-                        int limit);
+                        int limit, const std::function<bool(int)>& stop = {});
+
+/// What an object whose lowest model point lies `base_m` over the support plane `support` stands
+/// on: a cell is its support when it lies within `height_tolerance_m` of that height and its
+/// normal (`normals`) is within `max_tilt_deg` of the plane's (a horizontal surface at the
+/// object's foot: the top of the crate a can is stacked on). The side of a distractor cylinder
+/// below a can model fitted to its top end is vertical there and is no support.
+bool is_support_cell(const SceneGrid& g, GridNormals& normals, const Plane& support, int c,
+                     float base_m, float height_tolerance_m, float max_tilt_deg);
 
 }  // namespace orpe

@@ -34,8 +34,16 @@ CommandRegistrar reg(20, [](CLI::App& root) {
       ->capture_default_str();
   app->add_option("--frames", s->p.frames, "Number of frames (30 Hz)")->capture_default_str();
   app->add_option("--objects", s->p.objects, "Number of object instances")->capture_default_str();
-  app->add_option("--scene", s->p.scene, "Environment: floor | table | shelf")
-      ->check(CLI::IsMember({"floor", "table", "shelf"}))
+  app->add_option("--scene", s->p.scene,
+                  "Environment: floor | table | shelf | room (6 x 6 m, a rack on each wall; needs "
+                  "--trajectory loop)")
+      ->check(CLI::IsMember({"floor", "table", "shelf", "room"}))
+      ->capture_default_str();
+  app->add_option("--trajectory", s->p.trajectory,
+                  "Camera path: arc (hand-held, around the scene) | loop (a closed circle that "
+                  "returns to its start and overlaps it by synth.loop_overlap_deg; in the room it "
+                  "looks out at the racks)")
+      ->check(CLI::IsMember({"arc", "loop"}))
       ->capture_default_str();
   app->add_option(
          "--models", s->models,
@@ -118,6 +126,7 @@ CommandRegistrar reg(20, [](CLI::App& root) {
     if (given("--frames")) p.frames = s->p.frames;
     if (given("--objects")) p.objects = s->p.objects;
     if (given("--scene")) p.scene = s->p.scene;
+    if (given("--trajectory")) p.trajectory = s->p.trajectory;
     if (given("--models")) {
       p.models.clear();
       for (const auto& m : s->models) p.models += (p.models.empty() ? "" : ",") + m;

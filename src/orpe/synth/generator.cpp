@@ -289,7 +289,23 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
                                                       params_.depth_min_m + 0.35, 3.0);
   tp.azimuth_centre_rad = params_.scene == "shelf" ? scene_.view_azimuth_rad : 2 * M_PI * U(rng);
   tp.min_height_m = 0.25;
-  T_world_cam_ = make_handheld_trajectory(tp, scene_.centre_world, rng);
+  if (params_.trajectory == "loop") {
+    LoopParams lp;
+    lp.frames = params_.frames;
+    lp.fps = params_.fps;
+    lp.overlap_deg = params_.loop_overlap_deg;
+    lp.outward = params_.scene == "room";
+    lp.radius_m = params_.loop_radius_m > 0 ? params_.loop_radius_m
+                  : lp.outward              ? 0.9
+                                            : tp.distance_m;
+    lp.elevation_deg = tp.elevation_deg;
+    lp.shake_m = params_.shake_m;
+    lp.shake_deg = params_.shake_deg;
+    const Vec3 centre = lp.outward ? Vec3::Zero() : scene_.centre_world;
+    T_world_cam_ = make_loop_trajectory(lp, centre, rng);
+  } else {
+    T_world_cam_ = make_handheld_trajectory(tp, scene_.centre_world, rng);
+  }
   add_distractors(layout);
   for (const auto& T : T_world_cam_) {
     const Vec3 d = T.translation() - scene_.centre_world;
@@ -481,6 +497,10 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   info["params"].erase("threads");  // an execution setting: the output does not depend on it
   // Absent = 0: scenes without distractors stay byte-identical to those made before the option.
   if (params_.distractors == 0) info["params"].erase("distractors");
+  // Likewise the loop's parameters for the default arc.
+  if (params_.trajectory == "arc")
+    for (const char* k : {"trajectory", "loop_overlap_deg", "loop_radius_m"})
+      info["params"].erase(k);
   info["scene"] = scene_.kind;
   info["depth_scale"] = kDepthScaleMm;
   info["depth_units_per_m"] = kDepthUnitsPerM;

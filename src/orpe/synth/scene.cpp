@@ -62,7 +62,8 @@ TriangleMesh slab(const Eigen::Vector3f& size, float px_per_m, int tex_w, int te
   return make_box(size, 0.25f, &uv);
 }
 
-void add_floor_and_walls(SynthScene& s, std::uint64_t seed) {
+/// The floor, and four walls `wall_distance_m` from the origin facing it.
+void add_floor_and_walls(SynthScene& s, std::uint64_t seed, double wall_distance_m = 7.0) {
   auto concrete = std::make_shared<ColorImage>(draw_concrete(512, seed));
   s.environment.push_back({textured(make_quad(16.0f, 16.0f, 8, 8, 8, 8), concrete), SE3()});
   auto wall_tex = std::make_shared<ColorImage>(draw_painted_wall(256, seed + 1, {214, 216, 210}));
@@ -72,7 +73,7 @@ void add_floor_and_walls(SynthScene& s, std::uint64_t seed) {
   R.col(0) = Vec3::UnitX(), R.col(1) = Vec3::UnitZ(), R.col(2) = -Vec3::UnitY();
   for (int k = 0; k < 4; ++k) {
     const Mat3 Rz = rot_z(k * M_PI / 2);
-    s.environment.push_back({wall, SE3(Rz * R, Rz * Vec3(0, 7.0, 2.5))});
+    s.environment.push_back({wall, SE3(Rz * R, Rz * Vec3(0, wall_distance_m, 2.5))});
   }
 }
 
@@ -90,8 +91,11 @@ void add_table(SynthScene& s, std::uint64_t seed) {
   s.default_elevation_deg = 40;
 }
 
-void add_shelf(SynthScene& s, std::uint64_t seed) {
-  const float W = 2.0f, D = 0.6f, board_t = 0.03f, beam_h = 0.08f, post = 0.07f, top_h = 1.95f;
+/// A rack of width W (four levels, a back panel at +y) placed by T_world_rack (a turn about z and a
+/// shift); its boards become supports.
+void add_shelf(SynthScene& s, std::uint64_t seed, const SE3& T_world_rack = SE3(),
+               const float W = 2.0f) {
+  const float D = 0.6f, board_t = 0.03f, beam_h = 0.08f, post = 0.07f, top_h = 1.95f;
   const float levels[4] = {0.12f, 0.58f, 1.04f, 1.50f};  // top surfaces of the boards
   auto chip = std::make_shared<ColorImage>(draw_wood(512, 512, seed + 3, {200, 175, 130}));
   auto board = textured(slab({W, D, board_t}, 250, 512, 512), chip);
@@ -100,22 +104,37 @@ void add_shelf(SynthScene& s, std::uint64_t seed) {
   for (int i = 0; i < 4; ++i) {
     const double x = (i % 2 ? 1 : -1) * (W / 2 + post / 2),
                  y = (i / 2 ? 1 : -1) * (D / 2 - post / 2);
-    s.environment.push_back({upright, SE3(Mat3::Identity(), Vec3(x, y, top_h / 2))});
+    s.environment.push_back({upright, T_world_rack * SE3(Mat3::Identity(), Vec3(x, y, top_h / 2))});
   }
   for (int l = 0; l < 4; ++l) {
     const double z = levels[l];
-    s.environment.push_back({board, SE3(Mat3::Identity(), Vec3(0, 0, z - board_t / 2))});
+    s.environment.push_back(
+        {board, T_world_rack * SE3(Mat3::Identity(), Vec3(0, 0, z - board_t / 2))});
     for (int side = -1; side <= 1; side += 2)
       s.environment.push_back(
-          {beam, SE3(Mat3::Identity(), Vec3(0, side * (D / 2 - 0.025), z - board_t - beam_h / 2))});
+          {beam, T_world_rack * SE3(Mat3::Identity(),
+                                    Vec3(0, side * (D / 2 - 0.025), z - board_t - beam_h / 2))});
     const double next_bottom = l + 1 < 4 ? levels[l + 1] - board_t - beam_h : top_h + 0.3;
-    s.supports.push_back({rect(-W / 2, -D / 2, W / 2, D / 2), z, next_bottom - z, -1});
+    Poly board_xy = rect(-W / 2, -D / 2, W / 2, D / 2);
+    for (auto& q : board_xy) q = (T_world_rack * Vec3(q.x(), q.y(), 0)).head<2>();
+    s.supports.push_back({board_xy, z, next_bottom - z, -1});
   }
   // Back panel (mesh-like grey sheet) behind the shelf.
   auto back = coloured(make_box({W, 0.01f, top_h}, 0.25f), {150, 152, 155});
-  s.environment.push_back({back, SE3(Mat3::Identity(), Vec3(0, D / 2 + 0.01, top_h / 2))});
+  s.environment.push_back(
+      {back, T_world_rack * SE3(Mat3::Identity(), Vec3(0, D / 2 + 0.01, top_h / 2))});
   s.view_azimuth_rad = -M_PI / 2;  // cameras in front (-y side)
   s.default_elevation_deg = 15;
+}
+
+/// A 6 x 6 m room: walls 3 m from the centre, a 3 m rack against each wall facing the centre (its
+/// front 2.05 m from it), for camera loops inside the room.
+void add_room(SynthScene& s, std::uint64_t seed) {
+  for (int k = 0; k < 4; ++k) {
+    const Mat3 Rz = rot_z(k * M_PI / 2);
+    add_shelf(s, seed + 10 * static_cast<std::uint64_t>(k), SE3(Rz, Rz * Vec3(0, 2.35, 0)), 3.0f);
+  }
+  s.default_elevation_deg = 0;
 }
 
 double max_footprint_area(const ObjectModel& m) {
@@ -252,7 +271,7 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
     if (t < 0 || t >= static_cast<int>(s.types.size()))
       throw std::invalid_argument("build_scene: bad type index");
   const std::uint64_t env_seed = rng();
-  add_floor_and_walls(s, env_seed);
+  add_floor_and_walls(s, env_seed, p.kind == "room" ? 3.0 : 7.0);
   double total_area = 0, max_len = 0;
   for (int t : instance_types) {
     total_area += max_footprint_area(s.types[t]);
@@ -268,8 +287,11 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
     add_table(s, env_seed);
   } else if (p.kind == "shelf") {
     add_shelf(s, env_seed);
+  } else if (p.kind == "room") {
+    add_room(s, env_seed);
   } else {
-    throw std::invalid_argument("scene kind must be floor, table or shelf (got '" + p.kind + "')");
+    throw std::invalid_argument("scene kind must be floor, table, shelf or room (got '" + p.kind +
+                                "')");
   }
   const size_t env_supports = s.supports.size();
 

@@ -41,7 +41,7 @@ struct EnvironmentPart {
 };
 
 struct SceneLayoutParams {
-  std::string kind = "floor";      ///< floor | table | shelf
+  std::string kind = "floor";      ///< floor | table | shelf | room
   int max_attempts = 400;          ///< placement tries per object before it is dropped
   double min_gap_m = 0.005;        ///< clearance between neighbouring prisms
   double edge_margin_m = 0.01;     ///< objects stay this far inside their support's edges

@@ -9,8 +9,21 @@ bool SynthParams::IsValid(std::string* why) const {
   };
   if (frames < 1 || frames > 1000000) return fail("frames must be in 1..1000000");
   if (objects < 1 || objects > 500) return fail("objects must be in 1..500");
-  if (scene != "floor" && scene != "table" && scene != "shelf")
-    return fail("scene must be floor, table or shelf (got '" + scene + "')");
+  if (scene != "floor" && scene != "table" && scene != "shelf" && scene != "room")
+    return fail("scene must be floor, table, shelf or room (got '" + scene + "')");
+  if (trajectory != "arc" && trajectory != "loop")
+    return fail("trajectory must be arc or loop (got '" + trajectory + "')");
+  if (!(loop_overlap_deg >= 0 && loop_overlap_deg <= 360))
+    return fail("loop_overlap_deg must be in [0, 360]");
+  if (!(loop_radius_m >= 0 && loop_radius_m <= 5.0))
+    return fail("loop_radius_m must be in [0, 5] m (0 = automatic)");
+  if (scene == "room" && trajectory != "loop")
+    return fail(
+        "the room scene needs trajectory=loop (--trajectory loop): an arc around it would "
+        "put the camera inside its walls");
+  if (scene == "room" && loop_radius_m > 1.3)
+    return fail(
+        "room: loop_radius_m must be <= 1.3 m (the racks' fronts are 2.05 m from the centre)");
   if (symmetries != "shape" && symmetries != "appearance")
     return fail("symmetries must be shape or appearance (got '" + symmetries + "')");
   if (distractors < 0 || distractors > 200) return fail("distractors must be in 0..200");

@@ -19,6 +19,9 @@ struct SynthParams {
   int height = 480;
   double fx = 0, fy = 0, cx = 0, cy = 0;
   double fps = 30;
+  std::string trajectory = "arc";  // arc | loop
+  double loop_overlap_deg = 30;
+  double loop_radius_m = 0;
   double span_deg = 140;
   double baseline_m = 0;
   double distance_m = 0;
@@ -42,7 +45,8 @@ struct SynthParams {
     v("seed", seed, "Random seed: the same seed and parameters give byte-identical output");
     v("frames", frames, "Number of frames (30 Hz)");
     v("objects", objects, "Number of object instances placed in the scene");
-    v("scene", scene, "Environment: floor | table | shelf");
+    v("scene", scene,
+      "Environment: floor | table | shelf | room (a 6 x 6 m room with a 3 m rack on each wall)");
     v("models", models,
       "Comma-separated OBJ/PLY files or folders (YCB layout <class>/textured_simple.obj); empty = "
       "built-in "
@@ -68,6 +72,16 @@ struct SynthParams {
     v("cx", cx, "Principal point x (pixels); 0 = (width - 1) / 2");
     v("cy", cy, "Principal point y (pixels); 0 = (height - 1) / 2");
     v("fps", fps, "Frame rate (Hz) of the timestamps and the hand-held motion");
+    v("trajectory", trajectory,
+      "Camera path: arc = hand-held arc around the scene (span_deg) | loop = a closed circle "
+      "(room: inside the room looking out at the racks; other scenes: around them looking in) "
+      "that returns to its start and goes on for loop_overlap_deg, over the first frames' path");
+    v("loop_overlap_deg", loop_overlap_deg,
+      "trajectory=loop: degrees travelled past 360, over the start of the path again (the "
+      "revisit)");
+    v("loop_radius_m", loop_radius_m,
+      "trajectory=loop: mean radius of the camera's circle (m); 0 = room 0.9, other scenes the "
+      "automatic camera distance");
     v("span_deg", span_deg,
       "Azimuth swept by the camera around the scene (deg); shelf scenes cap it at 110");
     v("baseline_m", baseline_m,

@@ -29,7 +29,73 @@ struct SmoothNoise {
   }
 };
 
+/// A smooth random function of an angle, periodic in 2 pi, in [-1, 1]: harmonics 1..max_harmonic.
+struct PeriodicNoise {
+  std::vector<double> k, phase, amp;
+  PeriodicNoise(std::mt19937_64& rng, int max_harmonic, int terms) {
+    std::uniform_real_distribution<double> U(0, 1);
+    double total = 0;
+    for (int i = 0; i < terms; ++i) {
+      k.push_back(1 + std::min(max_harmonic - 1, static_cast<int>(U(rng) * max_harmonic)));
+      phase.push_back(2 * M_PI * U(rng));
+      amp.push_back(0.5 + U(rng));
+      total += amp.back();
+    }
+    for (auto& a : amp) a /= total;
+  }
+  double operator()(double theta) const {
+    double s = 0;
+    for (size_t i = 0; i < k.size(); ++i) s += amp[i] * std::sin(k[i] * theta + phase[i]);
+    return s;
+  }
+};
+
 }  // namespace
+
+std::vector<SE3> make_loop_trajectory(const LoopParams& p, const Vec3& centre,
+                                      std::mt19937_64& rng) {
+  if (p.frames < 2 || !(p.fps > 0) || !(p.radius_m > 0) || !(p.overlap_deg >= 0))
+    throw std::invalid_argument("make_loop_trajectory: bad parameters");
+  SmoothNoise speed(rng, 0.05, 0.25, 3), roll(rng, 0.1, 0.4, 2);
+  PeriodicNoise radius(rng, 3, 3), height(rng, 3, 3), pitch(rng, 4, 3), yaw(rng, 4, 3);
+  SmoothNoise shake[6] = {{rng, 1.5, 6, 3}, {rng, 1.5, 6, 3}, {rng, 1.5, 6, 3},
+                          {rng, 1.5, 6, 3}, {rng, 1.5, 6, 3}, {rng, 1.5, 6, 3}};
+  std::uniform_real_distribution<double> U(0, 1);
+  const double az0 = 2 * M_PI * U(rng);
+  const double total_az = 2 * M_PI + p.overlap_deg * M_PI / 180.0;
+  std::vector<double> progress(p.frames, 0.0);
+  for (int i = 1; i < p.frames; ++i)
+    progress[i] = progress[i - 1] + std::max(0.2, 1.0 + 0.25 * speed(i / p.fps));
+  const double deg = M_PI / 180.0;
+  std::vector<SE3> out;
+  out.reserve(p.frames);
+  for (int i = 0; i < p.frames; ++i) {
+    const double t = i / p.fps;
+    const double th = az0 + total_az * progress[i] / progress.back();  // az0 + [0, total]
+    const double r = p.radius_m * (1.0 + 0.1 * radius(th));
+    const Vec3 radial(std::cos(th), std::sin(th), 0.0);
+    Vec3 eye, look;
+    if (p.outward) {
+      eye = centre + r * radial;
+      eye.z() = p.height_m + 0.1 * height(th);
+      const double a = th + p.yaw_wander_deg * deg * yaw(th);
+      const double el = (p.pitch_deg + 5.0 * pitch(th)) * deg;
+      look = eye + Vec3(std::cos(el) * std::cos(a), std::cos(el) * std::sin(a), std::sin(el));
+    } else {
+      const double el = std::clamp(p.elevation_deg * deg + 0.12 * height(th), 0.02, 1.45);
+      eye = centre + r * Vec3(std::cos(el) * radial.x(), std::cos(el) * radial.y(), std::sin(el));
+      look = centre;
+    }
+    eye.z() = std::max(eye.z(), p.min_height_m);
+    SE3 T = look_at(eye, look);
+    const Vec3 dphi(p.shake_deg * deg * shake[3](t), p.shake_deg * deg * shake[4](t),
+                    p.shake_deg * deg * shake[5](t) + 2.0 * deg * roll(t));
+    T.rotation() = T.rotation() * so3_exp(dphi);
+    T.translation() += p.shake_m * Vec3(shake[0](t), shake[1](t), shake[2](t));
+    out.push_back(T);
+  }
+  return out;
+}
 
 std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3& target,
                                           std::mt19937_64& rng) {

@@ -8,13 +8,16 @@ namespace orpe::synth {
 namespace {
 
 /// A smooth random signal in [-1, 1]: a sum of sinusoids with random phases (frequencies in Hz).
+/// `harmonics` > 0 instead draws integer frequencies 1..harmonics: periodic with period 1.
 struct SmoothNoise {
   std::vector<double> freq, phase, amp;
-  SmoothNoise(std::mt19937_64& rng, double f_lo, double f_hi, int terms) {
+  SmoothNoise(std::mt19937_64& rng, double f_lo, double f_hi, int terms, int harmonics = 0) {
     std::uniform_real_distribution<double> U(0, 1);
     double total = 0;
     for (int i = 0; i < terms; ++i) {
-      freq.push_back(f_lo + (f_hi - f_lo) * U(rng));
+      freq.push_back(harmonics > 0
+                         ? 1 + std::min(harmonics - 1, static_cast<int>(U(rng) * harmonics))
+                         : f_lo + (f_hi - f_lo) * U(rng));
       phase.push_back(2 * M_PI * U(rng));
       amp.push_back(0.5 + U(rng));
       total += amp.back();
@@ -31,23 +34,10 @@ struct SmoothNoise {
 
 /// A smooth random function of an angle, periodic in 2 pi, in [-1, 1]: harmonics 1..max_harmonic.
 struct PeriodicNoise {
-  std::vector<double> k, phase, amp;
-  PeriodicNoise(std::mt19937_64& rng, int max_harmonic, int terms) {
-    std::uniform_real_distribution<double> U(0, 1);
-    double total = 0;
-    for (int i = 0; i < terms; ++i) {
-      k.push_back(1 + std::min(max_harmonic - 1, static_cast<int>(U(rng) * max_harmonic)));
-      phase.push_back(2 * M_PI * U(rng));
-      amp.push_back(0.5 + U(rng));
-      total += amp.back();
-    }
-    for (auto& a : amp) a /= total;
-  }
-  double operator()(double theta) const {
-    double s = 0;
-    for (size_t i = 0; i < k.size(); ++i) s += amp[i] * std::sin(k[i] * theta + phase[i]);
-    return s;
-  }
+  SmoothNoise noise;
+  PeriodicNoise(std::mt19937_64& rng, int max_harmonic, int terms)
+      : noise(rng, 0, 0, terms, max_harmonic) {}
+  double operator()(double theta) const { return noise(theta / (2 * M_PI)); }
 };
 
 }  // namespace

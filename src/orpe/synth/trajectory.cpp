@@ -40,6 +40,18 @@ struct PeriodicNoise {
   double operator()(double theta) const { return noise(theta / (2 * M_PI)); }
 };
 
+/// The hand's roll and shake added to a camera pose at time t (camera-frame rotation, world
+/// translation).
+SE3 with_hand_shake(SE3 T, const SmoothNoise (&shake)[6], const SmoothNoise& roll, double t,
+                    double shake_m, double shake_deg) {
+  const double deg = M_PI / 180.0;
+  const Vec3 dphi(shake_deg * deg * shake[3](t), shake_deg * deg * shake[4](t),
+                  shake_deg * deg * shake[5](t) + 2.0 * deg * roll(t));
+  T.rotation() = T.rotation() * so3_exp(dphi);
+  T.translation() += shake_m * Vec3(shake[0](t), shake[1](t), shake[2](t));
+  return T;
+}
+
 }  // namespace
 
 std::vector<SE3> make_loop_trajectory(const LoopParams& p, const Vec3& centre,
@@ -77,12 +89,7 @@ std::vector<SE3> make_loop_trajectory(const LoopParams& p, const Vec3& centre,
       look = centre;
     }
     eye.z() = std::max(eye.z(), p.min_height_m);
-    SE3 T = look_at(eye, look);
-    const Vec3 dphi(p.shake_deg * deg * shake[3](t), p.shake_deg * deg * shake[4](t),
-                    p.shake_deg * deg * shake[5](t) + 2.0 * deg * roll(t));
-    T.rotation() = T.rotation() * so3_exp(dphi);
-    T.translation() += p.shake_m * Vec3(shake[0](t), shake[1](t), shake[2](t));
-    out.push_back(T);
+    out.push_back(with_hand_shake(look_at(eye, look), shake, roll, t, p.shake_m, p.shake_deg));
   }
   return out;
 }
@@ -128,14 +135,7 @@ std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3&
         target + r * Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
     eye.z() = std::max(eye.z(), p.min_height_m);
     const Vec3 look = target + look_wander * Vec3(wander_x(t), wander_y(t), 0.5 * wander_z(t));
-    SE3 T = look_at(eye, look);
-    // Hand roll and shake (camera frame rotation, world translation).
-    const double deg = M_PI / 180.0;
-    const Vec3 dphi(p.shake_deg * deg * shake[3](t), p.shake_deg * deg * shake[4](t),
-                    p.shake_deg * deg * shake[5](t) + 2.0 * deg * roll(t));
-    T.rotation() = T.rotation() * so3_exp(dphi);
-    T.translation() += p.shake_m * Vec3(shake[0](t), shake[1](t), shake[2](t));
-    out.push_back(T);
+    out.push_back(with_hand_shake(look_at(eye, look), shake, roll, t, p.shake_m, p.shake_deg));
   }
   return out;
 }

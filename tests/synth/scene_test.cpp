@@ -154,6 +154,37 @@ TEST(SynthScene, ObjectsRestWithoutInterpenetration) {
   EXPECT_LT(stacked, total);
 }
 
+// The room and its loop (issue 19): objects rest on the racks without interpenetration; the camera
+// stays inside the room, and after 360 of its 390 degrees it is back where it started.
+TEST(SynthScene, RoomLoopReturnsToItsStartInsideTheRoom) {
+  SynthParams p = small_synth(1, 391, false);
+  p.scene = "room";
+  p.trajectory = "loop";
+  p.objects = 16;
+  p.loop_overlap_deg = 30;
+  const SyntheticSceneGenerator g(p);
+  EXPECT_GE(g.scene().objects.size(), 12u);
+  check_scene(g.scene(), "room");
+  const auto& T = g.trajectory();
+  ASSERT_EQ(T.size(), 391u);
+  for (const SE3& c : T) {
+    EXPECT_LT(c.translation().head<2>().norm(), 1.1) << "camera outside its circle";
+    EXPECT_GT(c.translation().head<2>().norm(), 0.7);
+  }
+  // Where the azimuth is back at its start (the speed varies, so look for the nearest camera among
+  // the last 60 frames): within the hand shake (a few mm) and a few degrees of roll.
+  double best = 1e9;
+  for (size_t k = 300; k < T.size(); ++k)
+    best = std::min(best, (T[k].translation() - T[0].translation()).norm());
+  EXPECT_LT(best, 0.02);
+  // ... while halfway round it is far away.
+  EXPECT_GT((T[195].translation() - T[0].translation()).norm(), 1.2);
+  SynthParams arc = p;
+  arc.trajectory = "arc";
+  std::string why;
+  EXPECT_FALSE(arc.IsValid(&why)) << "the room needs the loop";
+}
+
 TEST(SynthScene, PenetrationCheckDetectsOverlap) {
   // The check above must be able to fail: move one object into another.
   const SyntheticSceneGenerator g(small_synth(1, 1, false));

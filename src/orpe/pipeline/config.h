@@ -34,10 +34,11 @@ struct OrpeConfig {
   slam::TrackerParams slam_tracking;       ///< SLAM frame-to-model tracking
   slam::FusionParams slam_fusion;          ///< SLAM surfel fusion
   slam::RelocaliserParams slam_reloc;      ///< SLAM relocalisation after tracking loss
+  slam::LoopClosureParams slam_loop;       ///< SLAM loop closure
 
   /// The SLAM system's parameters assembled from the slam* sections.
   slam::SlamParams slam_params() const {
-    return {slam_preprocess, slam_tracking, slam_fusion, slam, slam_reloc};
+    return {slam_preprocess, slam_tracking, slam_fusion, slam, slam_reloc, slam_loop};
   }
   SegmentationParams segmentation;  ///< 2D instance segmentation back-end and keyframe policy
   SemanticParams semantic;          ///< instance-aware semantic fusion
@@ -63,6 +64,7 @@ struct OrpeConfig {
     v("slam_tracking", slam_tracking);
     v("slam_fusion", slam_fusion);
     v("slam_reloc", slam_reloc);
+    v("slam_loop", slam_loop);
     v("segmentation", segmentation);
     v("semantic", semantic);
     v("recognition", recognition);

@@ -37,6 +37,11 @@ class ObjectPoseFusion {
   /// End of the sequence: starts the filter from the buffered measurements when fewer than
   /// init_views arrived (an object seen a few times still gets a fused pose).
   void flush();
+  /// The world frame moved (a SLAM loop closure): the filter and the buffered views follow C.
+  void apply_world_correction(const SE3& C) {
+    ekf_.apply_world_correction(C);
+    for (auto& b : buffer_) b.first.T_world_cam = C * b.first.T_world_cam;
+  }
 
   bool has_estimate() const { return ekf_.initialised(); }
   const SE3& T_world_obj() const { return ekf_.T_world_obj(); }

@@ -144,6 +144,7 @@ struct ObjectRpePipeline::Track {
   SE3 best_T_world_obj;
   int valid_views = 0;
   SkipState skip;          // EKF variants
+  std::int32_t last_slam_time = -1;  // SLAM frame counter of the last view fused (loop closure)
   int prior_in_a_row = 0;  // estimates in a row from the prior (pipeline.prior_max_consecutive)
 };
 
@@ -160,6 +161,7 @@ struct ObjectRpePipeline::VariantState {
     int class_id;
     double score;
     double time_s;
+    std::int32_t slam_time;  ///< SLAM frame counter (its pose follows loop closures)
   };
   std::vector<Seen> seen;
   std::vector<SingleViewRecord> records;
@@ -283,6 +285,14 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
   result_.slam_ms = ms_since(t0);
   const SE3 T_world_cam = slam_->T_world_cam();
   trajectory_.push_back({frame.timestamp_s, T_world_cam});
+  if (result_.slam.loop_closed) {
+    // The loop closure corrected every earlier pose (and the map's surfels, the objects' too).
+    const std::vector<SE3>& corrected = slam_->trajectory();
+    for (size_t k = 0; k < trajectory_.size() && k < corrected.size(); ++k)
+      trajectory_[k].T_world_cam = corrected[k];
+    stats_.loop_closures.emplace_back(frame.index, result_.slam.loop_keyframe);
+    move_objects_with_loop_correction();
+  }
   const bool lost = result_.slam.status == slam::TrackingStatus::kLost;
   stats_.lost_frames += lost;
   stats_.degraded_frames += result_.slam.status == slam::TrackingStatus::kDegraded;
@@ -689,6 +699,7 @@ void ObjectRpePipeline::fuse_estimate(PoseFrame& f, VariantState& vs, const Cand
         track->have_best = true;
         track->best_score = est.score;
         track->best_T_world_obj = f.T_world_cam * sv.T_cam_obj;
+        track->last_slam_time = slam_->last_time();
       }
     }
   }
@@ -701,7 +712,24 @@ void ObjectRpePipeline::fuse_estimate(PoseFrame& f, VariantState& vs, const Cand
   row.T_cam_obj = est.T_cam_obj;
   vs.rows.push_back(row);
   if (cfg.ekf && est.instance_id > 0)
-    vs.seen.push_back({f.frame.index, f.T_world_cam, est.instance_id, est.class_id, est.score, -1});
+    vs.seen.push_back({f.frame.index, f.T_world_cam, est.instance_id, est.class_id, est.score, -1,
+                       slam_->last_time()});
+}
+
+void ObjectRpePipeline::move_objects_with_loop_correction() {
+  for (auto& vs : variants_)
+    for (auto& [id, track] : vs.tracks) {
+      if (track.last_slam_time < 0) continue;
+      const SE3 C = slam_->loop_correction(track.last_slam_time);
+      if (track.ekf) track.ekf->apply_world_correction(C);
+      track.best_T_world_obj = C * track.best_T_world_obj;
+      track.skip.T_world_cam = C * track.skip.T_world_cam;
+    }
+  const std::vector<SE3>& T = slam_->trajectory();
+  for (auto& vs : variants_)
+    for (auto& s : vs.seen)
+      if (s.slam_time >= 0 && s.slam_time < static_cast<std::int32_t>(T.size()))
+        s.T_world_cam = T[static_cast<size_t>(s.slam_time)];
 }
 
 void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, const Candidate& c,
@@ -723,6 +751,7 @@ void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, cons
     // A refined prior that inherited its mode is not an independent vote among modes.
     if (sv.from_prior && !sv.prior_modes_compared) m.mode_weight *= pp.prior_mode_weight;
     const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
+    track.last_slam_time = slam_->last_time();
     est.ekf_accepted = o.accepted;
     ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);
     learn_colour(track, model, sv, o.accepted, fusion, f.T_world_cam,

@@ -159,6 +159,8 @@ struct PipelineStats {
   /// Frames on which a LOST camera was relocalised (slam_reloc), by RgbdFrame::index, with the
   /// keyframe each was found against.
   std::vector<std::pair<int, int>> relocalised_frames;
+  /// Frames on which a loop was closed (slam_loop), with the revisited keyframe's index.
+  std::vector<std::pair<int, int>> loop_closures;
   int detections = 0;
   int single_view_estimates = 0, single_view_valid = 0, single_view_cache_hits = 0;
   int single_view_from_prior = 0;  ///< estimates that were a local refinement of the EKF's prior
@@ -277,6 +279,9 @@ class ObjectRpePipeline {
   void learn_colour(Track& track, const ObjectModel& model, const SingleViewPose& sv, bool accepted,
                     const ObjectPoseFusion& fusion, const SE3& T_world_cam, const ColorImage& color,
                     const DepthImage& depth, const MaskImage& mask, const PinholeIntrinsics& K);
+  /// After a SLAM loop closure: every track's world pose (EKF state, best view) follows the
+  /// correction of the frame that last gave it a view (the map's surfels moved with theirs).
+  void move_objects_with_loop_correction();
   /// Moves the pose tracks of instances the semantic map merged onto the survivors (the one with
   /// more fused views wins when both have a track).
   void hand_over_merged_tracks();

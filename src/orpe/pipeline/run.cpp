@@ -494,6 +494,13 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     js.set("tracking.relocalised_against_keyframes", keyframes);
     js.set("tracking.keyframes_stored", static_cast<int>(pipeline.slam().keyframes()));
   }
+  js.set("counts.loop_closures", static_cast<int>(st.loop_closures.size()));
+  {
+    std::vector<double> frames, keyframes;
+    for (auto [f, k] : st.loop_closures) frames.push_back(f), keyframes.push_back(k);
+    js.set("tracking.loop_closure_frames", frames);
+    js.set("tracking.loop_closure_keyframes", keyframes);
+  }
   js.set("counts.no_depth_frames", summary.no_depth_frames);
   js.set("counts.detections", st.detections);
   js.set("counts.instances", summary.instances);

@@ -38,6 +38,10 @@ class MultiHypothesisPoseEkf {
                                   const ObjectSymmetry& symmetry = {});
 
   bool initialised() const { return reported_ >= 0; }
+  /// Every hypothesis follows a correction of the world frame (PoseEkf::apply_world_correction).
+  void apply_world_correction(const SE3& C) {
+    for (auto& h : hypotheses_) h.ekf.apply_world_correction(C);
+  }
   /// Static model on every hypothesis.
   void predict();
   /// Fuses one measurement; `score` (the estimator's confidence) is averaged per hypothesis.

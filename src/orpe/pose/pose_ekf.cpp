@@ -222,4 +222,9 @@ FusedObjectPose PoseEkf::result() const {
   return r;
 }
 
+void PoseEkf::apply_world_correction(const SE3& C) {
+  T_world_obj_ = C * T_world_obj_;
+  for (auto& q : pending_) q.z = C * q.z;
+}
+
 }  // namespace orpe

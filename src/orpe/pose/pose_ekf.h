@@ -135,6 +135,9 @@ class PoseEkf {
   bool initialised() const { return initialised_; }
   /// Static model: state unchanged, P += Q.
   void predict();
+  /// The world frame moved (a SLAM loop closure): new = C * old for the state and the pending
+  /// measurements. The covariance (body-frame tangent) is unchanged.
+  void apply_world_correction(const SE3& C);
   /// Fuses one measurement (R from mu). Returns the step (also appended to the history).
   PoseEkfStep update(const PoseMeasurement& measurement);
 

@@ -54,6 +54,7 @@ struct SurfelFilter {
   bool operator()(size_t i) const {
     if (o.only_instance > 0 && map.instance_id[i] != o.only_instance) return false;
     if (!map.is_active(i, o.now, o.active_window_frames)) return false;
+    if (map.last_seen_time[i] > o.seen_until) return false;
     if (map.confidence[i] >= o.min_confidence) return true;
     return o.also_seen_since >= 0 && map.last_seen_time[i] >= o.also_seen_since;
   }

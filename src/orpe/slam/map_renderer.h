@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "orpe/core/camera.h"
@@ -37,6 +38,9 @@ struct RenderOptions {
   /// Active window: only surfels active at `now` (SurfelMap::is_active). <= 0 draws all surfels.
   int active_window_frames = 0;
   std::int32_t now = 0;  ///< current frame counter, for the active window
+  /// Only surfels last seen at or before this frame counter (loop closure renders the old part of
+  /// the map with it); the default draws all.
+  std::int32_t seen_until = std::numeric_limits<std::int32_t>::max();
   /// Only surfels of this instance (> 0), e.g. to render one object's mask/depth/colour; 0 = all.
   std::int32_t only_instance = 0;
   float near_m = 0.1f;   ///< surfels closer than this are skipped

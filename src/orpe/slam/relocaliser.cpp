@@ -90,6 +90,7 @@ struct Relocaliser::Impl {
     Features features;
     SE3 T_world_cam;
     int frame_index = -1;
+    std::int32_t time = -1;
   };
   std::deque<Keyframe> keyframes;
 
@@ -104,6 +105,7 @@ RelocCandidate Relocaliser::Impl::estimate(const Features& cur, const Keyframe& 
                                            const RelocaliserParams& p) const {
   RelocCandidate best;
   best.keyframe_frame_index = kf.frame_index;
+  best.keyframe_time = kf.time;
   best.matches = static_cast<int>(m.size());
   const double tol2 = p.inlier_distance_m * p.inlier_distance_m;
   auto inliers_of = [&](const SE3& T, std::vector<int>* idx) {
@@ -142,6 +144,7 @@ RelocCandidate Relocaliser::Impl::estimate(const Features& cur, const Keyframe& 
   }
   const SE3 T_kf_cam = fit_rigid(a, b);
   best.inliers = inliers_of(T_kf_cam, nullptr);
+  best.T_kf_cam = T_kf_cam;
   best.T_world_cam = kf.T_world_cam * T_kf_cam;
   return best;
 }
@@ -159,7 +162,12 @@ void Relocaliser::clear() {
   impl_->keyframes.clear();
 }
 
-bool Relocaliser::maybe_add(const FrameLevel& level0, const SE3& T_world_cam, int frame_index) {
+void Relocaliser::update_poses(const std::function<SE3(std::int32_t, const SE3&)>& f) {
+  for (auto& kf : impl_->keyframes) kf.T_world_cam = f(kf.time, kf.T_world_cam);
+}
+
+bool Relocaliser::maybe_add(const FrameLevel& level0, const SE3& T_world_cam, int frame_index,
+                            std::int32_t time) {
   const double max_rot = params_.keyframe_min_rotation_deg * M_PI / 180.0;
   for (const auto& kf : impl_->keyframes) {
     const SE3 d = kf.T_world_cam.inverse() * T_world_cam;
@@ -172,13 +180,15 @@ bool Relocaliser::maybe_add(const FrameLevel& level0, const SE3& T_world_cam, in
   if (static_cast<int>(kf.features.points.size()) < params_.min_inliers) return false;
   kf.T_world_cam = T_world_cam;
   kf.frame_index = frame_index;
+  kf.time = time >= 0 ? time : frame_index;
   impl_->keyframes.push_back(std::move(kf));
   while (static_cast<int>(impl_->keyframes.size()) > params_.max_keyframes)
     impl_->keyframes.pop_front();
   return true;
 }
 
-std::vector<RelocCandidate> Relocaliser::query(const FrameLevel& level0) const {
+std::vector<RelocCandidate> Relocaliser::query(const FrameLevel& level0,
+                                               std::int32_t max_time) const {
   std::vector<RelocCandidate> out;
   if (impl_->keyframes.empty()) return out;
   const Features cur = extract(level0, params_.orb_features);
@@ -186,7 +196,8 @@ std::vector<RelocCandidate> Relocaliser::query(const FrameLevel& level0) const {
   std::vector<std::vector<std::pair<int, int>>> matches(impl_->keyframes.size());
   std::vector<size_t> order(impl_->keyframes.size());
   for (size_t k = 0; k < impl_->keyframes.size(); ++k)
-    matches[k] = match(cur, impl_->keyframes[k].features, params_.match_ratio);
+    if (impl_->keyframes[k].time <= max_time)
+      matches[k] = match(cur, impl_->keyframes[k].features, params_.match_ratio);
   std::iota(order.begin(), order.end(), size_t{0});
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return matches[a].size() > matches[b].size(); });

@@ -9,6 +9,9 @@
 // only on an OK alignment (a wrong candidate is never fused). OpenCV stays inside relocaliser.cpp.
 #pragma once
 
+#include <cstdint>
+#include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -60,6 +63,8 @@ struct RelocaliserParams {
 struct RelocCandidate {
   SE3 T_world_cam;
   int keyframe_frame_index = -1;  ///< RgbdFrame::index of the keyframe it came from
+  std::int32_t keyframe_time = -1;  ///< the keyframe's time stamp (maybe_add's `time`)
+  SE3 T_kf_cam;                     ///< the RANSAC estimate: the camera in the keyframe's frame
   int matches = 0;                ///< descriptor matches with that keyframe
   int inliers = 0;                ///< RANSAC inliers among them
 };
@@ -75,10 +80,17 @@ class Relocaliser {
   /// Stores `level0` (intensity + vertex map, full resolution) as a keyframe at `T_world_cam` when
   /// it is far enough from every stored keyframe (RelocaliserParams). Returns whether it was
   /// stored.
-  bool maybe_add(const FrameLevel& level0, const SE3& T_world_cam, int frame_index);
+  /// `time`: the caller's clock (SlamSystem's frame counter); -1 = frame_index.
+  bool maybe_add(const FrameLevel& level0, const SE3& T_world_cam, int frame_index,
+                 std::int32_t time = -1);
   /// Candidate poses of `level0`'s camera, best first (most inliers); empty when no keyframe
-  /// shares enough matches. Deterministic.
-  std::vector<RelocCandidate> query(const FrameLevel& level0) const;
+  /// shares enough matches. Only keyframes stored at a time <= max_time are searched (loop
+  /// closure looks for old places only). Deterministic.
+  std::vector<RelocCandidate> query(
+      const FrameLevel& level0,
+      std::int32_t max_time = std::numeric_limits<std::int32_t>::max()) const;
+  /// Replaces every keyframe's T_world_cam by f(time, T_world_cam) (after a loop correction).
+  void update_poses(const std::function<SE3(std::int32_t, const SE3&)>& f);
   size_t size() const;
   void clear();
 

@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <stdexcept>
 
 #include "orpe/core/error.h"
 
@@ -69,6 +72,10 @@ bool SlamParams::IsValid(std::string* why) const {
     if (why) *why = "slam_reloc: " + w;
     return false;
   }
+  if (!loop.IsValid(&w)) {
+    if (why) *why = "slam_loop: " + w;
+    return false;
+  }
   return true;
 }
 
@@ -103,7 +110,7 @@ SlamFrameResult SlamSystem::process_at_known_pose(const RgbdFrame& frame, const 
   return process_impl(frame, &T_world_cam);
 }
 
-void SlamSystem::predict(const SE3& T_world_cam, std::int32_t now) {
+void SlamSystem::predict(const SE3& T_world_cam, std::int32_t now, std::int32_t seen_until) {
   RenderOptions opt;
   opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
   // Unstable surfels of the last fused frame (not of the previous frame: after frames that were
@@ -111,6 +118,11 @@ void SlamSystem::predict(const SE3& T_world_cam, std::int32_t now) {
   opt.also_seen_since =
       (params_.options.track_recent_unstable || fused_frames_ < 15) ? last_fused_time_ : -1;
   opt.active_window_frames = params_.fusion.active_window_frames;
+  if (seen_until < now) {  // the old map only, inactive or not
+    opt.seen_until = seen_until;
+    opt.also_seen_since = -1;
+    opt.active_window_frames = 0;
+  }
   opt.now = now;
   opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
   opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
@@ -178,6 +190,107 @@ bool SlamSystem::try_relocalise(std::int32_t now, SlamFrameResult& res) {
     res.reason += fmt::format(" | relocalisation: none of {} candidate poses verified", tried);
   res.reloc_ms += ms_since(t);
   return false;
+}
+
+SE3 SlamSystem::loop_correction(std::int32_t time) const {
+  if (time < 0 || time >= static_cast<std::int32_t>(frame_node_.size())) return SE3();
+  const int n = frame_node_[static_cast<size_t>(time)];
+  return n >= 0 && n < static_cast<int>(node_correction_.size())
+             ? node_correction_[static_cast<size_t>(n)]
+             : SE3();
+}
+
+void SlamSystem::record_frame(std::int32_t now, bool fused) {
+  if (static_cast<std::int32_t>(frame_pose_.size()) != now)
+    throw std::logic_error("SlamSystem: frame records out of step");
+  frame_pose_.push_back(T_world_cam_);
+  if (fused) {
+    if (!node_pose_.empty())
+      odometry_.push_back(node_pose_.back().inverse() * T_world_cam_);
+    else
+      odometry_.push_back(SE3());
+    node_pose_.push_back(T_world_cam_);
+    node_time_.push_back(now);
+  }
+  const int node = static_cast<int>(node_pose_.size()) - 1;
+  frame_node_.push_back(node);
+  T_node_frame_.push_back(node >= 0 ? node_pose_.back().inverse() * T_world_cam_ : SE3());
+}
+
+bool SlamSystem::try_close_loop(std::int32_t now, SlamFrameResult& res) {
+  const LoopClosureParams& lp = params_.loop;
+  const std::int32_t old_until = now - lp.min_age_frames;
+  const std::vector<RelocCandidate> candidates = relocaliser_.query(pyramid_.levels[0], old_until);
+  res.loop_candidates = static_cast<int>(candidates.size());
+  if (candidates.empty()) return false;
+  const int cur = static_cast<int>(node_pose_.size()) - 1;  // this frame's node
+  const bool prev_at_pose = prev_frame_at_pose_;
+  prev_frame_at_pose_ = false;  // the photometric reference is not at a candidate pose
+  bool closed = false;
+  for (const RelocCandidate& c : candidates) {
+    const auto kn_it = std::lower_bound(node_time_.begin(), node_time_.end(), c.keyframe_time);
+    if (kn_it == node_time_.end() || *kn_it != c.keyframe_time) continue;
+    const int kn = static_cast<int>(kn_it - node_time_.begin());
+    predict(c.T_world_cam, now, old_until);
+    const AlignmentResult a = tracker_.align(pyramid_, model_, SE3());
+    if (a.failed || a.weak) continue;
+    const SE3 T_old = c.T_world_cam * a.T_ref_cam;  // this camera in the old map's frame
+    const double dm = (T_old.translation() - T_world_cam_.translation()).norm();
+    const double ddeg =
+        rotation_distance_rad(T_old.rotation(), T_world_cam_.rotation()) * 180.0 / M_PI;
+    if (dm > lp.max_correction_m || ddeg > lp.max_correction_deg) continue;
+    if (dm < lp.min_correction_m && ddeg < lp.min_correction_deg) break;  // already consistent
+    loop_edges_.push_back(
+        {kn, cur, node_pose_[static_cast<size_t>(kn)].inverse() * T_old, lp.loop_weight});
+    std::vector<PoseGraphEdge> edges;
+    edges.reserve(node_pose_.size() + loop_edges_.size());
+    for (size_t k = 1; k < node_pose_.size(); ++k)
+      edges.push_back({static_cast<int>(k) - 1, static_cast<int>(k), odometry_[k], 1.0});
+    edges.insert(edges.end(), loop_edges_.begin(), loop_edges_.end());
+    const std::vector<SE3> before = node_pose_;
+    PoseGraphOptions go;
+    go.iterations = lp.iterations;
+    go.sigma_translation_m = lp.odometry_sigma_m;
+    go.sigma_rotation_rad = lp.odometry_sigma_rad;
+    optimise_pose_graph(node_pose_, edges, go);
+    node_correction_.resize(node_pose_.size());
+    for (size_t k = 0; k < node_pose_.size(); ++k)
+      node_correction_[k] = node_pose_[k] * before[k].inverse();
+    // Odometry measurements stay what tracking measured; the frames, surfels and keyframes follow
+    // the node they hang from.
+    for (size_t f = 0; f < frame_pose_.size(); ++f)
+      if (frame_node_[f] >= 0)
+        frame_pose_[f] = node_pose_[static_cast<size_t>(frame_node_[f])] * T_node_frame_[f];
+    const std::int32_t n_times = static_cast<std::int32_t>(frame_node_.size());
+    for (size_t i = 0; i < map_.size(); ++i) {
+      const std::int32_t t = std::clamp(map_.last_seen_time[i], std::int32_t{0}, n_times - 1);
+      const int node = frame_node_[static_cast<size_t>(t)];
+      if (node < 0) continue;
+      const SE3& C = node_correction_[static_cast<size_t>(node)];
+      map_.position_world[i] = (C * map_.position_world[i].cast<double>()).cast<float>();
+      map_.normal_world[i] = (C.rotation() * map_.normal_world[i].cast<double>()).cast<float>();
+    }
+    relocaliser_.update_poses(
+        [this](std::int32_t time, const SE3& T) { return loop_correction(time) * T; });
+    T_world_cam_ = frame_pose_.back();
+    // The old surfels this view sees are active again: tracking and fusion continue on them.
+    predict(T_world_cam_, now, old_until);
+    for (const std::int32_t idx : prediction_.surfel_index)
+      if (idx >= 0) map_.last_seen_time[static_cast<size_t>(idx)] = now;
+    ++loop_closures_;
+    res.loop_closed = true;
+    res.loop_keyframe = c.keyframe_frame_index;
+    res.loop_correction_m = dm;
+    res.loop_correction_deg = ddeg;
+    res.reason = fmt::format(
+        "loop closed with keyframe {} ({} of {} matches inliers): moved {:.3f} m "
+        "{:.2f} deg",
+        c.keyframe_frame_index, c.inliers, c.matches, dm, ddeg);
+    closed = true;
+    break;
+  }
+  prev_frame_at_pose_ = prev_at_pose;
+  return closed;
 }
 
 SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* known_T_world_cam) {
@@ -292,12 +405,22 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
     ++fused_frames_;
     if (params_.reloc.enabled && status_ == TrackingStatus::kOk) {
       t = std::chrono::steady_clock::now();
-      relocaliser_.maybe_add(pyramid_.levels[0], T_world_cam_, frame.index);
+      relocaliser_.maybe_add(pyramid_.levels[0], T_world_cam_, frame.index, now);
       res.reloc_ms += ms_since(t);
     }
   } else {
     pixel_surfel_ = IndexImage();
     res.fusion.surfels = map_.size();
+  }
+  record_frame(now, fuse);
+  const LoopClosureParams& lp = params_.loop;
+  if (lp.enabled && params_.reloc.enabled && !known_T_world_cam && fuse &&
+      status_ == TrackingStatus::kOk && !res.relocalised && now >= lp.min_age_frames &&
+      now % lp.detect_every_frames == 0) {
+    t = std::chrono::steady_clock::now();
+    try_close_loop(now, res);
+    res.loop_ms = ms_since(t);
+    res.T_world_cam = T_world_cam_;
   }
   ++frame_count_;
   res.total_ms = ms_since(t_start);

@@ -18,12 +18,16 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include "orpe/core/frame.h"
 #include "orpe/core/se3.h"
 #include "orpe/slam/fusion.h"
+#include "orpe/slam/loop_closure.h"
 #include "orpe/slam/map_renderer.h"
+#include "orpe/slam/pose_graph.h"
 #include "orpe/slam/preprocess.h"
 #include "orpe/slam/relocaliser.h"
 #include "orpe/slam/surfel_map.h"
@@ -86,6 +90,8 @@ struct SlamParams {
   FusionParams fusion;
   SlamOptions options;
   RelocaliserParams reloc;  ///< relocalisation of a LOST camera (config section slam_reloc)
+  LoopClosureParams
+      loop;  ///< loop closure (config section slam_loop; needs slam_reloc's keyframes)
   bool IsValid(std::string* why) const;
 };
 
@@ -117,10 +123,18 @@ struct SlamFrameResult {
   bool relocalised = false;
   int reloc_keyframe = -1;     ///< RgbdFrame::index of that keyframe
   int reloc_candidates = 0;    ///< candidate poses tried on this frame (0 = none proposed)
+  /// Loop closure on this frame (LoopClosureParams): a revisit of keyframe `loop_keyframe` was
+  /// verified and the trajectory and map corrected; the current pose moved by
+  /// loop_correction_m / loop_correction_deg (T_world_cam is the corrected pose).
+  bool loop_closed = false;
+  int loop_keyframe = -1;   ///< RgbdFrame::index of the revisited keyframe
+  int loop_candidates = 0;  ///< candidate revisits tried on this frame
+  double loop_correction_m = 0, loop_correction_deg = 0;
   int valid_depth_px = 0;  ///< level-0 pixels with depth in [min_depth_m, max_depth_m]
   FusionStats fusion;
   // Stage timings, milliseconds.
-  double preprocess_ms = 0, predict_ms = 0, track_ms = 0, fuse_ms = 0, reloc_ms = 0, total_ms = 0;
+  double preprocess_ms = 0, predict_ms = 0, track_ms = 0, fuse_ms = 0, reloc_ms = 0, loop_ms = 0,
+         total_ms = 0;
   std::string report() const;
 };
 
@@ -154,16 +168,31 @@ class SlamSystem {
   TrackingStatus status() const { return status_; }
   /// Keyframes stored for relocalisation so far.
   size_t keyframes() const { return relocaliser_.size(); }
+  /// T_world_cam of every frame processed so far, by frame counter (index = the frame's time),
+  /// corrected by every loop closure since (the per-frame results keep the pose as it was then).
+  const std::vector<SE3>& trajectory() const { return frame_pose_; }
+  /// Loop closures applied so far.
+  int loop_closures() const { return loop_closures_; }
+  /// The world-frame correction the last loop closure applied to what frame `time` placed in the
+  /// world (a pose, a surfel, an object): new = loop_correction(time) * old. Identity when none.
+  SE3 loop_correction(std::int32_t time) const;
 
  private:
   SlamFrameResult process_impl(const RgbdFrame& frame, const SE3* known_T_world_cam);
   /// Renders the map at T_world_cam into prediction_ / model_ (the tracking reference).
-  void predict(const SE3& T_world_cam, std::int32_t now);
+  /// `seen_until` < now renders only the surfels last seen at or before it, all of them active (the
+  /// old part of the map, for loop verification).
+  void predict(const SE3& T_world_cam, std::int32_t now,
+               std::int32_t seen_until = std::numeric_limits<std::int32_t>::max());
   /// Aligns the current frame against model_ from `init`; copies the figures into `res`.
   AlignmentResult align_into(const SE3& init, SlamFrameResult& res);
   /// LOST: tries the relocaliser's candidates, each verified by an OK alignment from it. On
   /// success sets T_world_cam_, status_ OK and res.relocalised; returns whether it succeeded.
   bool try_relocalise(std::int32_t now, SlamFrameResult& res);
+  /// Records the frame's pose (a pose-graph node when it was fused).
+  void record_frame(std::int32_t now, bool fused);
+  /// Loop detection, verification and correction on a fused OK frame; returns whether it closed.
+  bool try_close_loop(std::int32_t now, SlamFrameResult& res);
 
   SlamParams params_;
   FramePreprocessor preprocessor_;
@@ -187,6 +216,18 @@ class SlamSystem {
   int fused_frames_ = 0;
   int bad_frames_ = 0;
   TrackingStatus status_ = TrackingStatus::kOk;
+  // Loop closure: per frame (by time) its pose, the node it hangs from (-1 none) and its pose in
+  // that node's frame; per node (a fused frame) its pose and time; the loop edges; the last
+  // closure's correction per node.
+  std::vector<SE3> frame_pose_;
+  std::vector<int> frame_node_;
+  std::vector<SE3> T_node_frame_;
+  std::vector<SE3> node_pose_;
+  std::vector<std::int32_t> node_time_;
+  std::vector<SE3> odometry_;  // odometry_[k] = T_{k-1}^-1 T_k when node k was added (k >= 1)
+  std::vector<PoseGraphEdge> loop_edges_;
+  std::vector<SE3> node_correction_;
+  int loop_closures_ = 0;
 };
 
 }  // namespace orpe::slam

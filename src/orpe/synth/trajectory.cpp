@@ -8,13 +8,16 @@ namespace orpe::synth {
 namespace {
 
 /// A smooth random signal in [-1, 1]: a sum of sinusoids with random phases (frequencies in Hz).
+/// `harmonics` > 0 instead draws integer frequencies 1..harmonics: periodic with period 1.
 struct SmoothNoise {
   std::vector<double> freq, phase, amp;
-  SmoothNoise(std::mt19937_64& rng, double f_lo, double f_hi, int terms) {
+  SmoothNoise(std::mt19937_64& rng, double f_lo, double f_hi, int terms, int harmonics = 0) {
     std::uniform_real_distribution<double> U(0, 1);
     double total = 0;
     for (int i = 0; i < terms; ++i) {
-      freq.push_back(f_lo + (f_hi - f_lo) * U(rng));
+      freq.push_back(harmonics > 0
+                         ? 1 + std::min(harmonics - 1, static_cast<int>(U(rng) * harmonics))
+                         : f_lo + (f_hi - f_lo) * U(rng));
       phase.push_back(2 * M_PI * U(rng));
       amp.push_back(0.5 + U(rng));
       total += amp.back();
@@ -31,24 +34,23 @@ struct SmoothNoise {
 
 /// A smooth random function of an angle, periodic in 2 pi, in [-1, 1]: harmonics 1..max_harmonic.
 struct PeriodicNoise {
-  std::vector<double> k, phase, amp;
-  PeriodicNoise(std::mt19937_64& rng, int max_harmonic, int terms) {
-    std::uniform_real_distribution<double> U(0, 1);
-    double total = 0;
-    for (int i = 0; i < terms; ++i) {
-      k.push_back(1 + std::min(max_harmonic - 1, static_cast<int>(U(rng) * max_harmonic)));
-      phase.push_back(2 * M_PI * U(rng));
-      amp.push_back(0.5 + U(rng));
-      total += amp.back();
-    }
-    for (auto& a : amp) a /= total;
-  }
-  double operator()(double theta) const {
-    double s = 0;
-    for (size_t i = 0; i < k.size(); ++i) s += amp[i] * std::sin(k[i] * theta + phase[i]);
-    return s;
-  }
+  SmoothNoise noise;
+  PeriodicNoise(std::mt19937_64& rng, int max_harmonic, int terms)
+      : noise(rng, 0, 0, terms, max_harmonic) {}
+  double operator()(double theta) const { return noise(theta / (2 * M_PI)); }
 };
+
+/// The hand's roll and shake added to a camera pose at time t (camera-frame rotation, world
+/// translation).
+SE3 with_hand_shake(SE3 T, const SmoothNoise (&shake)[6], const SmoothNoise& roll, double t,
+                    double shake_m, double shake_deg) {
+  const double deg = M_PI / 180.0;
+  const Vec3 dphi(shake_deg * deg * shake[3](t), shake_deg * deg * shake[4](t),
+                  shake_deg * deg * shake[5](t) + 2.0 * deg * roll(t));
+  T.rotation() = T.rotation() * so3_exp(dphi);
+  T.translation() += shake_m * Vec3(shake[0](t), shake[1](t), shake[2](t));
+  return T;
+}
 
 }  // namespace
 
@@ -87,12 +89,7 @@ std::vector<SE3> make_loop_trajectory(const LoopParams& p, const Vec3& centre,
       look = centre;
     }
     eye.z() = std::max(eye.z(), p.min_height_m);
-    SE3 T = look_at(eye, look);
-    const Vec3 dphi(p.shake_deg * deg * shake[3](t), p.shake_deg * deg * shake[4](t),
-                    p.shake_deg * deg * shake[5](t) + 2.0 * deg * roll(t));
-    T.rotation() = T.rotation() * so3_exp(dphi);
-    T.translation() += p.shake_m * Vec3(shake[0](t), shake[1](t), shake[2](t));
-    out.push_back(T);
+    out.push_back(with_hand_shake(look_at(eye, look), shake, roll, t, p.shake_m, p.shake_deg));
   }
   return out;
 }
@@ -138,14 +135,7 @@ std::vector<SE3> make_handheld_trajectory(const TrajectoryParams& p, const Vec3&
         target + r * Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
     eye.z() = std::max(eye.z(), p.min_height_m);
     const Vec3 look = target + look_wander * Vec3(wander_x(t), wander_y(t), 0.5 * wander_z(t));
-    SE3 T = look_at(eye, look);
-    // Hand roll and shake (camera frame rotation, world translation).
-    const double deg = M_PI / 180.0;
-    const Vec3 dphi(p.shake_deg * deg * shake[3](t), p.shake_deg * deg * shake[4](t),
-                    p.shake_deg * deg * shake[5](t) + 2.0 * deg * roll(t));
-    T.rotation() = T.rotation() * so3_exp(dphi);
-    T.translation() += p.shake_m * Vec3(shake[0](t), shake[1](t), shake[2](t));
-    out.push_back(T);
+    out.push_back(with_hand_shake(look_at(eye, look), shake, roll, t, p.shake_m, p.shake_deg));
   }
   return out;
 }

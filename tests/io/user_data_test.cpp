@@ -130,6 +130,10 @@ TEST(CameraFile, WrongOrMissingValuesAreErrorsNamingTheKey) {
       // a list at the top level: OpenCV's FileNode::operator[] asserted (fuzz camera_yaml,
       // session 12: crash-cv-assert-top-level-list.yaml)
       {"%YAML:1.0\n- Camera.fx: 500\n", "its top level is a list or a value, not keys"},
+      // lists left open at the end: OpenCV's YAML parser looped for ever (fuzz camera_yaml,
+      // session 12: crash-timeout-unclosed-flow-lists.yaml)
+      {"%YAML:1.0\nCamera.fx: 500\nCamera.k1: [[[4, 6., [[\n", "line 3: a list or map"},
+      {"%YAML:1.0\nCamera.fx: [[[[[[[[[1]]]]]]]]]\n", "nested more than 8 deep"},
       // OpenCV allocates rows x cols before it reads the data (fuzz camera_yaml: 64 GB)
       {opencv_style("depth_camera_matrix: !!opencv-matrix\n  rows: 100000\n  cols: 100000\n"
                     "  dt: d\n  data: [ 1. ]\n" +

@@ -1,5 +1,6 @@
 #include "orpe/core/ply_format.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -121,6 +122,22 @@ class BodyReader {
     return v;
   }
 
+  /// ASCII: a record is one line (as assimp reads it: a record split over lines made it read a
+  /// face of 0 indices and abort, fuzz mesh_ply finding 26). begin_record skips blank lines;
+  /// next_ascii does not read past the line's end; end_record wants nothing more on the line.
+  void begin_record() {
+    if (format_ != Format::kAscii) return;
+    while (pos_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+  }
+  void end_record() {
+    if (format_ != Format::kAscii) return;
+    skip_blanks();
+    if (pos_ < data_.size() && data_[pos_] != '\n')
+      throw IoError(path_, fmt::format("PLY body line {}: more values than the element's "
+                                       "properties (each record is one line)",
+                                       line()));
+  }
+
   /// True when only whitespace (ascii) is left; binary bodies may carry trailing bytes.
   bool only_whitespace_left() const {
     if (format_ != Format::kAscii) return true;
@@ -130,9 +147,22 @@ class BodyReader {
   }
 
  private:
+  void skip_blanks() {
+    while (pos_ < data_.size() && data_[pos_] != '\n' &&
+           std::isspace(static_cast<unsigned char>(data_[pos_])))
+      ++pos_;
+  }
+  /// The 1-based line of the file at the read position.
+  size_t line() const {
+    return 1 + static_cast<size_t>(std::count(data_.begin(), data_.begin() + pos_, '\n'));
+  }
   double next_ascii() {
-    while (pos_ < data_.size() && std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
+    skip_blanks();
     if (pos_ >= data_.size()) throw IoError(path_, "PLY body ends early (truncated file?)");
+    if (data_[pos_] == '\n')
+      throw IoError(path_, fmt::format("PLY body line {}: fewer values than the element's "
+                                       "properties (each record is one line)",
+                                       line()));
     const size_t start = pos_;
     while (pos_ < data_.size() && !std::isspace(static_cast<unsigned char>(data_[pos_]))) ++pos_;
     const std::string token = data_.substr(start, pos_ - start);
@@ -296,6 +326,7 @@ void walk_ply_body(const std::string& path, const PlyFile& file, const std::stri
         if (!p.is_list) out.columns[p.name].reserve(e.count);
     }
     for (size_t r = 0; r < (e.properties.empty() ? 0 : e.count); ++r) {
+      body.begin_record();
       for (const Property& p : e.properties) {
         if (p.is_list) {
           const double n = body.next(p.count_type);
@@ -318,6 +349,7 @@ void walk_ply_body(const std::string& path, const PlyFile& file, const std::stri
           if (wanted) out.columns[p.name].push_back(v);
         }
       }
+      body.end_record();
     }
     if (wanted) {
       *wanted_out = std::move(out);

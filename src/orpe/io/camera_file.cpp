@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -241,6 +243,42 @@ std::vector<std::string> camera_preset_names() {
 
 namespace {
 CameraFileInfo read_camera_keys(const cv::FileStorage& fs, const std::string& path, bool preset);
+
+/// OpenCV's YAML parser can loop for ever on flow lists or maps ("[" / "{") left open at the end of
+/// the file (fuzz camera_yaml, session 12: crash-timeout-unclosed-flow-lists.yaml, 296 bytes, more
+/// than 2 minutes). A camera file nests them at most 2 deep (a matrix's data list), so lists or
+/// maps left open, or nested deeper than 8, are refused before OpenCV parses the file (brackets in
+/// comments and quoted strings do not count).
+void check_flow_nesting(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  constexpr int kMaxDepth = 8;
+  int depth = 0, line = 1, open_line = 0;
+  char quote = 0;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char ch = text[i];
+    if (ch == '\n') {
+      ++line, quote = 0;
+    } else if (quote) {
+      if (ch == quote) quote = 0;
+    } else if (ch == '\'' || ch == '"') {
+      quote = ch;
+    } else if (ch == '#' && (i == 0 || text[i - 1] == ' ' || text[i - 1] == '\t')) {
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+    } else if (ch == '[' || ch == '{') {
+      if (depth++ == 0) open_line = line;
+      if (depth > kMaxDepth)
+        throw IoError(
+            path, fmt::format("line {}: lists or maps nested more than {} deep", line, kMaxDepth));
+    } else if ((ch == ']' || ch == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  if (depth > 0)
+    throw IoError(path, fmt::format("line {}: a list or map ('[' or '{{') is not closed by the end "
+                                    "of the file",
+                                    open_line));
+}
 }  // namespace
 
 CameraFileInfo read_camera_file(const std::string& path) {
@@ -250,6 +288,7 @@ CameraFileInfo read_camera_file(const std::string& path) {
     for (const std::string& n : camera_preset_names()) names += (names.empty() ? "" : ", ") + n;
     throw IoError(path, "camera file not found (nor a sensor preset: " + names + ")");
   }
+  if (!preset) check_flow_nesting(path);
   cv::FileStorage fs;
   try {
     if (preset)

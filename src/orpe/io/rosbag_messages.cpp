@@ -448,10 +448,25 @@ void check_bag_records(const std::string& path) {
 /// Every rosbag::Bag loads its encryption plugin (pluginlib: the plugin library is opened with
 /// dlopen, its symbols bound) and unloads it when destroyed, when no other Bag holds it: 60 % of
 /// the time of opening a small bag (the rosbag fuzz target, docs/FUZZING.md, session 12). One Bag
-/// made once, never destroyed, keeps the library loaded for the process.
+/// made once, never destroyed, keeps the library loaded for the process. It is held by a pointer
+/// of external linkage (below), which the compiler must keep: LeakSanitizer then sees the Bag as
+/// reachable (a function-local `static const` pointer that nothing reads was optimised away, and
+/// the Bag reported as a leak in every process that opened a bag).
+void keep_the_encryptor_plugins_loaded();
+
+}  // namespace
+
+extern rosbag::Bag* g_encryptor_plugin_keeper;
+rosbag::Bag* g_encryptor_plugin_keeper = nullptr;
+
+namespace {
+
 void keep_the_encryptor_plugins_loaded() {
-  static const rosbag::Bag* const keeper = new rosbag::Bag();
-  (void)keeper;
+  static const bool made = [] {
+    g_encryptor_plugin_keeper = new rosbag::Bag();
+    return true;
+  }();
+  (void)made;
 }
 
 }  // namespace

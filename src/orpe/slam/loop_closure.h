@@ -3,10 +3,10 @@
 // map by a pose graph over the fused frames (pose_graph.h). SlamSystem runs it; see docs/SLAM.md
 // "Loop closure".
 //
-//  - Detection: every `detect_every_frames` frames, when the frame was tracked OK and fused, its
-//  ORB
-//    keypoints are matched against the keyframes stored at least `min_age_frames` frames ago (the
-//    relocaliser's database, slam_reloc); the best candidates give T_kf_cam by 3D-3D RANSAC.
+//  - Detection: every `detect_every_frames` frames, when the frame was tracked OK and fused,
+//    its ORB keypoints are matched against the keyframes stored at least `min_age_frames`
+//    frames ago (the relocaliser's database, slam_reloc); the best candidates give T_kf_cam by
+//    3D-3D RANSAC.
 //  - Verification: the map's *old* surfels (last seen at least min_age_frames ago) are rendered at
 //    the candidate pose and the frame is tracked against them with every gate of the tracker; only
 //    an OK alignment makes a loop constraint.

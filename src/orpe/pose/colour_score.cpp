@@ -1,5 +1,6 @@
 #include "orpe/pose/colour_score.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -168,7 +169,7 @@ std::vector<VisibleColourSample> visible_colour_samples(
   for_each_visible(colour.points, colour.normals, T_cam_obj, depth, mask, K, depth_tolerance_m,
                    [&](size_t i, int u, int v) {
                      if (colour.weight[i] <= 0) return;
-                     out.push_back({i, box_grey(image, u, v), R * colour.normals[i]});
+                     out.push_back({i, box_grey(image, u, v), R * colour.normals[i], u, v});
                    });
   return out;
 }
@@ -194,6 +195,83 @@ ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj
   out.ncc = std::clamp(cxy / std::sqrt(vx * vy), -1.0, 1.0);
   out.valid = true;
   return out;
+}
+
+namespace {
+
+/// Weighted least squares of y on the columns of the rows x_i: the residual sum of squares, from
+/// the normal equations (a small ridge keeps a rank-deficient design, e.g. one box face in view or
+/// an albedo of one colour, defined: it then fits as well as the smaller design).
+template <int N>
+class WeightedLeastSquares {
+ public:
+  using Row = Eigen::Matrix<double, N, 1>;
+  void add(const Row& x, double y, double w) {
+    M_ += w * x * x.transpose();
+    b_ += w * y * x;
+    syy_ += w * y * y;
+  }
+  double rss() const {
+    Eigen::Matrix<double, N, N> M = M_;
+    M.diagonal().array() += 1e-9 * std::max(1.0, M.trace());
+    const Row coef = Eigen::LDLT<Eigen::Matrix<double, N, N>>(M).solve(b_);
+    return std::max(0.0, syy_ - 2 * coef.dot(b_) + coef.dot(M_ * coef));
+  }
+
+ private:
+  Eigen::Matrix<double, N, N> M_ = Eigen::Matrix<double, N, N>::Zero();
+  Row b_ = Row::Zero();
+  double syy_ = 0;
+};
+
+/// Whether the 3x3 box around (u, v) lies on one surface: every neighbour inside the image and the
+/// mask (when not empty), its depth within `tol` of the centre's.
+bool box_on_surface(const DepthImage& depth, const MaskImage& mask, int u, int v, double tol) {
+  const float z = depth.at(u, v);
+  for (int dv = -1; dv <= 1; ++dv)
+    for (int du = -1; du <= 1; ++du) {
+      const int uu = u + du, vv = v + dv;
+      if (!depth.in_bounds(uu, vv) || (!mask.empty() && !mask.at(uu, vv))) return false;
+      if (!(std::abs(depth.at(uu, vv) - z) <= static_cast<float>(tol))) return false;
+    }
+  return true;
+}
+
+}  // namespace
+
+ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                  const ColorImage& image, const DepthImage& depth,
+                                  const MaskImage& mask, const PinholeIntrinsics& K,
+                                  const ColourScoreParams& params) {
+  ColourAgreement out;
+  WeightedLeastSquares<4> shading;
+  WeightedLeastSquares<5> albedo;
+  double sw = 0;
+  for (const VisibleColourSample& s :
+       visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m)) {
+    if (!box_on_surface(depth, mask, s.u, s.v, params.depth_tolerance_m)) continue;
+    const double w = colour.weight[s.index], a = colour.grey[s.index], y = s.image_grey;
+    const Eigen::Vector3d n = s.normal.cast<double>();
+    shading.add(Eigen::Vector4d(1, n.x(), n.y(), n.z()), y, w);
+    albedo.add((Eigen::Matrix<double, 5, 1>() << 1, a, a * n.x(), a * n.y(), a * n.z()).finished(),
+               y, w);
+    sw += w;
+    ++out.pixels;
+  }
+  if (out.pixels < params.min_pixels || !(sw > 0)) return out;
+  const double rss_shading = shading.rss();
+  if (rss_shading / sw < 1e-6) return out;  // the shading alone explains the image
+  out.ncc = std::clamp(1.0 - albedo.rss() / rss_shading, -1.0, 1.0);
+  out.valid = true;
+  return out;
+}
+
+ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam_obj,
+                                     const ColorImage& image, const DepthImage& depth,
+                                     const MaskImage& mask, const PinholeIntrinsics& K,
+                                     const ColourScoreParams& params) {
+  return params.lambert_fit ? lambert_agreement(colour, T_cam_obj, image, depth, mask, K, params)
+                            : colour_agreement(colour, T_cam_obj, image, depth, mask, K, params);
 }
 
 std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj) {

@@ -56,6 +56,7 @@ struct ColourScoreParams {
   bool try_flips = true;
   bool refine_turn = true;
   double min_learned_fraction = 0.3;
+  bool lambert_fit = true;
 
   template <class V>
   void visit(V&& v) {
@@ -78,6 +79,10 @@ struct ColourScoreParams {
       "(10-degree steps, then 5, 2.5, 1.25 about the best), which geometry leaves free");
     v("colour_min_learned_fraction", min_learned_fraction,
       "A learned colour model is used only when this fraction of its samples has a colour");
+    v("colour_lambert_fit", lambert_fit,
+      "Score a candidate by the Lambert fit (lambert_agreement: the share of the image's grey "
+      "variation beyond a shading of the normals that the model's shaded albedo explains) "
+      "instead of the plain NCC, which a shading gradient across a curved label can fool");
   }
   bool IsValid(std::string* why) const;
 };
@@ -115,11 +120,41 @@ ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj
                                  const MaskImage& mask, const PinholeIntrinsics& K,
                                  const ColourScoreParams& params);
 
+/// Agreement under an unknown Lambert shading. Under a distant light the image's grey level of a
+/// visible sample is y = o + a (c0 + c . n): its albedo a (the model's grey level) times a shading
+/// linear in its normal n (camera frame; ambient + diffuse where the light reaches it, a gain per
+/// face of a box), plus an offset o. Two weighted least-squares fits over the same samples:
+///   shading alone:  y ~ [1, n]          (residual sum of squares RSS_s; 4 parameters)
+///   shaded albedo:  y ~ [1, a, a n]     (RSS_a; 5 parameters)
+/// `ncc` = 1 - RSS_a / RSS_s, clamped to [-1, 1]: 1 when the albedo at this pose explains all the
+/// grey variation the shading leaves, 0 for a model of one colour (both fits are then the same),
+/// negative when the albedo, put where this pose puts it, fits worse than shading alone. The plain
+/// NCC correlates the unshaded albedo with the shaded image; across a can's curved label the
+/// shading gradient can dominate the grey levels and a wrong turn of the label match it by chance
+/// (docs/RESULTS.md, synthetic textured scenes). Only samples whose 3x3 box of pixels lies on the
+/// surface (every neighbour's depth within params.depth_tolerance_m of the pixel's, inside the
+/// mask) count: at the outline the box mixes in the background, a misfit no shading or albedo
+/// explains that would swamp the print's share of the residual. Not valid with fewer than
+/// params.min_pixels samples or when the shading alone explains the image (RSS_s per unit weight
+/// under 1e-6).
+ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                  const ColorImage& image, const DepthImage& depth,
+                                  const MaskImage& mask, const PinholeIntrinsics& K,
+                                  const ColourScoreParams& params);
+
+/// The colour evidence the pose stage ranks candidates by: lambert_agreement when
+/// params.lambert_fit, else colour_agreement.
+ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam_obj,
+                                     const ColorImage& image, const DepthImage& depth,
+                                     const MaskImage& mask, const PinholeIntrinsics& K,
+                                     const ColourScoreParams& params);
+
 /// One model colour sample seen in the image (colour_agreement's visibility test).
 struct VisibleColourSample {
   size_t index = 0;        ///< into the ModelColour's samples
   float image_grey = 0;    ///< 3x3 box-filtered grey level of its pixel, [0, 1]
   Eigen::Vector3f normal;  ///< the sample's normal in the camera frame
+  int u = 0, v = 0;        ///< its pixel
 };
 
 /// The samples of `colour` with a known colour (weight > 0) that colour_agreement correlates at

@@ -540,8 +540,8 @@ void refine_turn_by_colour(const ModelRegistrationParams& params, const Registra
   const ColourScoreParams& cp = params.colour;
   auto ncc_at = [&](double angle) {
     const SE3 T = h.T_cam_obj * model.symmetry.continuous_element(angle);
-    return colour_agreement(*model.colour, T, *input.color, *input.depth, *input.mask,
-                            input.intrinsics, cp)
+    return pose_colour_evidence(*model.colour, T, *input.color, *input.depth, *input.mask,
+                                input.intrinsics, cp)
         .ncc;
   };
   const double coarse = 10.0 * M_PI / 180.0;
@@ -563,8 +563,8 @@ void refine_turn_by_colour(const ModelRegistrationParams& params, const Registra
   turned.T_cam_obj = reg.icp(cloud.points, h.T_cam_obj * model.symmetry.continuous_element(angle),
                              params.refine_iterations, start, params.final_max_corr_m, false);
   reg.score(cloud.points, turned, false);
-  turned.colour = colour_agreement(*model.colour, turned.T_cam_obj, *input.color, *input.depth,
-                                   *input.mask, input.intrinsics, cp)
+  turned.colour = pose_colour_evidence(*model.colour, turned.T_cam_obj, *input.color, *input.depth,
+                                       *input.mask, input.intrinsics, cp)
                       .ncc;
   if (turned.score < best_geometry - cp.geometry_margin || turned.colour <= h.colour) return;
   h = turned;
@@ -581,8 +581,8 @@ int choose_by_colour(const ColourScoreParams& cp, const ObjectModel& model,
   for (size_t i = 0; i < hyps.size(); ++i) {
     Hypothesis& h = hyps[i];
     if (h.score < best_geometry - cp.geometry_margin) continue;
-    h.colour = colour_agreement(*model.colour, h.T_cam_obj, *input.color, *input.depth, *input.mask,
-                                input.intrinsics, cp)
+    h.colour = pose_colour_evidence(*model.colour, h.T_cam_obj, *input.color, *input.depth,
+                                    *input.mask, input.intrinsics, cp)
                    .ncc;
     const double rank = h.score + cp.weight * h.colour;
     if (rank > chosen_rank) chosen_rank = rank, chosen = static_cast<int>(i);

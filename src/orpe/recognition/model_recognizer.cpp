@@ -46,6 +46,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
         "resting_min_face_fraction must be in [0, 1], resting_face_min_cells >= 3, the resting "
         "tilt, bottom and height tolerance > 0, resting_width_slack_m >= 0");
   if (!(inlier_distance_per_m2 >= 0)) return fail("inlier_distance_per_m2 must be >= 0");
+  if (!(colour_min_print_contrast >= 0 && colour_min_print_contrast <= 1))
+    return fail("colour_min_print_contrast must be in [0, 1]");
   if (!(sparse_model_spacing_fraction >= 0))
     return fail("sparse_model_spacing_fraction must be >= 0");
   if (!(explain_max_normal_angle_deg >= 0 && explain_max_normal_angle_deg < 90))
@@ -310,7 +312,8 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
 /// correlates ~0 with any turn of a printed model. 1 when there is no evidence (no colour image,
 /// a model without colour, too few visible samples).
 double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const RgbdFrame& frame,
-                       const PinholeIntrinsics& K, bool shading_correction) {
+                       const PinholeIntrinsics& K, bool shading_correction,
+                       double min_print_contrast) {
   const ColourScoreParams cp;
   if (frame.color.empty() || !has_usable_colour(model, cp)) return 1;
   std::vector<SE3> poses = confusable_poses(model, T_cam_obj);
@@ -318,10 +321,13 @@ double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const Rgb
   double best = -1;
   bool any = false;
   for (const SE3& T : poses) {
-    const ColourAgreement a =
-        shading_correction
-            ? shading_corrected_agreement(*model.colour, T, frame.color, frame.depth, K, cp)
-            : colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
+    double contrast = 0;
+    ColourAgreement a;
+    if (shading_correction)
+      a = shading_corrected_agreement(*model.colour, T, frame.color, frame.depth, K, cp, &contrast);
+    // A print of little contrast besides its shading: the corrected NCC is left with noise.
+    if (!shading_correction || contrast < min_print_contrast)
+      a = colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
     if (!a.valid) continue;
     any = true;
     best = std::max(best, a.ncc);
@@ -676,7 +682,9 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
     // plain one (a print of little contrast besides its shading, the YCB-Video banana, passes
     // the corrected test in some views only).
     out->colour =
-        best_colour_ncc(*in.model, out->T_cam_obj, frame, K, p.colour_shading_correction && !track);
+        best_colour_ncc(*in.model, out->T_cam_obj, frame, K,
+                        p.colour_shading_correction && (!track || p.colour_min_print_contrast > 0),
+                        p.colour_min_print_contrast);
   return true;
 }
 

@@ -150,5 +150,29 @@ TEST(ShadingCorrectedColour, APrintOfLittleContrastBesidesItsShadingFallsBackToT
   EXPECT_EQ(detected(striped, s, 0.05), detected(striped, s, 0));
 }
 
+// Tracks keep the plain NCC (colour_min_print_contrast off, the default): the printed can is
+// found on a first keyframe (corrected NCC ~0.49 over a test of 0.3) and becomes a known object;
+// on the next keyframe the can in its place is flat-painted (plain 0.78, corrected 0.18). Held to
+// the plain test the track is kept; with the rule on (tracks corrected too) it is not, and its
+// region, searched on the first keyframe, is not searched again.
+TEST(ShadingCorrectedColour, AKnownObjectIsHeldToThePlainNccUnlessThePrintContrastRuleIsOn) {
+  const ShadedCan can;
+  const RgbdFrame printed = can.render(true), flat = can.render(false);
+  auto kept_on_second_keyframe = [&](double min_contrast) {
+    RecognitionParams p;
+    p.min_colour_ncc = 0.3;
+    p.colour_min_print_contrast = min_contrast;
+    ObjectModel m = can.model;
+    m.class_id = 2, m.name = "can";
+    ModelRecognizer rec(SegmentationParams{}, p, SceneGeometryParams{}, {m});
+    SegmentationContext c;
+    c.T_world_cam = *printed.T_world_cam_gt;
+    EXPECT_EQ(rec.detect_in_context(printed, c).size(), 1u);
+    return rec.detect_in_context(flat, c).size();
+  };
+  EXPECT_EQ(kept_on_second_keyframe(0), 1u);
+  EXPECT_EQ(kept_on_second_keyframe(0.05), 0u);
+}
+
 }  // namespace
 }  // namespace orpe

@@ -327,7 +327,11 @@ TEST(ModelRecognizer, AnObjectRestingOnTheSupportOutranksOneHoveringOverIt) {
 // apart at its exact pose: with the distance to the nearest sample about a third of its own visible
 // surface is farther than the 1 cm inlier distance, and its detection mask is full of holes; with
 // the distance to the surface the samples stand for (surface_distance) it covers the box.
-TEST(ModelRecognizer, ALargeSparselySampledModelExplainsItsWholeSurface) {
+namespace {
+
+/// Fraction of the pixels of a 0.20 x 0.15 x 0.10 m box on a table that the detections of a model
+/// of it sampled 2.5 cm apart (at its exact pose) cover, with the given distance rules.
+double sparse_box_coverage(bool surface_distance, double sparse_model_spacing_fraction) {
   const Eigen::Vector3f size(0.20f, 0.15f, 0.10f);
   const test::SurfaceSamples dense = test::sample_box(size, 0.0015f);
   ObjectModel sparse = test::make_model(test::sample_box(size, 0.025f));
@@ -336,27 +340,38 @@ TEST(ModelRecognizer, ALargeSparselySampledModelExplainsItsWholeSurface) {
                                                Vec3(0.05, -0.6, 0.55));
   // The box's pixels: depth above the table plane by more than 1.5 cm.
   const SE3 T_world_cam = *f.T_world_cam_gt;
-  auto box_pixel = [&](int u, int v) {
-    const float z = f.depth.at(u, v);
-    return z > 0 && (T_world_cam * f.intrinsics.backproject(u, v, z)).z() > 0.015;
-  };
-  auto covered = [&](bool surface) {
-    RecognitionParams p;
-    p.surface_distance = surface;
-    const auto dets =
-        ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, {sparse}).detect(f);
-    int box = 0, hit = 0;
-    for (int v = 0; v < f.depth.height(); ++v)
-      for (int u = 0; u < f.depth.width(); ++u) {
-        if (!box_pixel(u, v)) continue;
-        ++box;
-        hit += std::any_of(dets.begin(), dets.end(),
-                           [&](const Detection& d) { return d.probability.at(u, v) >= 0.5f; });
-      }
-    return static_cast<double>(hit) / std::max(1, box);
-  };
-  EXPECT_GT(covered(true), 0.9);
-  EXPECT_LT(covered(false), 0.8);  // the rule off: the nearest-sample distance leaves holes
+  RecognitionParams p;
+  p.surface_distance = surface_distance;
+  p.sparse_model_spacing_fraction = sparse_model_spacing_fraction;
+  const auto dets =
+      ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, {sparse}).detect(f);
+  int box = 0, hit = 0;
+  for (int v = 0; v < f.depth.height(); ++v)
+    for (int u = 0; u < f.depth.width(); ++u) {
+      const float z = f.depth.at(u, v);
+      if (!(z > 0 && (T_world_cam * f.intrinsics.backproject(u, v, z)).z() > 0.015)) continue;
+      ++box;
+      hit += std::any_of(dets.begin(), dets.end(),
+                         [&](const Detection& d) { return d.probability.at(u, v) >= 0.5f; });
+    }
+  return static_cast<double>(hit) / std::max(1, box);
+}
+
+}  // namespace
+
+TEST(ModelRecognizer, ALargeSparselySampledModelExplainsItsWholeSurface) {
+  EXPECT_GT(sparse_box_coverage(true, 0), 0.9);
+  EXPECT_LT(sparse_box_coverage(false, 0), 0.8);  // the rule off: the nearest-sample distance
+}
+
+// sparse_model_spacing_fraction: the surface distance is taken for a model whose samples lie at
+// least that fraction of the inlier distance apart, whatever surface_distance says (the 2.5 cm box
+// above: covered with the default 0.5 x 1 cm; with the rule off, holes); a model sampled more
+// densely than the threshold keeps the nearest-sample distance.
+TEST(ModelRecognizer, ASparselySampledModelIsMeasuredByItsSurfaceByDefault) {
+  EXPECT_GT(sparse_box_coverage(false, RecognitionParams{}.sparse_model_spacing_fraction), 0.9);
+  EXPECT_LT(sparse_box_coverage(false, 0), 0.8);
+  EXPECT_LT(sparse_box_coverage(false, 3), 0.8);  // 2.5 cm apart is under a 3 cm threshold
 }
 
 // A printed box (stripes across its length) and a flat-painted box of the same shape and size

@@ -7,6 +7,8 @@
 #include <random>
 
 #include "orpe/pose/colour_score.h"
+#include "orpe/recognition/model_recognizer.h"
+#include "orpe/semantic/detection.h"
 #include "recognition/recognition_scene.h"
 
 namespace orpe {
@@ -21,11 +23,12 @@ namespace {
 struct ShadedCan {
   ObjectModel model = test::make_model(test::sample_cylinder(0.035f, 0.11f, 0.004f), true);
   SE3 T_world_obj = test::TestShapes::on_table(0.0, 0.0, 0.0, 0.055);
-  static float print(const Eigen::Vector3f& p, const Eigen::Vector3f& n) {
+  float stripe_contrast = 0.12f;  ///< amplitude of the stripes (grey 0-1)
+  float print(const Eigen::Vector3f& p, const Eigen::Vector3f& n) const {
     const float stripes = std::sin(2 * static_cast<float>(M_PI) * p.z() / 0.025f) > 0 ? 1.f : -1.f;
-    return 0.5f + 0.3f * n.x() + 0.12f * stripes;
+    return 0.5f + 0.3f * n.x() + stripe_contrast * stripes;
   }
-  ShadedCan() {
+  explicit ShadedCan(float stripes = 0.12f) : stripe_contrast(stripes) {
     auto c = std::make_shared<ModelColour>();
     c->points = model.points, c->normals = model.normals, c->source = "test";
     for (size_t i = 0; i < model.points.size(); ++i) {
@@ -108,6 +111,67 @@ TEST(ShadingCorrectedColour, TooFewSamplesAreNoEvidence) {
   const SE3 T = f.T_world_cam_gt->inverse() * can.T_world_obj;
   EXPECT_FALSE(
       shading_corrected_agreement(*can.model.colour, T, f.color, f.depth, f.intrinsics, cp).valid);
+}
+
+}  // namespace
+}  // namespace orpe
+
+namespace orpe {
+namespace {
+
+// colour_min_print_contrast: a can whose print is almost all one-sided (stripes of 0.01 grey
+// besides it, under the image noise): after the shading fit its model is left with little
+// contrast and the corrected NCC with noise, so the printed can itself fails a colour test of
+// 0.5; where the model's residual varies less than the threshold the plain NCC is taken, and it
+// passes. A print with contrast of its own (stripes of 0.12) keeps the corrected test.
+TEST(ShadingCorrectedColour, APrintOfLittleContrastBesidesItsShadingFallsBackToThePlainNcc) {
+  const ShadedCan faint(0.01f), striped;
+  const SE3 T = faint.render(true).T_world_cam_gt->inverse() * faint.T_world_obj;
+  double faint_contrast = 0, striped_contrast = 0;
+  const RgbdFrame f = faint.render(true), s = striped.render(true);
+  shading_corrected_agreement(*faint.model.colour, T, f.color, f.depth, f.intrinsics, {},
+                              &faint_contrast);
+  shading_corrected_agreement(*striped.model.colour, T, s.color, s.depth, s.intrinsics, {},
+                              &striped_contrast);
+  EXPECT_LT(faint_contrast, 0.05);
+  EXPECT_GT(striped_contrast, 0.1);
+  auto detected = [&](const ShadedCan& can, const RgbdFrame& frame, double min_contrast) {
+    RecognitionParams p;
+    p.min_colour_ncc = 0.5;
+    p.colour_min_print_contrast = min_contrast;
+    ObjectModel m = can.model;
+    m.class_id = 2, m.name = "can";
+    return ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, {m})
+        .detect(frame)
+        .size();
+  };
+  EXPECT_EQ(detected(faint, f, 0.05), 1u);
+  EXPECT_EQ(detected(faint, f, 0), 0u);  // the rule off: the corrected NCC is left with noise
+  EXPECT_EQ(detected(striped, s, 0.05), detected(striped, s, 0));
+}
+
+// Tracks keep the plain NCC (colour_min_print_contrast off, the default): the printed can is
+// found on a first keyframe (corrected NCC ~0.49 over a test of 0.3) and becomes a known object;
+// on the next keyframe the can in its place is flat-painted (plain 0.78, corrected 0.18). Held to
+// the plain test the track is kept; with the rule on (tracks corrected too) it is not, and its
+// region, searched on the first keyframe, is not searched again.
+TEST(ShadingCorrectedColour, AKnownObjectIsHeldToThePlainNccUnlessThePrintContrastRuleIsOn) {
+  const ShadedCan can;
+  const RgbdFrame printed = can.render(true), flat = can.render(false);
+  auto kept_on_second_keyframe = [&](double min_contrast) {
+    RecognitionParams p;
+    p.min_colour_ncc = 0.3;
+    p.colour_min_print_contrast = min_contrast;
+    ObjectModel m = can.model;
+    m.class_id = 2, m.name = "can";
+    ModelRecognizer rec(SegmentationParams{}, p, SceneGeometryParams{}, {m});
+    SegmentationContext c;
+    c.T_world_cam = *printed.T_world_cam_gt;
+    EXPECT_EQ(rec.detect_in_context(printed, c).size(), 1u);
+    return rec.detect_in_context(flat, c).size();
+  };
+  EXPECT_EQ(kept_on_second_keyframe(0), 1u);
+  EXPECT_EQ(kept_on_second_keyframe(0.05), 0u);
 }
 
 }  // namespace

@@ -46,6 +46,10 @@ bool RecognitionParams::IsValid(std::string* why) const {
         "resting_min_face_fraction must be in [0, 1], resting_face_min_cells >= 3, the resting "
         "tilt, bottom and height tolerance > 0, resting_width_slack_m >= 0");
   if (!(inlier_distance_per_m2 >= 0)) return fail("inlier_distance_per_m2 must be >= 0");
+  if (!(colour_min_print_contrast >= 0 && colour_min_print_contrast <= 1))
+    return fail("colour_min_print_contrast must be in [0, 1]");
+  if (!(sparse_model_spacing_fraction >= 0))
+    return fail("sparse_model_spacing_fraction must be >= 0");
   if (!(explain_max_normal_angle_deg >= 0 && explain_max_normal_angle_deg < 90))
     return fail("explain_max_normal_angle_deg must be in [0, 90)");
   if (!(inlier_distance_m > 0) || !(free_space_margin_m > 0) || !(below_plane_margin_m > 0))
@@ -221,6 +225,15 @@ float model_distance2(const ObjectModel& model, const Vec3f& q, bool surface,
   return d * d;
 }
 
+/// Whether a model's distances are taken to its surface: surface_distance, or a model whose mean
+/// sample spacing is at least sparse_model_spacing_fraction x the inlier distance (its own surface
+/// is partly farther than the inlier distance from every sample).
+bool surface_distance_for(const ObjectModel& model, const RecognitionParams& p) {
+  return p.surface_distance ||
+         (p.sparse_model_spacing_fraction > 0 &&
+          model.mean_spacing_m >= p.sparse_model_spacing_fraction * p.inlier_distance_m);
+}
+
 /// What verify may use beyond the grid: the kept cells' normals (explain_max_normal_angle_deg >
 /// 0); null = not used.
 struct VerifyAids {
@@ -240,12 +253,13 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
   const float reach = static_cast<float>(model.diameter_m + 2 * p.inlier_distance_m);
   const bool by_normal = cell_normals && model.has_normals();
   const float min_cos = static_cast<float>(std::cos(p.explain_max_normal_angle_deg * M_PI / 180.0));
+  const bool surface = surface_distance_for(model, p);
   h.explained.clear();
   h.fit = 0;
   for (size_t c = 0; c < g.kept.size(); ++c) {
     if (!g.kept[c] || (g.points[c] - centre).squaredNorm() > reach * reach) continue;
     std::uint32_t j = 0;
-    const float dist2 = model_distance2(model, R_oc * g.points[c] + t_oc, p.surface_distance, &j);
+    const float dist2 = model_distance2(model, R_oc * g.points[c] + t_oc, surface, &j);
     const float d_in = inlier_distance_at(p, g.points[c].z());
     if (dist2 < d_in * d_in) {
       h.explained.push_back(static_cast<int>(c));
@@ -298,7 +312,8 @@ void verify(const SceneGrid& g, const DepthImage& depth, const PinholeIntrinsics
 /// correlates ~0 with any turn of a printed model. 1 when there is no evidence (no colour image,
 /// a model without colour, too few visible samples).
 double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const RgbdFrame& frame,
-                       const PinholeIntrinsics& K, bool shading_correction) {
+                       const PinholeIntrinsics& K, bool shading_correction,
+                       double min_print_contrast) {
   const ColourScoreParams cp;
   if (frame.color.empty() || !has_usable_colour(model, cp)) return 1;
   std::vector<SE3> poses = confusable_poses(model, T_cam_obj);
@@ -306,10 +321,13 @@ double best_colour_ncc(const ObjectModel& model, const SE3& T_cam_obj, const Rgb
   double best = -1;
   bool any = false;
   for (const SE3& T : poses) {
-    const ColourAgreement a =
-        shading_correction
-            ? shading_corrected_agreement(*model.colour, T, frame.color, frame.depth, K, cp)
-            : colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
+    double contrast = 0;
+    ColourAgreement a;
+    if (shading_correction)
+      a = shading_corrected_agreement(*model.colour, T, frame.color, frame.depth, K, cp, &contrast);
+    // A print of little contrast besides its shading: the corrected NCC is left with noise.
+    if (!shading_correction || contrast < min_print_contrast)
+      a = colour_agreement(*model.colour, T, frame.color, frame.depth, MaskImage(), K, cp);
     if (!a.valid) continue;
     any = true;
     best = std::max(best, a.ncc);
@@ -558,9 +576,12 @@ ModelRecognizer::ModelRecognizer(const SegmentationParams& segmentation,
     if (!m.prepared() || !m.has_normals()) prepare_object_model(m);
     model_extents_.push_back(principal_extents(m.points, params_.min_area_extents));
     model_face_axes_.push_back(model_face_axes(m));
-    spdlog::debug("recognition: {} face axes {:.3f} x {:.3f} x {:.3f} m, {:.2f} of its normals",
-                  m.name, model_face_axes_.back().extents[0], model_face_axes_.back().extents[1],
-                  model_face_axes_.back().extents[2], model_face_axes_.back().face_fraction);
+    spdlog::debug(
+        "recognition: {} face axes {:.3f} x {:.3f} x {:.3f} m, {:.2f} of its normals; sample "
+        "spacing {:.4f} m{}",
+        m.name, model_face_axes_.back().extents[0], model_face_axes_.back().extents[1],
+        model_face_axes_.back().extents[2], model_face_axes_.back().face_fraction, m.mean_spacing_m,
+        surface_distance_for(m, params_) ? " (surface distance)" : "");
   }
 }
 
@@ -661,7 +682,9 @@ bool ModelRecognizer::Pass::register_crop(int mi, const std::vector<int>& cells,
     // plain one (a print of little contrast besides its shading, the YCB-Video banana, passes
     // the corrected test in some views only).
     out->colour =
-        best_colour_ncc(*in.model, out->T_cam_obj, frame, K, p.colour_shading_correction && !track);
+        best_colour_ncc(*in.model, out->T_cam_obj, frame, K,
+                        p.colour_shading_correction && (!track || p.colour_min_print_contrast > 0),
+                        p.colour_min_print_contrast);
   return true;
 }
 
@@ -672,9 +695,9 @@ void ModelRecognizer::Pass::keep_near_model(const ObjectModel& model, const SE3&
   const Eigen::Matrix3f R = T_obj_cam.rotation().cast<float>();
   const Vec3f t = T_obj_cam.translation().cast<float>();
   const float d = static_cast<float>(p.track_crop_distance_m);
-  std::erase_if(cells, [&](int c) {
-    return model_distance2(model, R * g.points[c] + t, p.surface_distance) >= d * d;
-  });
+  const bool surface = surface_distance_for(model, p);
+  std::erase_if(
+      cells, [&](int c) { return model_distance2(model, R * g.points[c] + t, surface) >= d * d; });
 }
 
 /// Known objects, refined from their last pose on the kept points around it.
@@ -968,6 +991,7 @@ std::vector<Detection> ModelRecognizer::Pass::detections() {
     const SE3 T_obj_cam = h.T_cam_obj.inverse();
     const Eigen::Matrix3f R = T_obj_cam.rotation().cast<float>();
     const Vec3f t = T_obj_cam.translation().cast<float>();
+    const bool surface = surface_distance_for(model, p);
     for (int v = std::max(0, box.v_min - pad); v <= std::min(H - 1, box.v_max + pad); ++v)
       for (int u = std::max(0, box.u_min - pad); u <= std::min(W - 1, box.u_max + pad); ++u) {
         const float z = frame.depth.at(u, v);
@@ -975,7 +999,7 @@ std::vector<Detection> ModelRecognizer::Pass::detections() {
         const int c = g.cell(u / g.stride, v / g.stride);
         if (explained_by[c] >= 0 && explained_by[c] != i) continue;
         const Vec3f q = K.backproject(u, v, z).cast<float>();
-        const float dist = std::sqrt(model_distance2(model, R * q + t, p.surface_distance));
+        const float dist = std::sqrt(model_distance2(model, R * q + t, surface));
         if (dist < inlier_distance_at(p, z) && dist < best.at(u, v)) {
           best.at(u, v) = dist;
           owner.at(u, v) = i;

@@ -21,8 +21,10 @@ Vec4d basis(const Eigen::Vector3f& n) {
 ColourAgreement shading_corrected_agreement(const ModelColour& colour, const SE3& T_cam_obj,
                                             const ColorImage& image, const DepthImage& depth,
                                             const PinholeIntrinsics& K,
-                                            const ColourScoreParams& params) {
+                                            const ColourScoreParams& params,
+                                            double* model_contrast) {
   ColourAgreement out;
+  if (model_contrast) *model_contrast = 0;
   const std::vector<VisibleColourSample> samples = visible_colour_samples(
       colour, T_cam_obj, image, depth, MaskImage(), K, params.depth_tolerance_m);
   out.pixels = static_cast<int>(samples.size());
@@ -52,6 +54,7 @@ ColourAgreement shading_corrected_agreement(const ModelColour& colour, const SE3
     const double rx = colour.grey[s.index] - cx.dot(b), ry = s.image_grey - cy.dot(b);
     sxx += w * rx * rx, syy += w * ry * ry, sxy += w * rx * ry;
   }
+  if (model_contrast) *model_contrast = std::sqrt(sxx / sw);
   if (sxx / sw < 1e-6 || syy / sw < 1e-6) return out;
   out.ncc = std::clamp(sxy / std::sqrt(sxx * syy), -1.0, 1.0);
   out.valid = true;

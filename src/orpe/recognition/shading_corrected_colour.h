@@ -23,9 +23,12 @@ namespace orpe {
 /// from each signal. Not valid (no evidence) with fewer than params.min_pixels samples, or when
 /// either residual is flat (variance under 1e-6: a model whose grey levels the normals explain,
 /// an image without texture on the object).
+/// `model_contrast` (optional): the weighted standard deviation of the model's residual grey levels
+/// (0-1), the print's contrast besides its shading (0 when there are too few samples).
 ColourAgreement shading_corrected_agreement(const ModelColour& colour, const SE3& T_cam_obj,
                                             const ColorImage& image, const DepthImage& depth,
                                             const PinholeIntrinsics& K,
-                                            const ColourScoreParams& params);
+                                            const ColourScoreParams& params,
+                                            double* model_contrast = nullptr);
 
 }  // namespace orpe

@@ -221,6 +221,20 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
       {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"},
       {"noface.obj", "v 0 0 0\nv 1 0 0\n", "no faces"},
       {"shortface.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "cannot read mesh"},
+      // assimp leaks the meshes it has built when a later one fails (fuzz mesh_obj finding 10):
+      // a vertex index beyond the vertices, a negative one before the first, a line of 1 vertex
+      {"leakidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nf 1 2 4\n",
+       "line 6: vertex index 4 is out of range (the file has 3 vertices)"},
+      {"leakneg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\ng b\nf -1 -2 -4\n",
+       "line 6: vertex index -4 is out of range (3 vertices before it)"},
+      {"leakline.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nl 1\nf 1 2 3\n",
+       "line 6: a line statement of one vertex"},
+      // assimp splits lines where orpe's check must split them too
+      {"nul.obj", std::string("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\0v 1 1 1\n", 40),
+       "line 4: a NUL byte"},
+      {"continued.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 \\\n 3\n", "line 4: a line continuation"},
+      {"corner.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n",
+       "line 4: the corner '1/1/1/1' is not v, v/vt, v//vn or v/vt/vn"},
       {"nomagic.ply", "hello\n", "magic"},
       {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header"},
       {"trunc.ply",

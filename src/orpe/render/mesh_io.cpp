@@ -21,6 +21,7 @@
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 #include "orpe/core/ply_format.h"
+#include "orpe/render/obj_format.h"
 
 namespace orpe {
 namespace fs = std::filesystem;
@@ -210,6 +211,7 @@ TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& op
                   "unsupported mesh format '" + ext +
                       "' (expected .obj, .ply, .stl, .gltf, .glb, .dae, ... as assimp reads)");
   if (ext == ".ply") detail::check_ply_structure(path);
+  if (ext == ".obj") detail::check_obj_structure(path);
   // Points and lines are dropped; polygons are fan-triangulated; corners with the same position,
   // normal, uv and colour share one vertex (as an indexed OBJ/PLY file means them).
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,

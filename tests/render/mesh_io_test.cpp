@@ -298,6 +298,28 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
   }
 }
 
+// assimp writes a texture map or an `a...` statement before the first newmtl into the material it
+// has not made: a null pointer, SIGSEGV (fuzz mesh_obj finding 28; the normal build too).
+TEST(MeshIo, AMaterialLibraryStatementBeforeTheFirstMaterialIsAnErrorNamingItsLine) {
+  const std::string dir = test::scratch_dir("badmtl");
+  write_text(dir + "/tri.obj", "mtllib tri.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string mtl = dir + "/tri.mtl";
+  struct Case {
+    std::string text, expect;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"# a comment\n  map_Kd tex.png\nnewmtl a\n", "line 2: a texture map ('map_Kd') before"},
+           {"aniso 0.5\nnewmtl a\nKd 1 0 0\n", "line 1: 'aniso' before the first newmtl"},
+           {std::string("\xFF\xFEn\0e\0w\0", 8), "a UTF-16 or UTF-32 file"}}) {
+    write_text(mtl, c.text);
+    const std::string msg = expect_io_error(mtl, [&] { load_mesh(dir + "/tri.obj"); });
+    EXPECT_NE(msg.find(c.expect), std::string::npos) << msg;
+  }
+  // After the first material the same statements are read.
+  write_text(mtl, "newmtl a\nKd 1 0 0\nmap_Kd missing.png\naniso 1\n");
+  EXPECT_EQ(load_mesh(dir + "/tri.obj").num_triangles(), 1u);
+}
+
 TEST(MeshIo, YcbBananaWithTexture) {
   ORPE_REQUIRE_DATA(data, "ycbv/models/011_banana/textured_simple.obj");
   const TriangleMesh m = load_mesh(data + "/ycbv/models/011_banana/textured_simple.obj");

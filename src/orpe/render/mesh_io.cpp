@@ -9,10 +9,13 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -199,6 +202,25 @@ void assign_colours(const std::vector<PlacedMesh>& placed, const aiScene& scene,
   }
 }
 
+/// assimp's file access while it reads an OBJ: every file it opens (the mesh and its material
+/// libraries, wherever its path search finds them) is checked by detail::mtl_problem first; after
+/// a problem it opens nothing more, and read_with_assimp throws the problem.
+class CheckedObjFiles : public Assimp::DefaultIOSystem {
+ public:
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (problem) return nullptr;
+    if (std::ifstream is{file, std::ios::binary}) {
+      const std::string text{std::istreambuf_iterator<char>(is), std::istreambuf_iterator<char>()};
+      if (const auto why = detail::mtl_problem(text)) {
+        problem = IoError(file, *why);
+        return nullptr;
+      }
+    }
+    return DefaultIOSystem::Open(file, mode);
+  }
+  std::optional<IoError> problem;
+};
+
 TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& options) {
   if (!fs::exists(path)) throw IoError(path, "file not found");
   if (fs::is_directory(path)) throw IoError(path, "is a folder, expected a mesh file");
@@ -211,7 +233,11 @@ TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& op
                   "unsupported mesh format '" + ext +
                       "' (expected .obj, .ply, .stl, .gltf, .glb, .dae, ... as assimp reads)");
   if (ext == ".ply") detail::check_ply_structure(path);
-  if (ext == ".obj") detail::check_obj_structure(path);
+  CheckedObjFiles* obj_files = nullptr;
+  if (ext == ".obj") {
+    detail::check_obj_structure(path);
+    importer.SetIOHandler(obj_files = new CheckedObjFiles);  // the importer owns it
+  }
   // Points and lines are dropped; polygons are fan-triangulated; corners with the same position,
   // normal, uv and colour share one vertex (as an indexed OBJ/PLY file means them).
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
@@ -219,6 +245,7 @@ TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& op
   const aiScene* scene =
       importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                                   aiProcess_SortByPType | aiProcess_ValidateDataStructure);
+  if (obj_files && obj_files->problem) throw *obj_files->problem;
   if (!scene) throw IoError(path, std::string("cannot read mesh: ") + importer.GetErrorString());
   if (!scene->mRootNode || scene->mNumMeshes == 0) throw IoError(path, "mesh has no faces");
   std::vector<PlacedMesh> placed;

@@ -136,7 +136,72 @@ void check_statement(const std::string& path, size_t line, std::string_view s, O
   }
 }
 
+bool is_line_end(char c) {
+  return c == '\r' || c == '\n' || c == '\0' || c == '\f';
+}
+
+/// The texture statements assimp's MTL reader (ObjFileMtlImporter::getTexture) writes into the
+/// current material, matched as it matches them: at the start of the line, in any case.
+constexpr std::string_view kTextureStatements[] = {
+    "map_kd", "map_ka", "map_ks",   "map_d", "map_emissive", "map_ke", "map_bump", "bump",
+    "map_kn", "norm",   "map_disp", "disp",  "map_ns",       "map_pr", "map_pm",   "map_ps"};
+
+bool starts_with_any_case(std::string_view s, std::string_view prefix) {
+  if (s.size() < prefix.size()) return false;
+  for (size_t i = 0; i < prefix.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(s[i])) != prefix[i]) return false;
+  return true;
+}
+
+/// The problem of one MTL line before the first material, or nullopt.
+std::optional<std::string> mtl_line_problem(size_t line, std::string_view s) {
+  size_t pos = 0;
+  const std::string word(next_word(s, pos).substr(0, 32));
+  if (!s.empty() && (s[0] == 'a' || s[0] == 'A'))
+    return fmt::format(
+        "line {}: '{}' before the first newmtl (assimp writes it into no "
+        "material)",
+        line, word);
+  for (const std::string_view t : kTextureStatements)
+    if (starts_with_any_case(s, t))
+      return fmt::format(
+          "line {}: a texture map ('{}') before the first newmtl (assimp writes it "
+          "into no material)",
+          line, word);
+  return std::nullopt;
+}
+
+/// assimp converts a file with a UTF-16 or UTF-32 byte-order mark, and drops a UTF-8 one from a
+/// file of 8 bytes or more (BaseImporter::ConvertToUTF8).
+bool has_utf16_or_utf32_mark(const std::string& text) {
+  const auto starts = [&](std::string_view mark) {
+    return text.compare(0, mark.size(), mark) == 0;
+  };
+  using namespace std::string_view_literals;
+  return starts("\xFF\xFE"sv) || starts("\xFE\xFF"sv) || starts("\0\0\xFE\xFF"sv);
+}
+
 }  // namespace
+
+std::optional<std::string> mtl_problem(const std::string& text) {
+  if (has_utf16_or_utf32_mark(text))
+    return "a UTF-16 or UTF-32 file (orpe reads OBJ and MTL files as UTF-8)";
+  size_t start = text.size() >= 8 && text.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  size_t line = 1;
+  bool first = true;
+  for (size_t i = start; i <= text.size(); ++i) {
+    if (i < text.size() && !is_line_end(text[i])) continue;
+    std::string_view s = std::string_view(text).substr(start, i - start);
+    // assimp skips the spaces that start a line, but not on the first line of the file.
+    while (!first && !s.empty() && is_space(s[0])) s.remove_prefix(1);
+    first = false;
+    if (s.size() >= 2 && (s[0] == 'n' || s[0] == 'N') && s[1] == 'e') return std::nullopt;
+    if (auto problem = mtl_line_problem(line, s)) return problem;
+    if (i < text.size() && text[i] == '\n') ++line;
+    start = i + 1;
+  }
+  return std::nullopt;
+}
 
 void check_obj_structure(const std::string& path) {
   const std::string text = read_all(path);

@@ -6,6 +6,7 @@
 // stay assimp's to read.
 #pragma once
 
+#include <optional>
 #include <string>
 
 namespace orpe::detail {
@@ -16,5 +17,12 @@ namespace orpe::detail {
 /// vertex index beyond the file's vertices (a negative one: beyond the vertices before it); a line
 /// statement of one vertex.
 void check_obj_structure(const std::string& path);
+
+/// The first statement of a material library (an OBJ's .mtl, `text` as assimp 5.2's MTL reader
+/// reads it) that would crash assimp: an `a...` statement or a texture map (map_Kd, bump, norm,
+/// disp, ...) before the first `newmtl`, which assimp writes into the material it has not made (a
+/// null pointer: fuzz mesh_obj finding 28); or a UTF-16 or UTF-32 byte-order mark (assimp converts
+/// such a file first). "line N: ..." or nullopt.
+std::optional<std::string> mtl_problem(const std::string& text);
 
 }  // namespace orpe::detail

@@ -203,6 +203,24 @@ size_t min_record_bytes(const Element& e, Format format) {
   return n;
 }
 
+/// assimp ends a line at \r, \n, NUL and form feed and separates values by spaces and tabs only;
+/// orpe's reader took the other control characters for spaces, so the two read different records
+/// (a form feed inside a vertex line made assimp read a face of 0 indices and abort: fuzz mesh_ply
+/// finding 29). The text (the header; an ASCII body) may hold no other control character, and a
+/// carriage return only before a newline.
+void check_text_bytes(const std::string& path, const std::string& data, size_t end) {
+  size_t line = 1;
+  for (size_t i = 0; i < end; ++i) {
+    const auto c = static_cast<unsigned char>(data[i]);
+    if (c == '\n') ++line;
+    if (c >= 0x20 || c == '\t' || c == '\n' || (c == '\r' && i + 1 < end && data[i + 1] == '\n'))
+      continue;
+    throw IoError(path, fmt::format("PLY line {}: a control character (byte 0x{:02x}); values are "
+                                    "separated by spaces or tabs, lines end with a newline",
+                                    line, c));
+  }
+}
+
 PlyFile read_ply_header(const std::string& path) {
   PlyFile file;
   std::ifstream is(path, std::ios::binary);
@@ -281,6 +299,7 @@ PlyFile read_ply_header(const std::string& path) {
   }
   if (!have_end) throw IoError(path, "PLY header has no end_header (truncated file?)");
   if (!have_format) throw IoError(path, "PLY header has no format line");
+  check_text_bytes(path, data, format == Format::kAscii ? data.size() : pos);
 
   // Counts the body cannot hold (a corrupt or hostile header) fail before any allocation. Records
   // without properties take no bytes, so nothing bounds their count: assimp made an instance of

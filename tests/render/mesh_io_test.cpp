@@ -285,6 +285,18 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\f0\n1 0 0\n0 1 "
        "0\n3 0 1 2\n",
        "PLY line 10: a control character (byte 0x0c)"},
+      // assimp reads an element by its name and the first format line: two elements of one name
+      // made it read out of bounds (fuzz mesh_ply finding 30); here one it reads as good
+      {"twovertex.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 2\n"
+       "property uchar red\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n5\n6\n",
+       "PLY header line 9: a second element 'vertex' (the first is on line 3)"},
+      {"twoformats.ply",
+       "ply\nformat binary_little_endian 1.0\nformat ascii 1.0\nelement vertex 3\nproperty float "
+       "x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int "
+       "vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+       "PLY header line 3: a second format line"},
       {"truncbin.ply",
        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
        "y\n"

@@ -255,6 +255,9 @@ PlyFile read_ply_header(const std::string& path) {
     }
     if (key.empty() || key == "ply" || key == "comment" || key == "obj_info") continue;
     if (key == "format") {
+      // assimp reads the first format line, an element by its name (two elements of one name made
+      // it read out of bounds: fuzz mesh_ply finding 30): a second of either is refused.
+      if (have_format) fail("a second format line");
       std::string f;
       ls >> f;
       if (f == "ascii")
@@ -270,6 +273,9 @@ PlyFile read_ply_header(const std::string& path) {
       Element e;
       long long count = -1;
       if (!(ls >> e.name >> count) || count < 0) fail("malformed element line");
+      for (const Element& other : elements)
+        if (other.name == e.name)
+          fail(fmt::format("a second element '{}' (the first is on line {})", e.name, other.line));
       e.count = static_cast<size_t>(count);
       e.line = line_no;
       elements.push_back(e);

@@ -217,7 +217,7 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
   };
   const std::vector<Case> cases = {
       {"missing.obj", "", "not found"},
-      {"badnum.obj", "v 0 0 zero\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "cannot read mesh"},
+      {"badnum.obj", "v 0 0 zero\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "line 1: a vertex of 2 numbers"},
       {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"},
       {"noface.obj", "v 0 0 0\nv 1 0 0\n", "no faces"},
       {"shortface.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "cannot read mesh"},
@@ -297,6 +297,13 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
        "x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int "
        "vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
        "PLY header line 3: a second format line"},
+      // a colour of NaN: its cast to 8 bits was undefined behaviour (fuzz mesh_ply finding 32)
+      {"nancolour.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\nproperty float red\nproperty float green\nproperty float blue\nelement face 1\n"
+       "property list uchar int vertex_indices\nend_header\n0 0 0 nan 0 0\n1 0 0 1 1 1\n0 1 0 1 1 "
+       "1\n3 0 1 2\n",
+       "a vertex or material colour is not a number"},
       {"truncbin.ply",
        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
        "y\n"
@@ -336,8 +343,23 @@ TEST(MeshIo, AMaterialLibraryStatementBeforeTheFirstMaterialIsAnErrorNamingItsLi
     EXPECT_NE(msg.find(c.expect), std::string::npos) << msg;
   }
   // After the first material the same statements are read.
-  write_text(mtl, "newmtl a\nKd 1 0 0\nmap_Kd missing.png\naniso 1\n");
+  write_text(mtl, "newmtl a\nKd 1 0 0\nmap_Kd missing.png\n");
   EXPECT_EQ(load_mesh(dir + "/tri.obj").num_triangles(), 1u);
+}
+
+// The texture a PLY names (comment TextureFile) with a name too long for the file system: the mesh
+// without texture, as for a missing texture (fs::exists threw filesystem_error: fuzz mesh_ply
+// finding 33).
+TEST(MeshIo, ATextureNameTooLongForTheFileSystemLoadsTheMeshWithoutTexture) {
+  const std::string path = test::scratch_dir("longtex") + "/tri.ply";
+  write_text(path, "ply\nformat ascii 1.0\ncomment TextureFile " + std::string(300, 't') +
+                       ".png\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+                       "float z\nproperty float texture_u\nproperty float texture_v\nelement "
+                       "face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0 0\n1 "
+                       "0 0 1 0\n0 1 0 0 1\n3 0 1 2\n");
+  const TriangleMesh m = load_mesh(path);
+  EXPECT_EQ(m.num_triangles(), 1u);
+  EXPECT_FALSE(m.has_texture());
 }
 
 TEST(MeshIo, YcbBananaWithTexture) {

@@ -55,7 +55,14 @@ std::shared_ptr<const ColorImage> bgr_to_texture(const cv::Mat& m, const std::st
 std::shared_ptr<const ColorImage> load_texture_image(const std::string& path,
                                                      const std::string& mesh_path,
                                                      bool warn_missing) {
-  if (!fs::exists(path)) {
+  std::error_code ec;  // fs::exists(path) threw for a name too long (fuzz mesh_ply finding 33)
+  const bool exists = fs::exists(path, ec);
+  if (ec) {
+    spdlog::warn("{}: texture '{}' cannot be accessed ({}); rendering without texture", mesh_path,
+                 path, ec.message());
+    return nullptr;
+  }
+  if (!exists) {
     if (warn_missing)
       spdlog::warn("{}: texture '{}' not found; rendering without texture", mesh_path, path);
     return nullptr;
@@ -110,12 +117,20 @@ std::shared_ptr<const ColorImage> material_texture(const aiScene& scene, const a
   return load_texture_image(path, mesh_path, options.warn_missing_texture);
 }
 
-std::uint8_t quantise01(float x) {
+/// An 8-bit channel of a colour in [0, 1]. A channel that is not a number (assimp passes a file's
+/// NaN through; the cast was undefined behaviour: fuzz mesh_ply finding 32) is an error naming
+/// the file.
+std::uint8_t quantise01(float x, const std::string& path) {
+  if (std::isnan(x)) throw IoError(path, "a vertex or material colour is not a number");
   return static_cast<std::uint8_t>(std::clamp(x, 0.0f, 1.0f) * 255.0f + 0.5f);
 }
 
+Rgb8 quantise01(const aiColor4D& c, const std::string& path) {
+  return {quantise01(c.r, path), quantise01(c.g, path), quantise01(c.b, path)};
+}
+
 /// The diffuse colour of a material, or nullopt for assimp's default material (file without one).
-std::optional<Rgb8> material_colour(const aiMaterial& mat) {
+std::optional<Rgb8> material_colour(const aiMaterial& mat, const std::string& path) {
   aiString name;
   if (mat.Get(AI_MATKEY_NAME, name) == AI_SUCCESS && name == aiString(AI_DEFAULT_MATERIAL_NAME))
     return std::nullopt;
@@ -123,7 +138,7 @@ std::optional<Rgb8> material_colour(const aiMaterial& mat) {
   if (mat.Get(AI_MATKEY_COLOR_DIFFUSE, kd) != AI_SUCCESS &&
       mat.Get(AI_MATKEY_BASE_COLOR, kd) != AI_SUCCESS)
     return std::nullopt;
-  return Rgb8{quantise01(kd.r), quantise01(kd.g), quantise01(kd.b)};
+  return quantise01(kd, path);
 }
 
 /// One aiMesh (triangles only, after aiProcess_SortByPType) placed by its node's transform.
@@ -162,8 +177,7 @@ void append_placed(const PlacedMesh& pm, float scale, bool want_uv, TriangleMesh
       out.uvs.emplace_back(t.x, t.y);
     }
     if (m.HasVertexColors(0)) {
-      const aiColor4D& c = m.mColors[0][i];
-      colours.push_back({quantise01(c.r), quantise01(c.g), quantise01(c.b)});
+      colours.push_back(quantise01(m.mColors[0][i], out.name));  // out.name: the file
     } else {
       colours.push_back({255, 255, 255});
     }
@@ -189,7 +203,7 @@ void assign_colours(const std::vector<PlacedMesh>& placed, const aiScene& scene,
   }
   std::vector<std::optional<Rgb8>> kd;
   for (const auto& pm : placed)
-    kd.push_back(material_colour(*scene.mMaterials[pm.mesh->mMaterialIndex]));
+    kd.push_back(material_colour(*scene.mMaterials[pm.mesh->mMaterialIndex], mesh.name));
   const bool varies = std::any_of(kd.begin(), kd.end(), [&](const auto& c) {
     return c.value_or(Rgb8{255, 255, 255}) != kd.front().value_or(Rgb8{255, 255, 255});
   });

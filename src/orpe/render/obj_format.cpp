@@ -130,7 +130,12 @@ void check_statement(const std::string& path, size_t line, std::string_view s, O
     throw IoError(path, fmt::format("line {}: free-form geometry (cstype) is not supported", line));
   if (s[0] == 'v' && s.size() > 1 && is_space(s[1])) {
     const size_t n = numeric_words(s.substr(1));
-    if (n == 3 || n == 4 || n == 6) ++counts.vertices;  // assimp ignores a `v` of other counts
+    if (n != 3 && n != 4 && n != 6)  // assimp would skip it, and count the vertices after it wrong
+      throw IoError(path,
+                    fmt::format("line {}: a vertex of {} numbers (x y z, x y z w or x y z r g "
+                                "b)",
+                                line, n));
+    ++counts.vertices;
   } else if (s[0] == 'f' || s[0] == 'l' || s[0] == 'p') {
     check_face(path, line, s, counts);
   }

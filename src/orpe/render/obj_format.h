@@ -12,7 +12,8 @@
 namespace orpe::detail {
 
 /// Throws IoError naming the file and the line for: a NUL or form-feed byte; a line continuation
-/// ('\' at the end of a line); free-form geometry (`cstype`); a face, line or point statement whose
+/// ('\' at the end of a line); free-form geometry (`cstype`); a vertex (`v`) of other than 3, 4
+/// or 6 numbers (assimp skips it); a face, line or point statement whose
 /// corners are not v, v/vt, v//vn or v/vt/vn of whole numbers other than 0 (at most 9 digits); a
 /// vertex index beyond the file's vertices (a negative one: beyond the vertices before it); a line
 /// statement of one vertex.

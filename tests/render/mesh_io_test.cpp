@@ -337,7 +337,9 @@ TEST(MeshIo, AMaterialLibraryStatementBeforeTheFirstMaterialIsAnErrorNamingItsLi
   for (const Case& c : std::vector<Case>{
            {"# a comment\n  map_Kd tex.png\nnewmtl a\n", "line 2: a texture map ('map_Kd') before"},
            {"aniso 0.5\nnewmtl a\nKd 1 0 0\n", "line 1: 'aniso' before the first newmtl"},
-           {std::string("\xFF\xFEn\0e\0w\0", 8), "a UTF-16 or UTF-32 file"}}) {
+           {std::string("\xFF\xFEn\0e\0w\0", 8), "a UTF-16 or UTF-32 file"},
+           // assimp leaked the stream of a file of 1-7 bytes (finding 34)
+           {"ne 0 1\n", "7 bytes, too short for assimp's reader"}}) {
     write_text(mtl, c.text);
     const std::string msg = expect_io_error(mtl, [&] { load_mesh(dir + "/tri.obj"); });
     EXPECT_NE(msg.find(c.expect), std::string::npos) << msg;

@@ -22,8 +22,9 @@ void check_obj_structure(const std::string& path);
 /// The first statement of a material library (an OBJ's .mtl, `text` as assimp 5.2's MTL reader
 /// reads it) that would crash assimp: an `a...` statement or a texture map (map_Kd, bump, norm,
 /// disp, ...) before the first `newmtl`, which assimp writes into the material it has not made (a
-/// null pointer: fuzz mesh_obj finding 28); or a UTF-16 or UTF-32 byte-order mark (assimp converts
-/// such a file first). "line N: ..." or nullopt.
+/// null pointer: fuzz mesh_obj finding 28); a UTF-16 or UTF-32 byte-order mark (assimp converts
+/// such a file first); a text of 1 to 7 bytes (assimp throws on it and leaks the stream it opened:
+/// finding 34). "line N: ..." (or the short text's size) or nullopt.
 std::optional<std::string> mtl_problem(const std::string& text);
 
 }  // namespace orpe::detail

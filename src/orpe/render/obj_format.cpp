@@ -12,9 +12,10 @@
 namespace orpe::detail {
 namespace {
 
+/// assimp's IsSpace.
 bool is_space(char c) {
   return c == ' ' || c == '\t';
-}  // assimp's IsSpace
+}
 
 std::string read_all(const std::string& path) {
   std::ifstream is(path, std::ios::binary);
@@ -131,10 +132,9 @@ void check_statement(const std::string& path, size_t line, std::string_view s, O
   if (s[0] == 'v' && s.size() > 1 && is_space(s[1])) {
     const size_t n = numeric_words(s.substr(1));
     if (n != 3 && n != 4 && n != 6)  // assimp would skip it, and count the vertices after it wrong
-      throw IoError(path,
-                    fmt::format("line {}: a vertex of {} numbers (x y z, x y z w or x y z r g "
-                                "b)",
-                                line, n));
+      throw IoError(path, fmt::format("line {}: a vertex of {} numbers (x y z, x y z w or "
+                                      "x y z r g b)",
+                                      line, n));
     ++counts.vertices;
   } else if (s[0] == 'f' || s[0] == 'l' || s[0] == 'p') {
     check_face(path, line, s, counts);
@@ -162,17 +162,12 @@ bool starts_with_any_case(std::string_view s, std::string_view prefix) {
 std::optional<std::string> mtl_line_problem(size_t line, std::string_view s) {
   size_t pos = 0;
   const std::string word(next_word(s, pos).substr(0, 32));
+  constexpr const char* kWhy = "before the first newmtl (assimp writes it into no material)";
   if (!s.empty() && (s[0] == 'a' || s[0] == 'A'))
-    return fmt::format(
-        "line {}: '{}' before the first newmtl (assimp writes it into no "
-        "material)",
-        line, word);
+    return fmt::format("line {}: '{}' {}", line, word, kWhy);
   for (const std::string_view t : kTextureStatements)
     if (starts_with_any_case(s, t))
-      return fmt::format(
-          "line {}: a texture map ('{}') before the first newmtl (assimp writes it "
-          "into no material)",
-          line, word);
+      return fmt::format("line {}: a texture map ('{}') {}", line, word, kWhy);
   return std::nullopt;
 }
 

@@ -82,6 +82,9 @@ TEST(Config, YamlConfigFilesAreReadWithTheSameChecks) {
       {"dataset: 3\n", "must be a mapping"},
       {"dataset:\n  stride: 2\n bad indent: [\n", "invalid YAML"},
       {"slam:\n  fuse_degraded: maybe\n", "expected a boolean"},
+      // a list or a map as a name escaped as yaml-cpp's BadConversion (fuzz config_json finding 31)
+      {"{dataset: 1}: {stride: 2}\n", "line 1: a section name must be a plain word, not a list"},
+      {"dataset:\n  [stride]: 2\n", "line 2: a key of section 'dataset' must be a plain word"},
   };
   for (size_t i = 0; i < bad.size(); ++i) {
     OrpeConfig d;

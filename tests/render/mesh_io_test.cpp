@@ -217,10 +217,24 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
   };
   const std::vector<Case> cases = {
       {"missing.obj", "", "not found"},
-      {"badnum.obj", "v 0 0 zero\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "cannot read mesh"},
+      {"badnum.obj", "v 0 0 zero\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "line 1: a vertex of 2 numbers"},
       {"badidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "out of range"},
       {"noface.obj", "v 0 0 0\nv 1 0 0\n", "no faces"},
       {"shortface.obj", "v 0 0 0\nv 1 0 0\nf 1 2\n", "cannot read mesh"},
+      // assimp leaks the meshes it has built when a later one fails (fuzz mesh_obj finding 10):
+      // a vertex index beyond the vertices, a negative one before the first, a line of 1 vertex
+      {"leakidx.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nf 1 2 4\n",
+       "line 6: vertex index 4 is out of range (the file has 3 vertices)"},
+      {"leakneg.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\ng b\nf -1 -2 -4\n",
+       "line 6: vertex index -4 is out of range (3 vertices before it)"},
+      {"leakline.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no b\nl 1\nf 1 2 3\n",
+       "line 6: a line statement of one vertex"},
+      // assimp splits lines where orpe's check must split them too
+      {"nul.obj", std::string("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\0v 1 1 1\n", 40),
+       "line 4: a NUL byte"},
+      {"continued.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 \\\n 3\n", "line 4: a line continuation"},
+      {"corner.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n",
+       "line 4: the corner '1/1/1/1' is not v, v/vt, v//vn or v/vt/vn"},
       {"nomagic.ply", "hello\n", "magic"},
       {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "end_header"},
       {"trunc.ply",
@@ -255,6 +269,41 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n0\n1 0 0\n0 1 "
        "0\n3 0 1 2\n",
        "PLY body line 10: fewer values than the element's properties"},
+      // records without properties take no bytes: assimp made an instance of each, and 1e9 of
+      // them took over 10 s (fuzz mesh_ply finding 27); here a few that assimp reads as good
+      {"noprops.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\nelement extra 1000\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 "
+       "0\n3 0 1 2\n",
+       "PLY header line 7: element 'extra' declares 1000 records but no properties"},
+      // a form feed: a line end to assimp, a space to orpe's reader; assimp aborted as for
+      // splitrecord.ply (fuzz mesh_ply finding 29)
+      {"formfeed.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\n"
+       "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\f0\n1 0 0\n0 1 "
+       "0\n3 0 1 2\n",
+       "PLY line 10: a control character (byte 0x0c)"},
+      // assimp reads an element by its name and the first format line: two elements of one name
+      // made it read out of bounds (fuzz mesh_ply finding 30); here one it reads as good
+      {"twovertex.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\nelement face 1\nproperty list uchar int vertex_indices\nelement vertex 2\n"
+       "property uchar red\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n5\n6\n",
+       "PLY header line 9: a second element 'vertex' (the first is on line 3)"},
+      {"twoformats.ply",
+       "ply\nformat binary_little_endian 1.0\nformat ascii 1.0\nelement vertex 3\nproperty float "
+       "x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int "
+       "vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+       "PLY header line 3: a second format line"},
+      // a colour of NaN: its cast to 8 bits was undefined behaviour (fuzz mesh_ply finding 32)
+      {"nancolour.ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+       "float z\nproperty float red\nproperty float green\nproperty float blue\nelement face 1\n"
+       "property list uchar int vertex_indices\nend_header\n0 0 0 nan 0 0\n1 0 0 1 1 1\n0 1 0 1 1 "
+       "1\n3 0 1 2\n",
+       "a vertex or material colour is not a number"},
       {"truncbin.ply",
        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
        "y\n"
@@ -274,6 +323,45 @@ TEST(MeshIo, MalformedFilesThrowIoErrorNamingTheFile) {
     const std::string msg = expect_io_error(path, [&] { load_mesh(path); });
     EXPECT_NE(msg.find(c.expect), std::string::npos) << c.name << ": " << msg;
   }
+}
+
+// assimp writes a texture map or an `a...` statement before the first newmtl into the material it
+// has not made: a null pointer, SIGSEGV (fuzz mesh_obj finding 28; the normal build too).
+TEST(MeshIo, AMaterialLibraryStatementBeforeTheFirstMaterialIsAnErrorNamingItsLine) {
+  const std::string dir = test::scratch_dir("badmtl");
+  write_text(dir + "/tri.obj", "mtllib tri.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string mtl = dir + "/tri.mtl";
+  struct Case {
+    std::string text, expect;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"# a comment\n  map_Kd tex.png\nnewmtl a\n", "line 2: a texture map ('map_Kd') before"},
+           {"aniso 0.5\nnewmtl a\nKd 1 0 0\n", "line 1: 'aniso' before the first newmtl"},
+           {std::string("\xFF\xFEn\0e\0w\0", 8), "a UTF-16 or UTF-32 file"},
+           // assimp leaked the stream of a file of 1-7 bytes (finding 34)
+           {"ne 0 1\n", "7 bytes, too short for assimp's reader"}}) {
+    write_text(mtl, c.text);
+    const std::string msg = expect_io_error(mtl, [&] { load_mesh(dir + "/tri.obj"); });
+    EXPECT_NE(msg.find(c.expect), std::string::npos) << msg;
+  }
+  // After the first material the same statements are read.
+  write_text(mtl, "newmtl a\nKd 1 0 0\nmap_Kd missing.png\n");
+  EXPECT_EQ(load_mesh(dir + "/tri.obj").num_triangles(), 1u);
+}
+
+// The texture a PLY names (comment TextureFile) with a name too long for the file system: the mesh
+// without texture, as for a missing texture (fs::exists threw filesystem_error: fuzz mesh_ply
+// finding 33).
+TEST(MeshIo, ATextureNameTooLongForTheFileSystemLoadsTheMeshWithoutTexture) {
+  const std::string path = test::scratch_dir("longtex") + "/tri.ply";
+  write_text(path, "ply\nformat ascii 1.0\ncomment TextureFile " + std::string(300, 't') +
+                       ".png\nelement vertex 3\nproperty float x\nproperty float y\nproperty "
+                       "float z\nproperty float texture_u\nproperty float texture_v\nelement "
+                       "face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0 0\n1 "
+                       "0 0 1 0\n0 1 0 0 1\n3 0 1 2\n");
+  const TriangleMesh m = load_mesh(path);
+  EXPECT_EQ(m.num_triangles(), 1u);
+  EXPECT_FALSE(m.has_texture());
 }
 
 TEST(MeshIo, YcbBananaWithTexture) {

@@ -319,6 +319,176 @@ std::optional<std::string> chunk_bytes(const Record& c, std::string data) {
   return out;
 }
 
+/// Names a top-level record in the messages.
+std::string where_in_file(std::uint64_t pos) {
+  return "the record at byte " + std::to_string(pos);
+}
+
+/// A bag's top-level records (walk_records over the file) and reads of its bytes.
+struct BagFile {
+  std::ifstream& in;
+  std::vector<Record> records;
+
+  void read(std::uint64_t pos, size_t n, char* out) const {
+    in.seekg(static_cast<std::streamoff>(pos));
+    in.read(out, static_cast<std::streamsize>(n));
+  }
+  /// The data part of `r`.
+  std::string data(const Record& r) const {
+    std::string bytes(r.data_len, '\0');
+    read(r.data_pos, r.data_len, bytes.data());
+    return bytes;
+  }
+  /// The record that starts at byte `pos`, or null.
+  const Record* record_at(std::uint64_t pos) const {
+    const auto it = std::lower_bound(records.begin(), records.end(), pos,
+                                     [](const Record& r, std::uint64_t p) { return r.pos < p; });
+    return it != records.end() && it->pos == pos ? &*it : nullptr;
+  }
+  size_t index_of(const Record& r) const { return static_cast<size_t>(&r - records.data()); }
+};
+
+/// The version line when it states version 2.0; nullopt when it states none (rosbag refuses the
+/// bag then). Other versions, and a line rosbag would overflow on, are refused.
+std::optional<std::string> checked_version_line(std::ifstream& in, std::uint64_t size) {
+  std::string line = bag_version_line(in, size);
+  int major = 0, minor = 0;
+  if (std::sscanf(line.c_str(), "#ROS%*s V%d.%d", &major, &minor) != 2) return std::nullopt;
+  // rosbag scans the word after "#ROS" into a char[100] with an unbounded %s.
+  if (line.find_first_of(" \t\n") > 4 + 99) refuse("its version line is too long");
+  if (major != 2 || minor != 0)
+    refuse("format version " + std::to_string(major) + "." + std::to_string(minor) +
+           " (orpe reads bags of version 2.0, ROS since 2010)");
+  return line;
+}
+
+/// What rosbag reads of the file header record (the first record, op 3).
+struct FileHeader {
+  size_t index = 0;  ///< the first record of the index (BagFile::records)
+  std::uint64_t conn_count = 0, chunk_count = 0;
+};
+
+/// The file header: not encrypted, its index position the start of a record. nullopt when rosbag
+/// refuses the bag itself (no file header, a field missing).
+std::optional<FileHeader> checked_file_header(const BagFile& bag) {
+  if (bag.records.empty() || bag.records[0].op() != 3) return std::nullopt;
+  const Fields& fields = bag.records[0].fields;
+  if (const auto e = fields.find("encryptor");
+      e != fields.end() && !e->second.empty() && e->second != "rosbag/NoEncryptor")
+    refuse("it is encrypted (" + e->second + "), which orpe does not read");
+  const auto index_pos = uint_field(fields, "index_pos", 8);
+  const auto conn_count = uint_field(fields, "conn_count", 4);
+  const auto chunk_count = uint_field(fields, "chunk_count", 4);
+  if (!index_pos || *index_pos == 0 || !conn_count || !chunk_count) return std::nullopt;
+  const Record* index = bag.record_at(*index_pos);
+  if (!index)
+    refuse("the file header gives the index at byte " + std::to_string(*index_pos) +
+           ", where no record starts");
+  return FileHeader{bag.index_of(*index), *conn_count, *chunk_count};
+}
+
+/// The ids of the `count` connection records from records[k] on (k is left after them), each
+/// one's data part a connection header, which rosbag parses as a header. nullopt when one is not
+/// a connection record (rosbag refuses the bag).
+std::optional<std::set<std::uint32_t> > checked_connections(const BagFile& bag, size_t& k,
+                                                            std::uint64_t count) {
+  std::set<std::uint32_t> connections;
+  for (std::uint64_t i = 0; i < count && k < bag.records.size(); ++i, ++k) {
+    const Record& r = bag.records[k];
+    const auto id = uint_field(r.fields, "conn", 4);
+    if (r.op() != 7 || !id) return std::nullopt;
+    const std::string header = bag.data(r);
+    parse_fields(header.data(), r.data_len, where_in_file(r.pos));
+    connections.insert(static_cast<std::uint32_t>(*id));
+  }
+  return connections;
+}
+
+/// A chunk info's or an index's list: `count` entries of `bytes`, exactly its data part (rosbag
+/// reads count x bytes, then the next record from there).
+std::string checked_entries(const BagFile& bag, const Record& r, const char* what,
+                            std::uint64_t count, unsigned bytes, const char* entry) {
+  if (r.data_len != bytes * count)
+    refuse(where_in_file(r.pos) + " (" + what + ") lists " + std::to_string(count) + " " + entry +
+           " (" + std::to_string(bytes) + " bytes each) in a data part of " +
+           std::to_string(r.data_len) + " bytes");
+  return bag.data(r);
+}
+
+/// The offsets of the message data records (op 2) in `chunk`: its data decompressed (chunk_bytes)
+/// and its records walked as the top level's. nullopt when rosbag refuses the chunk (its header
+/// lacks the compression or the size).
+std::optional<std::set<std::uint64_t> > chunk_message_offsets(const BagFile& bag,
+                                                              const Record& chunk) {
+  const std::optional<std::string> decompressed = chunk_bytes(chunk, bag.data(chunk));
+  if (!decompressed) return std::nullopt;
+  const std::string& bytes = *decompressed;
+  const auto read_chunk = [&](std::uint64_t pos, size_t n, char* out) {
+    std::memcpy(out, bytes.data() + pos, n);
+  };
+  const auto inner = [&](std::uint64_t pos) {
+    return "the record at byte " + std::to_string(pos) + " of the chunk at byte " +
+           std::to_string(chunk.pos);
+  };
+  std::set<std::uint64_t> offsets;
+  for (const Record& r : walk_records(read_chunk, 0, bytes.size(), inner, "the chunk"))
+    if (r.op() == 2) offsets.insert(r.pos);
+  return offsets;
+}
+
+/// The index records rosbag reads after `chunk`, one for each of its chunk info's `connections`
+/// (up to the first record that is not one): each of a connection of the bag, listing 12 bytes a
+/// message, each message at the start of a message record of the chunk (`offsets`).
+void check_chunk_indexes(const BagFile& bag, const Record& chunk, size_t connections,
+                         const std::set<std::uint32_t>& bag_connections,
+                         const std::set<std::uint64_t>& offsets) {
+  const size_t c = bag.index_of(chunk);
+  for (size_t j = c + 1; j < c + 1 + connections && j < bag.records.size(); ++j) {
+    const Record& ix = bag.records[j];
+    const auto conn = uint_field(ix.fields, "conn", 4);
+    const auto n = uint_field(ix.fields, "count", 4);
+    if (ix.op() != 4 || uint_field(ix.fields, "ver", 4) != 1u || !conn || !n) return;
+    if (!bag_connections.count(static_cast<std::uint32_t>(*conn)))
+      refuse(where_in_file(ix.pos) + " (an index) is of connection " + std::to_string(*conn) +
+             ", which the bag does not have");
+    const std::string list = checked_entries(bag, ix, "an index", *n, 12, "messages");
+    for (size_t e = 0; e < list.size(); e += 12) {
+      const std::uint32_t offset = le32(list.data() + e + 8);
+      if (!offsets.count(offset))
+        refuse(where_in_file(ix.pos) + " (an index) gives a message at byte " +
+               std::to_string(offset) + " of the chunk at byte " + std::to_string(chunk.pos) +
+               ", where no message record starts");
+    }
+  }
+}
+
+/// A chunk info record (op 6): 8 bytes a listed connection, pointing at a chunk, whose messages
+/// (`messages`: per chunk, kept for the next chunk info pointing at it) and index records are
+/// checked. false when rosbag refuses the bag (a record that is not a chunk info, a chunk
+/// without its compression or size).
+bool check_chunk_info(const BagFile& bag, const Record& info,
+                      const std::set<std::uint32_t>& bag_connections,
+                      std::map<std::uint64_t, std::set<std::uint64_t> >& messages) {
+  const auto count = uint_field(info.fields, "count", 4);
+  const auto chunk_pos = uint_field(info.fields, "chunk_pos", 8);
+  if (info.op() != 6 || uint_field(info.fields, "ver", 4) != 1u || !count || !chunk_pos)
+    return false;
+  const std::string data = checked_entries(bag, info, "a chunk info", *count, 8, "connections");
+  std::set<std::uint32_t> connections;
+  for (size_t j = 0; j < data.size(); j += 8) connections.insert(le32(data.data() + j));
+  const Record* chunk = bag.record_at(*chunk_pos);
+  if (!chunk || chunk->op() != 5)
+    refuse(where_in_file(info.pos) + " (a chunk info) points at byte " +
+           std::to_string(*chunk_pos) + ", where no chunk starts");
+  if (!messages.count(chunk->pos)) {
+    std::optional<std::set<std::uint64_t> > offsets = chunk_message_offsets(bag, *chunk);
+    if (!offsets) return false;
+    messages[chunk->pos] = std::move(*offsets);
+  }
+  check_chunk_indexes(bag, *chunk, connections.size(), bag_connections, messages[chunk->pos]);
+  return true;
+}
+
 /// rosbag's reading of a version 2.0 bag (Bag::startReadingVersion200, and each message through
 /// the index) trusts every length and position it reads: a length is allocated before it is read
 /// (a header length of 1.6 GB in a 2.7 KB file: 1.6 GB, fuzz/corpus/rosbag/crash-oom-*), a
@@ -332,117 +502,27 @@ std::optional<std::string> chunk_bytes(const Record& c, std::string data) {
 ///   at the start of a message data record inside the chunk;
 /// - each such chunk: its compressed stated size bounded (kMaxChunkBytes; lz4: 256 x its data), its
 ///   data decompressing to exactly that size, and its inner records' lengths fitting in it.
-/// Other versions than 2.0 (rosbag also reads 1.2, unchecked) are refused.
+/// Other versions than 2.0 (rosbag also reads 1.2, unchecked) are refused. Where rosbag itself
+/// refuses the bag (a record missing or of another kind), the check stops and leaves it to rosbag.
 void check_bag_records(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) return;  // rosbag names the problem
   const std::uint64_t size = static_cast<std::uint64_t>(in.tellg());
-  const std::string line = bag_version_line(in, size);
-  int major = 0, minor = 0;
-  if (std::sscanf(line.c_str(), "#ROS%*s V%d.%d", &major, &minor) != 2) return;  // rosbag refuses
-  // rosbag scans the word after "#ROS" into a char[100] with an unbounded %s.
-  if (line.find_first_of(" \t\n") > 4 + 99) refuse("its version line is too long");
-  if (major != 2 || minor != 0)
-    refuse("format version " + std::to_string(major) + "." + std::to_string(minor) +
-           " (orpe reads bags of version 2.0, ROS since 2010)");
-  const auto read_file = [&](std::uint64_t pos, size_t n, char* out) {
-    in.seekg(static_cast<std::streamoff>(pos));
-    in.read(out, static_cast<std::streamsize>(n));
-  };
-  const auto at = [](std::uint64_t pos) { return "the record at byte " + std::to_string(pos); };
-  const std::vector<Record> records = walk_records(read_file, line.size(), size, at, "the file");
-  if (records.empty() || records[0].op() != 3) return;  // rosbag refuses: no file header
-  const auto record_at = [&](std::uint64_t pos) -> const Record* {
-    const auto it = std::lower_bound(records.begin(), records.end(), pos,
-                                     [](const Record& r, std::uint64_t p) { return r.pos < p; });
-    return it != records.end() && it->pos == pos ? &*it : nullptr;
-  };
-  const Fields& file_header = records[0].fields;
-  if (const auto e = file_header.find("encryptor");
-      e != file_header.end() && !e->second.empty() && e->second != "rosbag/NoEncryptor")
-    refuse("it is encrypted (" + e->second + "), which orpe does not read");
-  const auto index_pos = uint_field(file_header, "index_pos", 8);
-  const auto conn_count = uint_field(file_header, "conn_count", 4);
-  const auto chunk_count = uint_field(file_header, "chunk_count", 4);
-  if (!index_pos || *index_pos == 0 || !conn_count || !chunk_count) return;  // rosbag refuses
-  const Record* index = record_at(*index_pos);
-  if (!index)
-    refuse("the file header gives the index at byte " + std::to_string(*index_pos) +
-           ", where no record starts");
-  // The records rosbag reads from there: conn_count connections, then chunk_count chunk infos.
-  size_t k = static_cast<size_t>(index - records.data());
-  std::set<std::uint32_t> connections;
-  for (std::uint64_t i = 0; i < *conn_count && k < records.size(); ++i, ++k) {
-    const Record& r = records[k];
-    const auto id = uint_field(r.fields, "conn", 4);
-    if (r.op() != 7 || !id) return;        // rosbag refuses
-    std::string header(r.data_len, '\0');  // the connection header: rosbag parses it as a header
-    read_file(r.data_pos, r.data_len, header.data());
-    parse_fields(header.data(), r.data_len, at(r.pos));
-    connections.insert(static_cast<std::uint32_t>(*id));
-  }
-  // A chunk info's or an index's list: `count` entries of `bytes`, exactly its data part (rosbag
-  // reads count x bytes, then the next record from there).
-  const auto entries = [&](const Record& r, const char* what, std::uint64_t count, unsigned bytes,
-                           const char* entry) {
-    if (r.data_len != bytes * count)
-      refuse(at(r.pos) + " (" + what + ") lists " + std::to_string(count) + " " + entry + " (" +
-             std::to_string(bytes) + " bytes each) in a data part of " +
-             std::to_string(r.data_len) + " bytes");
-    std::string data(r.data_len, '\0');
-    read_file(r.data_pos, r.data_len, data.data());
-    return data;
-  };
+  const std::optional<std::string> line = checked_version_line(in, size);
+  if (!line) return;
+  BagFile bag{in, {}};
+  const auto read_file = [&](std::uint64_t pos, size_t n, char* out) { bag.read(pos, n, out); };
+  bag.records = walk_records(read_file, line->size(), size, where_in_file, "the file");
+  const std::optional<FileHeader> header = checked_file_header(bag);
+  if (!header) return;
+  // The records rosbag reads from the index on: conn_count connections, then chunk_count chunk
+  // infos.
+  size_t k = header->index;
+  const auto connections = checked_connections(bag, k, header->conn_count);
+  if (!connections) return;
   std::map<std::uint64_t, std::set<std::uint64_t> > messages;  // per chunk: its messages' offsets
-  for (std::uint64_t i = 0; i < *chunk_count && k < records.size(); ++i, ++k) {
-    const Record& info = records[k];
-    const auto count = uint_field(info.fields, "count", 4);
-    const auto chunk_pos = uint_field(info.fields, "chunk_pos", 8);
-    if (info.op() != 6 || uint_field(info.fields, "ver", 4) != 1u || !count || !chunk_pos) return;
-    const std::string data = entries(info, "a chunk info", *count, 8, "connections");
-    std::set<std::uint32_t> chunk_connections;
-    for (size_t j = 0; j < data.size(); j += 8) chunk_connections.insert(le32(data.data() + j));
-    const Record* chunk = record_at(*chunk_pos);
-    if (!chunk || chunk->op() != 5)
-      refuse(at(info.pos) + " (a chunk info) points at byte " + std::to_string(*chunk_pos) +
-             ", where no chunk starts");
-    const std::string chunk_at = "the chunk at byte " + std::to_string(chunk->pos);
-    if (!messages.count(chunk->pos)) {
-      std::string raw(chunk->data_len, '\0');
-      read_file(chunk->data_pos, chunk->data_len, raw.data());
-      const std::optional<std::string> decompressed = chunk_bytes(*chunk, std::move(raw));
-      if (!decompressed) return;  // rosbag refuses
-      const std::string& bytes = *decompressed;
-      const auto read_chunk = [&](std::uint64_t pos, size_t n, char* out) {
-        std::memcpy(out, bytes.data() + pos, n);
-      };
-      const auto inner = [&](std::uint64_t pos) {
-        return "the record at byte " + std::to_string(pos) + " of " + chunk_at;
-      };
-      auto& offsets = messages[chunk->pos];
-      for (const Record& r : walk_records(read_chunk, 0, bytes.size(), inner, "the chunk"))
-        if (r.op() == 2) offsets.insert(r.pos);
-    }
-    const std::set<std::uint64_t>& offsets = messages[chunk->pos];
-    // After the chunk rosbag reads one index record for each of the chunk info's connections.
-    const size_t c = static_cast<size_t>(chunk - records.data());
-    for (size_t j = c + 1; j < c + 1 + chunk_connections.size() && j < records.size(); ++j) {
-      const Record& ix = records[j];
-      const auto conn = uint_field(ix.fields, "conn", 4);
-      const auto n = uint_field(ix.fields, "count", 4);
-      if (ix.op() != 4 || uint_field(ix.fields, "ver", 4) != 1u || !conn || !n) break;
-      if (!connections.count(static_cast<std::uint32_t>(*conn)))
-        refuse(at(ix.pos) + " (an index) is of connection " + std::to_string(*conn) +
-               ", which the bag does not have");
-      const std::string list = entries(ix, "an index", *n, 12, "messages");
-      for (size_t e = 0; e < list.size(); e += 12) {
-        const std::uint32_t offset = le32(list.data() + e + 8);
-        if (!offsets.count(offset))
-          refuse(at(ix.pos) + " (an index) gives a message at byte " + std::to_string(offset) +
-                 " of " + chunk_at + ", where no message record starts");
-      }
-    }
-  }
+  for (std::uint64_t i = 0; i < header->chunk_count && k < bag.records.size(); ++i, ++k)
+    if (!check_chunk_info(bag, bag.records[k], *connections, messages)) return;
 }
 
 /// Every rosbag::Bag loads its encryption plugin (pluginlib: the plugin library is opened with

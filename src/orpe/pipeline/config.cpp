@@ -27,6 +27,15 @@ bool OrpeConfig::IsValid(std::string* why) const {
 
 namespace {
 
+/// A section name or a key: a list or a map there is an error naming its line (yaml-cpp's
+/// as<std::string>() throws a bare BadConversion for it: fuzz config_json finding 31).
+std::string yaml_name(const YAML::Node& node, const std::string& path, const std::string& what) {
+  if (node.IsMap() || node.IsSequence())
+    throw IoError(path, fmt::format("line {}: {} must be a plain word, not a list or a map",
+                                    node.Mark().line + 1, what));
+  return node.as<std::string>();
+}
+
 /// A YAML config: the same sections and keys as JSON, every value a scalar parsed by the key's type
 /// exactly as `--set` parses it (so `scene: 0001` stays the string "0001"). Errors name the line.
 void load_yaml_config(OrpeConfig& config, const std::string& path) {
@@ -41,7 +50,7 @@ void load_yaml_config(OrpeConfig& config, const std::string& path) {
   if (root.IsNull()) return;
   if (!root.IsMap()) throw IoError(path, "config must be a YAML mapping of sections");
   for (const auto& section : root) {
-    const std::string name = section.first.as<std::string>();
+    const std::string name = yaml_name(section.first, path, "a section name");
     const int line = section.first.Mark().line + 1;
     bool found = false;
     config.visit_sections([&](const char* section_name, auto& params) {
@@ -51,7 +60,7 @@ void load_yaml_config(OrpeConfig& config, const std::string& path) {
         throw IoError(path,
                       fmt::format("line {}: section '{}' must be a mapping of keys", line, name));
       for (const auto& kv : section.second) {
-        const std::string key = kv.first.as<std::string>();
+        const std::string key = yaml_name(kv.first, path, "a key of section '" + name + "'");
         const int key_line = kv.first.Mark().line + 1;
         if (!kv.second.IsScalar())
           throw IoError(

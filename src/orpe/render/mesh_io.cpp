@@ -9,10 +9,13 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -21,6 +24,7 @@
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
 #include "orpe/core/ply_format.h"
+#include "orpe/render/obj_format.h"
 
 namespace orpe {
 namespace fs = std::filesystem;
@@ -51,7 +55,14 @@ std::shared_ptr<const ColorImage> bgr_to_texture(const cv::Mat& m, const std::st
 std::shared_ptr<const ColorImage> load_texture_image(const std::string& path,
                                                      const std::string& mesh_path,
                                                      bool warn_missing) {
-  if (!fs::exists(path)) {
+  std::error_code ec;  // fs::exists(path) threw for a name too long (fuzz mesh_ply finding 33)
+  const bool exists = fs::exists(path, ec);
+  if (ec) {
+    spdlog::warn("{}: texture '{}' cannot be accessed ({}); rendering without texture", mesh_path,
+                 path, ec.message());
+    return nullptr;
+  }
+  if (!exists) {
     if (warn_missing)
       spdlog::warn("{}: texture '{}' not found; rendering without texture", mesh_path, path);
     return nullptr;
@@ -106,12 +117,20 @@ std::shared_ptr<const ColorImage> material_texture(const aiScene& scene, const a
   return load_texture_image(path, mesh_path, options.warn_missing_texture);
 }
 
-std::uint8_t quantise01(float x) {
+/// An 8-bit channel of a colour in [0, 1]. A channel that is not a number (assimp passes a file's
+/// NaN through; the cast was undefined behaviour: fuzz mesh_ply finding 32) is an error naming
+/// the file.
+std::uint8_t quantise01(float x, const std::string& path) {
+  if (std::isnan(x)) throw IoError(path, "a vertex or material colour is not a number");
   return static_cast<std::uint8_t>(std::clamp(x, 0.0f, 1.0f) * 255.0f + 0.5f);
 }
 
+Rgb8 quantise01(const aiColor4D& c, const std::string& path) {
+  return {quantise01(c.r, path), quantise01(c.g, path), quantise01(c.b, path)};
+}
+
 /// The diffuse colour of a material, or nullopt for assimp's default material (file without one).
-std::optional<Rgb8> material_colour(const aiMaterial& mat) {
+std::optional<Rgb8> material_colour(const aiMaterial& mat, const std::string& path) {
   aiString name;
   if (mat.Get(AI_MATKEY_NAME, name) == AI_SUCCESS && name == aiString(AI_DEFAULT_MATERIAL_NAME))
     return std::nullopt;
@@ -119,7 +138,7 @@ std::optional<Rgb8> material_colour(const aiMaterial& mat) {
   if (mat.Get(AI_MATKEY_COLOR_DIFFUSE, kd) != AI_SUCCESS &&
       mat.Get(AI_MATKEY_BASE_COLOR, kd) != AI_SUCCESS)
     return std::nullopt;
-  return Rgb8{quantise01(kd.r), quantise01(kd.g), quantise01(kd.b)};
+  return quantise01(kd, path);
 }
 
 /// One aiMesh (triangles only, after aiProcess_SortByPType) placed by its node's transform.
@@ -158,8 +177,7 @@ void append_placed(const PlacedMesh& pm, float scale, bool want_uv, TriangleMesh
       out.uvs.emplace_back(t.x, t.y);
     }
     if (m.HasVertexColors(0)) {
-      const aiColor4D& c = m.mColors[0][i];
-      colours.push_back({quantise01(c.r), quantise01(c.g), quantise01(c.b)});
+      colours.push_back(quantise01(m.mColors[0][i], out.name));  // out.name: the file
     } else {
       colours.push_back({255, 255, 255});
     }
@@ -185,7 +203,7 @@ void assign_colours(const std::vector<PlacedMesh>& placed, const aiScene& scene,
   }
   std::vector<std::optional<Rgb8>> kd;
   for (const auto& pm : placed)
-    kd.push_back(material_colour(*scene.mMaterials[pm.mesh->mMaterialIndex]));
+    kd.push_back(material_colour(*scene.mMaterials[pm.mesh->mMaterialIndex], mesh.name));
   const bool varies = std::any_of(kd.begin(), kd.end(), [&](const auto& c) {
     return c.value_or(Rgb8{255, 255, 255}) != kd.front().value_or(Rgb8{255, 255, 255});
   });
@@ -197,6 +215,25 @@ void assign_colours(const std::vector<PlacedMesh>& placed, const aiScene& scene,
     mesh.base_color = *kd.front();
   }
 }
+
+/// assimp's file access while it reads an OBJ: every file it opens (the mesh and its material
+/// libraries, wherever its path search finds them) is checked by detail::mtl_problem first; after
+/// a problem it opens nothing more, and read_with_assimp throws the problem.
+class CheckedObjFiles : public Assimp::DefaultIOSystem {
+ public:
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (problem) return nullptr;
+    if (std::ifstream is{file, std::ios::binary}) {
+      const std::string text{std::istreambuf_iterator<char>(is), std::istreambuf_iterator<char>()};
+      if (const auto why = detail::mtl_problem(text)) {
+        problem = IoError(file, *why);
+        return nullptr;
+      }
+    }
+    return DefaultIOSystem::Open(file, mode);
+  }
+  std::optional<IoError> problem;
+};
 
 TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& options) {
   if (!fs::exists(path)) throw IoError(path, "file not found");
@@ -210,6 +247,11 @@ TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& op
                   "unsupported mesh format '" + ext +
                       "' (expected .obj, .ply, .stl, .gltf, .glb, .dae, ... as assimp reads)");
   if (ext == ".ply") detail::check_ply_structure(path);
+  CheckedObjFiles* obj_files = nullptr;
+  if (ext == ".obj") {
+    detail::check_obj_structure(path);
+    importer.SetIOHandler(obj_files = new CheckedObjFiles);  // the importer owns it
+  }
   // Points and lines are dropped; polygons are fan-triangulated; corners with the same position,
   // normal, uv and colour share one vertex (as an indexed OBJ/PLY file means them).
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
@@ -217,6 +259,7 @@ TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& op
   const aiScene* scene =
       importer.ReadFile(path, aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                                   aiProcess_SortByPType | aiProcess_ValidateDataStructure);
+  if (obj_files && obj_files->problem) throw *obj_files->problem;
   if (!scene) throw IoError(path, std::string("cannot read mesh: ") + importer.GetErrorString());
   if (!scene->mRootNode || scene->mNumMeshes == 0) throw IoError(path, "mesh has no faces");
   std::vector<PlacedMesh> placed;

@@ -56,7 +56,7 @@ struct ColourScoreParams {
   bool try_flips = true;
   bool refine_turn = true;
   double min_learned_fraction = 0.3;
-  bool lambert_fit = true;
+  bool lambert_fit = false;
 
   template <class V>
   void visit(V&& v) {

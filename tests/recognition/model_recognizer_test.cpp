@@ -129,6 +129,31 @@ TEST(SceneGeometry, SplitsSeparateObjectsIntoRegions) {
             3 * (regions[0].cells.size() + regions[1].cells.size()));
 }
 
+// A can 1.35 m away in a 320 x 240 image: ~100 grid points, under min_region_points, but ~75 cm^2
+// of surface, so the area rule keeps it; a 3 cm cube beside it (9 cm^2) stays dropped.
+TEST(SceneGeometry, KeepsAFarObjectsSmallRegionByItsArea) {
+  const auto& s = shapes();
+  const test::SurfaceSamples cube = test::sample_box({0.03f, 0.03f, 0.03f}, 0.0015f);
+  const RgbdFrame f =
+      test::render_table_scene({{2, &s.can, TestShapes::on_table(0, 0, 0, 0.055)},
+                                {1, &cube, TestShapes::on_table(0.25, 0, 0, 0.015)}},
+                               Vec3(0.0, -1.05, 0.85), Vec3(0.1, 0, 0.05));
+  auto regions_with = [&](double min_area_m2) {
+    SceneGeometryParams gp;
+    gp.min_region_area_m2 = min_area_m2;
+    SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+    remove_support_planes(g, gp);
+    return std::make_pair(split_regions(g, gp), g);
+  };
+  const auto [regions, g] = regions_with(SceneGeometryParams{}.min_region_area_m2);
+  ASSERT_EQ(regions.size(), 1u);
+  const auto& can = regions.front();
+  EXPECT_LT(static_cast<int>(can.cells.size()), SceneGeometryParams{}.min_region_points);
+  EXPECT_NEAR(can.centroid.x(), (f.T_world_cam_gt->inverse() * Vec3(0, 0, 0.055)).x(), 0.03);
+  EXPECT_GT(seen_area_m2(g, can.cells), 0.005);
+  EXPECT_TRUE(regions_with(0).first.empty());  // the rule off: grid points alone drop the can
+}
+
 // A can standing on a large box: no depth step where they meet (the can's side runs into the
 // box's top), but a concave crease. Objects are mostly convex, so the crease splits them.
 TEST(SceneGeometry, SplitsAtTheConcaveCreaseWhereOneObjectRestsOnAnother) {

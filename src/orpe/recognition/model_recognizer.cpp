@@ -89,6 +89,7 @@ bool RecognitionParams::IsValid(std::string* why) const {
   if (!(track_crop_distance_m >= 0)) return fail("track_crop_distance_m must be >= 0");
   if (track_max_misses < 1) return fail("track_max_misses must be >= 1");
   if (reject_memory_keyframes < 0) return fail("reject_memory_keyframes must be >= 0");
+  if (reject_memory_min_points < 0) return fail("reject_memory_min_points must be >= 0");
   if (!(min_colour_ncc >= -1 && min_colour_ncc <= 1))
     return fail("min_colour_ncc must be in [-1, 1]");
   if (!(reject_radius_m >= 0)) return fail("reject_radius_m must be >= 0");
@@ -733,7 +734,7 @@ void ModelRecognizer::Pass::search_regions() {
     std::vector<int> rest;
     for (int c : region.cells)
       if (explained_by[c] < 0) rest.push_back(c);
-    if (static_cast<int>(rest.size()) < rec.geometry_.min_region_points) continue;
+    if (!region_large_enough(g, rest, rec.geometry_)) continue;
     Vec3f centroid = Vec3f::Zero();
     for (int c : rest) centroid += g.points[c];
     centroid /= static_cast<float>(rest.size());
@@ -770,7 +771,8 @@ void ModelRecognizer::Pass::search_regions() {
           found[k].resting ? ", resting" : "");
       hyps.push_back(std::move(found[k]));
     }
-    searched.push_back({centroid_world});
+    if (static_cast<int>(rest.size()) >= p.reject_memory_min_points)
+      searched.push_back({centroid_world});
     spdlog::debug("recognition: region of {} points ({} unexplained): {} searches",
                   region.cells.size(), rest.size(), tasks.size());
   }
@@ -1071,10 +1073,11 @@ void ModelRecognizer::Pass::update_tracks() {
   state->tracks = std::move(alive);
 }
 
-/// Every searched region is not searched again for reject_memory_keyframes keyframes: what its
-/// search found is a known object from now on (refined, not searched), what it did not find
-/// (clutter, an unknown object) would be found again. Later keyframes then cost the refinements of
-/// the known objects and the search of new surface only.
+/// Every searched region (of reject_memory_min_points unexplained points or more: a smaller one's
+/// search is cheap and runs again) is not searched again for reject_memory_keyframes keyframes:
+/// what its search found is a known object from now on (refined, not searched), what it did not
+/// find (clutter, an unknown object) would be found again. Later keyframes then cost the
+/// refinements of the known objects and the search of new surface only.
 void ModelRecognizer::Pass::remember_searches() {
   if (!state) return;
   for (const Searched& s : searched) state->rejected.push_back({s.centroid_world, state->keyframe});

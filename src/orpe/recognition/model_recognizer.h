@@ -100,7 +100,9 @@ struct RecognitionParams {
   double track_crop_distance_m = 0.02;  ///< refine on points this close to the predicted surface
   int track_max_misses = 3;          ///< keyframes in view without being kept before it is dropped
   int reject_memory_keyframes = 10;  ///< keyframes a searched region is not searched again
-  double reject_radius_m = 0.03;     ///< a region whose centroid is this close to a rejected one
+  /// a searched region's unexplained part smaller than this (grid points) is not remembered
+  int reject_memory_min_points = 150;
+  double reject_radius_m = 0.03;       ///< a region whose centroid is this close to a rejected one
   double detection_probability = 0.9;  ///< soft mask value on the explained pixels
 
   template <class V>
@@ -298,6 +300,11 @@ struct RecognitionParams {
     v("reject_memory_keyframes", reject_memory_keyframes,
       "Keyframes during which a searched region is not searched again (what it held is known "
       "and refined from then on; what no model explained would not be found either)");
+    v("reject_memory_min_points", reject_memory_min_points,
+      "A searched region whose unexplained part has fewer grid points than this is not "
+      "remembered, but searched again on the next keyframe: its search is cheap (a crop per "
+      "model), and a small or far object's first few dozen points may not register where a "
+      "later view's do; 0 = remember every region");
     v("reject_radius_m", reject_radius_m,
       "A region whose unexplained part's centroid is within this distance (m) of a searched one "
       "is skipped");

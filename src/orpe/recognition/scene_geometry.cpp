@@ -32,6 +32,9 @@ bool SceneGeometryParams::IsValid(std::string* why) const {
   if (!(region_distance_m > 0) || !(region_distance_per_m >= 0))
     return fail("region_distance_m must be > 0 and region_distance_per_m >= 0");
   if (min_region_points < 1) return fail("min_region_points must be >= 1");
+  if (small_region_min_points < 1 || small_region_min_points > min_region_points)
+    return fail("small_region_min_points must be in [1, min_region_points]");
+  if (!(min_region_area_m2 >= 0)) return fail("min_region_area_m2 must be >= 0");
   if (!(concave_edge_min_angle_deg >= 0 && concave_edge_min_angle_deg < 180))
     return fail("concave_edge_min_angle_deg must be in [0, 180)");
   if (concave_edge_radius_cells < 1 || concave_edge_radius_cells > 10)
@@ -43,6 +46,8 @@ SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
                           const SceneGeometryParams& params) {
   SceneGrid g;
   g.stride = params.grid_stride_px;
+  g.fx = K.fx;
+  g.fy = K.fy;
   g.width = (depth.width() + g.stride - 1) / g.stride;
   g.height = (depth.height() + g.stride - 1) / g.stride;
   const size_t n = static_cast<size_t>(g.width) * g.height;
@@ -60,6 +65,21 @@ SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,
     }
   g.kept = g.valid;
   return g;
+}
+
+double seen_area_m2(const SceneGrid& g, const std::vector<int>& cells) {
+  const double per_z2 = static_cast<double>(g.stride) * g.stride / (g.fx * g.fy);
+  double sum_z2 = 0;
+  for (int c : cells) sum_z2 += static_cast<double>(g.points[c].z()) * g.points[c].z();
+  return sum_z2 * per_z2;
+}
+
+bool region_large_enough(const SceneGrid& g, const std::vector<int>& cells,
+                         const SceneGeometryParams& params) {
+  const int n = static_cast<int>(cells.size());
+  if (n >= params.min_region_points) return true;
+  if (n < params.small_region_min_points || !(params.min_region_area_m2 > 0)) return false;
+  return seen_area_m2(g, cells) >= params.min_region_area_m2;
 }
 
 namespace {
@@ -308,8 +328,7 @@ std::vector<SceneRegion> split_regions(SceneGrid& g, const SceneGeometryParams& 
   // Cells the crease cut left in small fragments join a large region they touch (depth rule).
   std::vector<int> owner(comps.size(), -1);
   for (size_t i = 0; i < comps.size(); ++i)
-    if (static_cast<int>(comps[i].size()) >= params.min_region_points)
-      owner[i] = static_cast<int>(i);
+    if (region_large_enough(g, comps[i], params)) owner[i] = static_cast<int>(i);
   if (creases) grow_into_fragments(g, label, owner, near, comps);
   std::vector<SceneRegion> regions;
   for (size_t i = 0; i < comps.size(); ++i) {

@@ -29,7 +29,12 @@ struct SceneGeometryParams {
   double region_distance_m =
       0.008;  ///< neighbours closer than this + region_distance_per_m * z join
   double region_distance_per_m = 0.006;
-  int min_region_points = 150;  ///< smaller regions are dropped (grid points)
+  int min_region_points = 150;  ///< smaller regions are dropped (grid points) unless:
+  /// a region of at least small_region_min_points grid points whose surface, as the camera sees
+  /// it, covers at least min_region_area_m2 is kept too: a known object far away or in a
+  /// low-resolution image (a can at 1.3 m in a 320 x 240 image: ~120 grid points, ~100 cm^2).
+  int small_region_min_points = 40;
+  double min_region_area_m2 = 0.002;  ///< 20 cm^2; 0 = off (grid points alone)
   double concave_edge_min_angle_deg =
       35;                             ///< regions split at concave creases this sharp (0 = off)
   int concave_edge_radius_cells = 3;  ///< normals and crease sides this many cells out
@@ -61,7 +66,15 @@ struct SceneGeometryParams {
       "region");
     v("region_distance_per_m", region_distance_per_m,
       "Depth-proportional part of the region distance (m per m of depth)");
-    v("min_region_points", min_region_points, "Regions with fewer grid points are dropped");
+    v("min_region_points", min_region_points,
+      "Regions with fewer grid points are dropped, unless small_region_min_points and "
+      "min_region_area_m2 keep them");
+    v("small_region_min_points", small_region_min_points,
+      "A region under min_region_points is kept when it has at least this many grid points and "
+      "covers min_region_area_m2 (far objects, low-resolution cameras)");
+    v("min_region_area_m2", min_region_area_m2,
+      "Surface (m^2, the area of its grid cells' pixels at their depth, as the camera sees it) "
+      "that keeps a region of small_region_min_points to min_region_points grid points; 0 = off");
     v("concave_edge_min_angle_deg", concave_edge_min_angle_deg,
       "Regions are also split where the surface folds inwards (a concave crease, the normals of "
       "its two sides at least this angle apart, deg): objects are mostly convex, and where one "
@@ -79,6 +92,7 @@ struct SceneGeometryParams {
 
 struct SceneGrid {
   int stride = 2;
+  double fx = 1, fy = 1;                ///< the image's focal lengths (px)
   int width = 0, height = 0;            ///< grid size (image size / stride)
   std::vector<Eigen::Vector3f> points;  ///< per grid cell, camera frame; z = 0 when invalid
   std::vector<std::uint8_t> valid;      ///< valid depth
@@ -121,6 +135,14 @@ class GridNormals {
 /// off the grid, not kept or has no normal.
 bool concave_link(const SceneGrid& g, GridNormals& normals, int a, int du, int dv, int radius,
                   float min_cos);
+
+/// Surface the cells cover as the camera sees it (m^2): per cell, its stride x stride pixels'
+/// footprint at the cell's depth.
+double seen_area_m2(const SceneGrid& grid, const std::vector<int>& cells);
+/// A region (or a region's unexplained rest) large enough to search: min_region_points grid points,
+/// or small_region_min_points with min_region_area_m2 of surface.
+bool region_large_enough(const SceneGrid& grid, const std::vector<int>& cells,
+                         const SceneGeometryParams& params);
 
 /// Back-projects every stride-th pixel's depth.
 SceneGrid make_scene_grid(const DepthImage& depth, const PinholeIntrinsics& K,

@@ -490,5 +490,28 @@ TEST(ModelRecognizer, KnownObjectsAreRefinedNotSearched) {
   for (const auto& o : rec.last_objects()) EXPECT_TRUE(o.from_track);
 }
 
+// A small unknown object far away (a 6 cm cube at 1.35 m: a region of ~60 grid points that the area
+// rule keeps): no model explains it, and its search is searched again on the next keyframe, since
+// a region under reject_memory_min_points is not remembered; with every region remembered, not.
+TEST(ModelRecognizer, SmallSearchedRegionsAreSearchedAgainOnTheNextKeyframe) {
+  const test::SurfaceSamples cube = test::sample_box({0.06f, 0.06f, 0.06f}, 0.0015f);
+  const RgbdFrame f = test::render_table_scene({{9, &cube, TestShapes::on_table(0, 0, 0.3, 0.03)}},
+                                               Vec3(0.0, -1.05, 0.85), Vec3(0.1, 0, 0.05));
+  auto searches_on_second_keyframe = [&](int memory_min_points) {
+    RecognitionParams p;
+    p.reject_memory_min_points = memory_min_points;
+    ModelRecognizer rec = make_recognizer({1, 2}, p);
+    SegmentationContext c;
+    c.T_world_cam = *f.T_world_cam_gt;
+    rec.detect_in_context(f, c);
+    EXPECT_GT(rec.last_timing().searches, 0);
+    EXPECT_TRUE(rec.last_objects().empty());
+    rec.detect_in_context(f, c);
+    return rec.last_timing().searches;
+  };
+  EXPECT_GT(searches_on_second_keyframe(RecognitionParams{}.reject_memory_min_points), 0);
+  EXPECT_EQ(searches_on_second_keyframe(0), 0);  // every searched region remembered
+}
+
 }  // namespace
 }  // namespace orpe

@@ -73,20 +73,13 @@ TEST(ModelBackend, RecognisesObjectsOfASyntheticScene) {
   for (int c : classes) EXPECT_EQ(classes.count(c), 1u) << "class " << c << " twice";
 }
 
-// The README demo's scene, shortened (orpe synth --seed 3 --objects 4 --scene table, 320 x 240, 1.5
+// The README demo's layout, shortened (seed 3, 4 objects, scene table, 320 x 240, 1.5
 // degrees per frame): its can, 84 x 122 mm at 1.3 m, is a region of ~120 grid points, under
 // min_region_points; the area rule (min_region_area_m2) keeps it. Every object, one instance each.
 TEST(ModelBackend, FindsTheFarCanOfALowResolutionScene) {
-  SynthParams sp;
-  sp.seed = 3;
-  sp.frames = 12;
-  sp.objects = 4;
+  SynthParams sp = test::small_scene_params(320, 240, 12, 4, 3);
   sp.scene = "table";
-  sp.width = 320;
-  sp.height = 240;
   sp.span_deg = 18;
-  sp.preview_stride = 0;
-  sp.threads = 1;
   const std::string scene = test::synthetic_scene("recog_far", sp);
   auto classes_with = [&](double min_area_m2) {
     ObjectRpeParams p = model_backend_params();

@@ -129,6 +129,23 @@ TEST(SceneGeometry, SplitsSeparateObjectsIntoRegions) {
             3 * (regions[0].cells.size() + regions[1].cells.size()));
 }
 
+TEST(SceneGeometry, RegionSizeSettingsAreChecked) {
+  std::string why;
+  SceneGeometryParams gp;
+  EXPECT_TRUE(gp.IsValid(&why)) << why;
+  gp.small_region_min_points = gp.min_region_points + 1;
+  EXPECT_FALSE(gp.IsValid(&why));
+  EXPECT_NE(why.find("small_region_min_points"), std::string::npos) << why;
+  gp = SceneGeometryParams{};
+  gp.min_region_area_m2 = -0.001;
+  EXPECT_FALSE(gp.IsValid(&why));
+  EXPECT_NE(why.find("min_region_area_m2"), std::string::npos) << why;
+  RecognitionParams rp;
+  rp.reject_memory_min_points = -1;
+  EXPECT_FALSE(rp.IsValid(&why));
+  EXPECT_NE(why.find("reject_memory_min_points"), std::string::npos) << why;
+}
+
 // A can 1.35 m away in a 320 x 240 image: ~100 grid points, under min_region_points, but ~75 cm^2
 // of surface, so the area rule keeps it; a 3 cm cube beside it (9 cm^2) stays dropped.
 TEST(SceneGeometry, KeepsAFarObjectsSmallRegionByItsArea) {

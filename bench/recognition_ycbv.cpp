@@ -148,6 +148,13 @@ std::string score_frame(const RgbdFrame& frame, const DatasetInfo& info,
     const std::string name = info.class_names.at(gt.class_id);
     spdlog::debug("ground truth: {} at {:.3f} {:.3f} {:.3f}", name, gt.T_cam_obj.translation().x(),
                   gt.T_cam_obj.translation().y(), gt.T_cam_obj.translation().z());
+    if (spdlog::should_log(spdlog::level::debug)) {
+      const RecognizedObject s = rec.score_pose(frame, gt.class_id, gt.T_cam_obj);
+      spdlog::debug("  scored at its true pose: explains {}, fit {:.0f}, support {:.2f}, violation "
+                    "{:.2f}, in image {:.2f}, solo leak {:.2f}, rank {:.0f}",
+                    s.explained_points, s.fit, s.support, s.violation, s.in_image, s.solo_leak,
+                    s.rank);
+    }
     auto& pc = t.per_class[name];
     ++pc.second;
     double e = 1.0;

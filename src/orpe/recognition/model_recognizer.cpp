@@ -81,6 +81,8 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("normal_radius_cells must be in [1, 10]");
   if (!(min_in_image_fraction >= 0 && min_in_image_fraction <= 1))
     return fail("min_in_image_fraction must be in [0, 1]");
+  if (!(resting_min_in_image_fraction >= 0 && resting_min_in_image_fraction <= 1))
+    return fail("resting_min_in_image_fraction must be in [0, 1]");
   if (!(solo_leak_weight >= 0 && solo_leak_weight <= 1))
     return fail("solo_leak_weight must be in [0, 1]");
   if (!(resting_bonus >= 0) || !(resting_tolerance_m > 0))
@@ -629,6 +631,7 @@ struct ModelRecognizer::Pass {
   RecognizedObject score(int mi, const SE3& T_cam_obj);
   void measure_solo_leaks();
   void select();
+  double min_in_image(const Hypothesis& h) const;
   void reject_clutter();
   int worst_silhouette_overflow();
   std::vector<Detection> detections();
@@ -793,25 +796,37 @@ void ModelRecognizer::Pass::add_resting_tasks(const std::vector<int>& rest,
   fp.height_tolerance_m = p.resting_height_tolerance_m;
   fp.width_slack_m = p.resting_width_slack_m;
   const Plane& support = g.planes.front();
+  // Each box model at each pose, refined from there on the cells inside the placed box (+1.5 cm).
+  auto add = [&](size_t mi, const std::vector<SE3>& poses) {
+    const ModelFaceAxes& ax = rec.model_face_axes_[mi];
+    const Vec3f half = 0.5f * ax.extents + Vec3f::Constant(0.015f);
+    for (const SE3& T : poses) {
+      const SE3 T_obj_cam = T.inverse();
+      const Eigen::Matrix3f R = ax.axes.transpose() * T_obj_cam.rotation().cast<float>();
+      const Vec3f t = ax.axes.transpose() * (T_obj_cam.translation().cast<float>() - ax.centre);
+      std::vector<int> cells;
+      for (int c : rest)
+        if (((R * g.points[c] + t).cwiseAbs() - half).maxCoeff() <= 0) cells.push_back(c);
+      if (static_cast<int>(cells.size()) < p.min_explained_points) continue;
+      tasks.emplace_back(static_cast<int>(mi), std::move(cells));
+      priors.push_back(T);
+    }
+  };
+  auto is_box = [&](size_t mi) {
+    return rec.model_face_axes_[mi].face_fraction >= p.resting_min_face_fraction;
+  };
   for (const VerticalFace& f : vertical_faces(g, *normals, rest, support, fp)) {
     spdlog::trace("recognition: vertical face of {} cells, {:.3f} wide, heights {:.3f}-{:.3f}",
                   f.cells, f.s_max - f.s_min, f.bottom, f.top);
-    for (size_t mi = 0; mi < rec.models_.size(); ++mi) {
-      const ModelFaceAxes& ax = rec.model_face_axes_[mi];
-      if (ax.face_fraction < p.resting_min_face_fraction) continue;
-      const Vec3f half = 0.5f * ax.extents + Vec3f::Constant(0.015f);
-      for (const SE3& T : resting_poses(ax, f, support, fp)) {
-        const SE3 T_obj_cam = T.inverse();
-        const Eigen::Matrix3f R = ax.axes.transpose() * T_obj_cam.rotation().cast<float>();
-        const Vec3f t = ax.axes.transpose() * (T_obj_cam.translation().cast<float>() - ax.centre);
-        std::vector<int> cells;
-        for (int c : rest)
-          if (((R * g.points[c] + t).cwiseAbs() - half).maxCoeff() <= 0) cells.push_back(c);
-        if (static_cast<int>(cells.size()) < p.min_explained_points) continue;
-        tasks.emplace_back(static_cast<int>(mi), std::move(cells));
-        priors.push_back(T);
-      }
-    }
+    for (size_t mi = 0; mi < rec.models_.size(); ++mi)
+      if (is_box(mi)) add(mi, resting_poses(rec.model_face_axes_[mi], f, support, fp));
+  }
+  if (!p.resting_top_faces) return;
+  for (const TopFace& f : top_faces(g, *normals, rest, support, fp)) {
+    spdlog::trace("recognition: top face of {} cells at {:.3f} m, hull of {}", f.cells, f.height,
+                  f.hull.size());
+    for (size_t mi = 0; mi < rec.models_.size(); ++mi)
+      if (is_box(mi)) add(mi, resting_poses_on_top(rec.model_face_axes_[mi], f, support, fp));
   }
 }
 
@@ -835,6 +850,7 @@ RecognizedObject ModelRecognizer::Pass::score(int mi, const SE3& T_cam_obj) {
   out.fit = s.fit;
   out.solo_leak = s.solo_leak;
   out.rank = s.rank;
+  out.in_image = s.in_image;
   return out;
 }
 
@@ -850,6 +866,13 @@ void ModelRecognizer::Pass::measure_solo_leaks() {
     h.solo_leak = boundary_leak(g, frame.color, alone, static_cast<int>(i), p, *normals).leak;
     for (int c : h.explained) alone[c] = -1;
   }
+}
+
+/// The fraction of its camera-facing model points a searched hypothesis needs inside the image.
+double ModelRecognizer::Pass::min_in_image(const Hypothesis& h) const {
+  const bool resting = std::abs(h.lowest_m) < p.resting_tolerance_m;
+  return resting ? std::min(p.min_in_image_fraction, p.resting_min_in_image_fraction)
+                 : p.min_in_image_fraction;
 }
 
 /// Greedy selection, best first: a hypothesis is kept when it newly explains enough points.
@@ -869,7 +892,7 @@ void ModelRecognizer::Pass::select() {
   for (int i : order) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
     if (h.dropped || h.support < p.min_support || h.violation > p.max_violation ||
-        h.colour < p.min_colour_ncc || (!h.from_track && h.in_image < p.min_in_image_fraction))
+        h.colour < p.min_colour_ncc || (!h.from_track && h.in_image < min_in_image(h)))
       continue;
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;
@@ -1030,7 +1053,7 @@ std::vector<Detection> ModelRecognizer::Pass::detections() {
     out.push_back(std::move(d));
     rec.last_objects_.push_back({out.back().class_id, h.T_cam_obj,
                                  static_cast<int>(h.explained.size()), h.support, h.violation,
-                                 h.from_track, h.fit, h.solo_leak, h.rank});
+                                 h.from_track, h.fit, h.solo_leak, h.rank, h.in_image});
   }
   return out;
 }

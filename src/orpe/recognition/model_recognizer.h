@@ -57,6 +57,7 @@ struct RecognitionParams {
   double resting_face_max_bottom_m = 0.03;
   double resting_height_tolerance_m = 0.02;
   double resting_width_slack_m = 0.02;
+  bool resting_top_faces = true;  ///< also at an observed top face (a box seen from above)
   // Verification.
   double inlier_distance_m = 0.01;
   double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
@@ -67,6 +68,7 @@ struct RecognitionParams {
   double below_plane_margin_m = 0.02;
   double min_support = 0.55;           ///< visible model points on the observed depth, fraction
   double min_in_image_fraction = 0.5;  ///< of its camera-facing model points inside the image
+  double resting_min_in_image_fraction = 0.1;  ///< the same for one resting on the support
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
   double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
@@ -153,6 +155,12 @@ struct RecognitionParams {
     v("resting_width_slack_m", resting_width_slack_m,
       "Resting search: the face may be this much (m) wider than the model's side along it; a "
       "face narrower by more is partly hidden and the model is aligned with either end of it");
+    v("resting_top_faces", resting_top_faces,
+      "Resting search: boxes are also placed at each top face a region shows (normals within "
+      "resting_face_max_tilt_deg of the support normal, resting_face_min_cells cells): standing "
+      "on the support on the axis whose extent is the face's height, turned along the face's "
+      "outline, centred on it or flush with either end of it. A box whose vertical faces are "
+      "hidden, or cut by the image border, shows its top; false = vertical faces only");
     v("inlier_distance_m", inlier_distance_m,
       "An observed point within this distance (m) of the model surface is explained");
     v("inlier_distance_per_m2", inlier_distance_per_m2,
@@ -190,6 +198,13 @@ struct RecognitionParams {
       "A searched hypothesis (not a known object) needs this fraction of its camera-facing model "
       "points to project inside the image: a model fitted to a strip of clutter at the image "
       "border is held by the little of it the frame shows; 0 = off");
+    v("resting_min_in_image_fraction", resting_min_in_image_fraction,
+      "The min_in_image_fraction of a searched hypothesis resting on the support plane (its "
+      "lowest model point within resting_tolerance_m of it; the smaller of the two applies): an "
+      "object standing on the table with its top in view and its foot beyond the image border is "
+      "held by its height over the table as well as by what the frame shows of it (a box close "
+      "to the camera at the bottom border, 14-17 % of its camera-facing points in view); 0 = "
+      "no image-border test for resting objects");
     v("max_violation", max_violation,
       "A hypothesis may have at most this fraction of model points in free space / below the "
       "support");
@@ -345,6 +360,7 @@ struct RecognizedObject {
   double fit = 0;         ///< sum over the explained points of 1 - (d / inlier distance)^2
   double solo_leak = -1;  ///< outline leak as if alone (-1: not measured)
   double rank = 0;
+  double in_image = 1;  ///< of its camera-facing model points, the fraction inside the image
 };
 
 class ModelRecognizer final : public Segmenter {

@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
+#include <limits>
 #include <cmath>
 
 namespace orpe {
@@ -48,6 +50,60 @@ float percentile(std::vector<float> v, double q) {
   return v[k];
 }
 
+/// The convex hull of 2-D points, counter-clockwise (Andrew's monotone chain).
+std::vector<Eigen::Vector2f> convex_hull(std::vector<Eigen::Vector2f> pts) {
+  std::sort(pts.begin(), pts.end(), [](const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  if (pts.size() < 3) return pts;
+  auto cross = [](const Eigen::Vector2f& o, const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
+    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+  };
+  std::vector<Eigen::Vector2f> h(2 * pts.size());
+  size_t k = 0;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    while (k >= 2 && cross(h[k - 2], h[k - 1], pts[i]) <= 0) --k;
+    h[k++] = pts[i];
+  }
+  for (size_t i = pts.size() - 1, t = k + 1; i > 0; --i) {
+    while (k >= t && cross(h[k - 2], h[k - 1], pts[i - 1]) <= 0) --k;
+    h[k++] = pts[i - 1];
+  }
+  h.resize(k - 1);
+  return h;
+}
+
+/// The two directions (radians, modulo 90 degrees, 5-degree bins) along which a hull's edges are
+/// longest in total: a rectangle's sides, whether or not a border or an occluder cuts it.
+std::vector<float> outline_directions(const std::vector<Eigen::Vector2f>& hull) {
+  constexpr int kBins = 18;
+  std::array<float, kBins> length{};
+  for (size_t i = 0; i < hull.size(); ++i) {
+    const Eigen::Vector2f e = hull[(i + 1) % hull.size()] - hull[i];
+    float a = std::atan2(e.y(), e.x());
+    a = std::fmod(a + static_cast<float>(2 * M_PI), static_cast<float>(M_PI / 2));
+    length[static_cast<size_t>(std::min(kBins - 1, static_cast<int>(a / (M_PI / 2) * kBins)))] +=
+        e.norm();
+  }
+  std::vector<float> out;
+  for (int round = 0; round < 2; ++round) {
+    const auto b = std::max_element(length.begin(), length.end()) - length.begin();
+    if (!(length[static_cast<size_t>(b)] > 0)) break;
+    // The length-weighted mean direction of the bin's edges would be finer; the refinement that
+    // follows absorbs the 2.5-degree quantisation.
+    out.push_back(static_cast<float>((static_cast<double>(b) + 0.5) * (M_PI / 2) / kBins));
+    for (int d = -1; d <= 1; ++d) length[static_cast<size_t>((b + d + kBins) % kBins)] = 0;
+  }
+  return out;
+}
+
+/// Centres of a side of length `side` over an observed extent [lo, hi]: the middle when the
+/// extent spans the side (within `slack`), else flush with either end.
+std::vector<float> placements(float lo, float hi, float side, float slack) {
+  if (side - (hi - lo) < slack) return {0.5f * (lo + hi)};
+  return {lo + 0.5f * side, hi - 0.5f * side};
+}
+
 }  // namespace
 
 ModelFaceAxes model_face_axes(const ObjectModel& model) {
@@ -73,6 +129,19 @@ ModelFaceAxes model_face_axes(const ObjectModel& model) {
   out.extents = hi - lo;
   out.centre = out.axes * (0.5f * (lo + hi));
   return out;
+}
+
+/// Whether a face's lowest cells (within 2 cm of its bottom) lie on the image border: the face
+/// leaves the view there, so its foot may stand on the support out of sight.
+static bool foot_out_of_view(const SceneGrid& g, const std::vector<int>& cells,
+                      const std::vector<float>& height, float bottom) {
+  int on_border = 0;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    if (height[i] > bottom + 0.02f) continue;
+    const int gu = cells[i] % g.width, gv = cells[i] / g.width;
+    on_border += gu <= 1 || gv <= 1 || gu >= g.width - 2 || gv >= g.height - 2;
+  }
+  return on_border >= 3;
 }
 
 std::vector<VerticalFace> vertical_faces(const SceneGrid& g, GridNormals& normals,
@@ -130,19 +199,21 @@ std::vector<VerticalFace> vertical_faces(const SceneGrid& g, GridNormals& normal
         0.01f *
             (static_cast<float>(std::max_element(hist.begin(), hist.end()) - hist.begin()) + 0.5f);
     std::vector<float> on, s, height;
+    std::vector<int> face_cells;
     for (size_t i = 0; i < group.size(); ++i) {
       if (std::abs(offsets[i] - mode) > 0.015f) continue;
       const Vec3f& q = g.points[static_cast<size_t>(group[i])];
       on.push_back(offsets[i]);
       s.push_back(f.along.dot(q - origin));
       height.push_back(support.signed_distance(q));
+      face_cells.push_back(group[i]);
     }
     f.cells = static_cast<int>(on.size());
     if (f.cells < p.min_cells) continue;
     f.offset = percentile(on, 0.5);
     f.s_min = percentile(s, 0.02), f.s_max = percentile(s, 0.98);
     f.bottom = percentile(height, 0.02), f.top = percentile(height, 0.98);
-    if (f.bottom > p.max_bottom_m) continue;
+    if (f.bottom > p.max_bottom_m && !foot_out_of_view(g, face_cells, height, f.bottom)) continue;
     faces.push_back(f);
     if (static_cast<int>(faces.size()) >= p.max_faces) break;
   }
@@ -181,6 +252,97 @@ std::vector<SE3> resting_poses(const ModelFaceAxes& axes, const VerticalFace& fa
                              (face.offset - 0.5f * axes.extents[j]) * face.normal +
                              0.5f * height * up;
         out.emplace_back(R.cast<double>(), (centre - R * axes.centre).cast<double>());
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<TopFace> top_faces(const SceneGrid& g, GridNormals& normals,
+                               const std::vector<int>& cells, const Plane& support,
+                               const RestingFaceParams& p) {
+  const Vec3f up = support.normal;
+  const Vec3f origin = -support.d * up;
+  const float cos_tilt = std::cos(static_cast<float>(p.max_tilt_deg * M_PI / 180.0));
+  constexpr float kMinHeight = 0.02f, kBin = 0.01f, kHalfWidth = 0.015f;
+  std::vector<int> flat;
+  std::vector<float> heights;
+  for (int c : cells) {
+    const Vec3f& n = normals.at(c);
+    if (n.isZero() || std::abs(n.dot(up)) < cos_tilt) continue;
+    const float h = support.signed_distance(g.points[static_cast<size_t>(c)]);
+    if (h < kMinHeight) continue;
+    flat.push_back(c);
+    heights.push_back(h);
+  }
+  std::vector<TopFace> faces;
+  std::vector<char> taken(flat.size(), 0);
+  for (int round = 0; round < p.max_faces; ++round) {
+    std::vector<int> hist;
+    for (size_t i = 0; i < flat.size(); ++i) {
+      if (taken[i]) continue;
+      const size_t k = static_cast<size_t>(heights[i] / kBin);
+      if (k >= hist.size()) hist.resize(k + 1, 0);
+      ++hist[k];
+    }
+    if (hist.empty()) break;
+    const auto peak = std::max_element(hist.begin(), hist.end()) - hist.begin();
+    if (hist[static_cast<size_t>(peak)] < p.min_cells / 3) break;
+    const float mode = kBin * (static_cast<float>(peak) + 0.5f);
+    TopFace f;
+    f.e1 = up.unitOrthogonal(), f.e2 = up.cross(f.e1);
+    std::vector<float> on;
+    std::vector<Eigen::Vector2f> pts;
+    for (size_t i = 0; i < flat.size(); ++i) {
+      if (taken[i] || std::abs(heights[i] - mode) > kHalfWidth) continue;
+      taken[i] = 1;
+      const Vec3f d = g.points[static_cast<size_t>(flat[i])] - origin;
+      on.push_back(heights[i]);
+      pts.emplace_back(d.dot(f.e1), d.dot(f.e2));
+    }
+    f.cells = static_cast<int>(on.size());
+    if (f.cells < p.min_cells) continue;
+    f.height = percentile(on, 0.5);
+    f.hull = convex_hull(std::move(pts));
+    faces.push_back(std::move(f));
+  }
+  return faces;
+}
+
+std::vector<SE3> resting_poses_on_top(const ModelFaceAxes& axes, const TopFace& face,
+                                      const Plane& support, const RestingFaceParams& p) {
+  std::vector<SE3> out;
+  if (face.hull.size() < 3) return out;
+  const Vec3f up = support.normal;
+  const Vec3f origin = -support.d * up;
+  const float slack = static_cast<float>(p.width_slack_m);
+  for (float angle : outline_directions(face.hull)) {
+    const Eigen::Vector2f d1(std::cos(angle), std::sin(angle)), d2(-d1.y(), d1.x());
+    float a0 = std::numeric_limits<float>::infinity(), a1 = -a0, b0 = a0, b1 = -a0;
+    for (const Eigen::Vector2f& q : face.hull) {
+      a0 = std::min(a0, q.dot(d1)), a1 = std::max(a1, q.dot(d1));
+      b0 = std::min(b0, q.dot(d2)), b1 = std::max(b1, q.dot(d2));
+    }
+    const Vec3f D1 = d1.x() * face.e1 + d1.y() * face.e2;
+    Eigen::Matrix3f cam;
+    cam.col(0) = D1, cam.col(1) = up.cross(D1), cam.col(2) = up;
+    for (int k = 0; k < 3; ++k) {  // the axis along the support normal
+      const float height = axes.extents[k];
+      if (std::abs(height - face.height) > p.height_tolerance_m) continue;
+      for (int i = 0; i < 3; ++i) {  // the axis along d1
+        if (i == k) continue;
+        const int j = 3 - i - k;  // along d2
+        const float side1 = axes.extents[i], side2 = axes.extents[j];
+        if (a1 - a0 > side1 + slack || b1 - b0 > side2 + slack) continue;
+        Eigen::Matrix3f obj;
+        obj.col(0) = axes.axes.col(i), obj.col(1) = axes.axes.col(j);
+        obj.col(2) = obj.col(0).cross(obj.col(1));
+        const Eigen::Matrix3f R = cam * obj.transpose();
+        for (float c1 : placements(a0, a1, side1, slack))
+          for (float c2 : placements(b0, b1, side2, slack)) {
+            const Vec3f centre = origin + c1 * D1 + c2 * cam.col(1) + 0.5f * height * up;
+            out.emplace_back(R.cast<double>(), (centre - R * axes.centre).cast<double>());
+          }
       }
     }
   }

@@ -48,6 +48,32 @@ struct RestingFaceParams {
   int max_faces = 3;                 ///< per region, largest first
 };
 
+/// A horizontal planar patch of observed surface over the support: the top of a box resting on it.
+struct TopFace {
+  Eigen::Vector3f e1 = Eigen::Vector3f::UnitX();  ///< horizontal, camera frame
+  Eigen::Vector3f e2 = Eigen::Vector3f::UnitY();  ///< horizontal, support normal x e1
+  float height = 0;                                ///< over the support (median), m
+  /// convex hull of its points in (e1, e2) coordinates from the plane's point nearest the camera
+  std::vector<Eigen::Vector2f> hull;
+  int cells = 0;
+};
+
+/// The top faces of `cells`, largest first: cells whose normal lies within max_tilt_deg of the
+/// support normal, at least 2 cm over the support, grouped by height (1 cm bins, +-1.5 cm around
+/// the most common height); at most max_faces, each with at least min_cells cells.
+std::vector<TopFace> top_faces(const SceneGrid& g, GridNormals& normals,
+                               const std::vector<int>& cells, const Plane& support,
+                               const RestingFaceParams& p);
+
+/// Poses (T_cam_obj) of a model resting on `support` with its top face on `face`: every axis
+/// whose extent is the face's height (height_tolerance_m) stands up; the other two run along the
+/// face's dominant outline directions (the two longest directions of its hull edges, modulo 90
+/// degrees), each way round, when the face fits in the model's top (+ width_slack_m); centred on
+/// the face along a side the face spans, else aligned with either end of it (the rest hidden, or
+/// outside the image).
+std::vector<SE3> resting_poses_on_top(const ModelFaceAxes& axes, const TopFace& face,
+                                      const Plane& support, const RestingFaceParams& p);
+
 /// The vertical faces of `cells` (the normals of `normals`), largest first: cells whose normal
 /// lies within max_tilt_deg of the support plane, grouped by direction (10-degree bins) and by
 /// offset along it (1 cm bins).

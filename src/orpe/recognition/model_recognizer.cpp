@@ -823,6 +823,7 @@ void ModelRecognizer::Pass::add_resting_tasks(const std::vector<int>& rest,
   }
   if (!p.resting_top_faces) return;
   for (const TopFace& f : top_faces(g, *normals, rest, support, fp)) {
+    if (!f.at_border) continue;
     spdlog::trace("recognition: top face of {} cells at {:.3f} m, hull of {}", f.cells, f.height,
                   f.hull.size());
     for (size_t mi = 0; mi < rec.models_.size(); ++mi)

@@ -57,7 +57,7 @@ struct RecognitionParams {
   double resting_face_max_bottom_m = 0.03;
   double resting_height_tolerance_m = 0.02;
   double resting_width_slack_m = 0.02;
-  bool resting_top_faces = true;  ///< also at an observed top face (a box seen from above)
+  bool resting_top_faces = true;  ///< also at a top face cut by the image border
   // Verification.
   double inlier_distance_m = 0.01;
   double inlier_distance_per_m2 = 0;  ///< at depth z: max(inlier_distance_m, this x z^2)
@@ -156,11 +156,15 @@ struct RecognitionParams {
       "Resting search: the face may be this much (m) wider than the model's side along it; a "
       "face narrower by more is partly hidden and the model is aligned with either end of it");
     v("resting_top_faces", resting_top_faces,
-      "Resting search: boxes are also placed at each top face a region shows (normals within "
-      "resting_face_max_tilt_deg of the support normal, resting_face_min_cells cells): standing "
-      "on the support on the axis whose extent is the face's height, turned along the face's "
-      "outline, centred on it or flush with either end of it. A box whose vertical faces are "
-      "hidden, or cut by the image border, shows its top; false = vertical faces only");
+      "Resting search: boxes are also placed at each top face a region shows that the image "
+      "border cuts (normals within resting_face_max_tilt_deg of the support normal, "
+      "resting_face_min_cells cells, some on the border): standing on the support on the axis "
+      "whose extent is the face's height, turned along the face's outline, centred on it or "
+      "flush with either end of it. A box close to the camera at the bottom border shows its top "
+      "and little of its sides (vertical faces whose foot leaves the image are searched too); "
+      "top faces inside the image are not searched: there the vertical faces hold the box, and "
+      "the top-face poses let a smaller box standing on its end outrank a lying block (YCB-Video "
+      "clip 0002's wood block as a sugar box); false = vertical faces only");
     v("inlier_distance_m", inlier_distance_m,
       "An observed point within this distance (m) of the model surface is explained");
     v("inlier_distance_per_m2", inlier_distance_per_m2,

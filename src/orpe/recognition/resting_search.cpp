@@ -131,16 +131,19 @@ ModelFaceAxes model_face_axes(const ObjectModel& model) {
   return out;
 }
 
+/// Whether grid cell c lies on the image border (two cells wide).
+static bool on_image_border(const SceneGrid& g, int c) {
+  const int gu = c % g.width, gv = c / g.width;
+  return gu <= 1 || gv <= 1 || gu >= g.width - 2 || gv >= g.height - 2;
+}
+
 /// Whether a face's lowest cells (within 2 cm of its bottom) lie on the image border: the face
 /// leaves the view there, so its foot may stand on the support out of sight.
 static bool foot_out_of_view(const SceneGrid& g, const std::vector<int>& cells,
-                      const std::vector<float>& height, float bottom) {
+                             const std::vector<float>& height, float bottom) {
   int on_border = 0;
-  for (size_t i = 0; i < cells.size(); ++i) {
-    if (height[i] > bottom + 0.02f) continue;
-    const int gu = cells[i] % g.width, gv = cells[i] / g.width;
-    on_border += gu <= 1 || gv <= 1 || gu >= g.width - 2 || gv >= g.height - 2;
-  }
+  for (size_t i = 0; i < cells.size(); ++i)
+    on_border += height[i] <= bottom + 0.02f && on_image_border(g, cells[i]);
   return on_border >= 3;
 }
 
@@ -293,9 +296,11 @@ std::vector<TopFace> top_faces(const SceneGrid& g, GridNormals& normals,
     f.e1 = up.unitOrthogonal(), f.e2 = up.cross(f.e1);
     std::vector<float> on;
     std::vector<Eigen::Vector2f> pts;
+    int on_border = 0;
     for (size_t i = 0; i < flat.size(); ++i) {
       if (taken[i] || std::abs(heights[i] - mode) > kHalfWidth) continue;
       taken[i] = 1;
+      on_border += on_image_border(g, flat[i]);
       const Vec3f d = g.points[static_cast<size_t>(flat[i])] - origin;
       on.push_back(heights[i]);
       pts.emplace_back(d.dot(f.e1), d.dot(f.e2));
@@ -303,6 +308,7 @@ std::vector<TopFace> top_faces(const SceneGrid& g, GridNormals& normals,
     f.cells = static_cast<int>(on.size());
     if (f.cells < p.min_cells) continue;
     f.height = percentile(on, 0.5);
+    f.at_border = on_border >= 3;
     f.hull = convex_hull(std::move(pts));
     faces.push_back(std::move(f));
   }

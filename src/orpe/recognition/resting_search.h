@@ -56,6 +56,7 @@ struct TopFace {
   /// convex hull of its points in (e1, e2) coordinates from the plane's point nearest the camera
   std::vector<Eigen::Vector2f> hull;
   int cells = 0;
+  bool at_border = false;  ///< some of its cells lie on the image border (it leaves the view)
 };
 
 /// The top faces of `cells`, largest first: cells whose normal lies within max_tilt_deg of the

@@ -81,6 +81,10 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("normal_radius_cells must be in [1, 10]");
   if (!(min_in_image_fraction >= 0 && min_in_image_fraction <= 1))
     return fail("min_in_image_fraction must be in [0, 1]");
+  if (!(standing_max_tilt_deg > 0 && standing_max_tilt_deg < 90) || standing_window_cells < 0 ||
+      standing_min_points < 1 || !(standing_height_tolerance_m > 0))
+    return fail("standing_max_tilt_deg must be in (0, 90), standing_window_cells >= 0, "
+                "standing_min_points >= 1 and standing_height_tolerance_m > 0");
   if (!(resting_min_in_image_fraction >= 0 && resting_min_in_image_fraction <= 1))
     return fail("resting_min_in_image_fraction must be in [0, 1]");
   if (!(solo_leak_weight >= 0 && solo_leak_weight <= 1))
@@ -196,6 +200,7 @@ struct Hypothesis {
   double colour = 1;      // best colour NCC over the pose and its confusable turns (1: not tested)
   double solo_leak = -1;  // outline leak of the hypothesis alone (-1: not measured)
   double in_image = 1;    // of its camera-facing model points, the fraction inside the image
+  int stands = -1;        // stands on the support or observed surface (-1: not measured)
 };
 
 }  // namespace recognition_detail
@@ -632,6 +637,7 @@ struct ModelRecognizer::Pass {
   void measure_solo_leaks();
   void select();
   double min_in_image(const Hypothesis& h) const;
+  bool stands(Hypothesis& h);
   void reject_clutter();
   int worst_silhouette_overflow();
   std::vector<Detection> detections();
@@ -852,6 +858,7 @@ RecognizedObject ModelRecognizer::Pass::score(int mi, const SE3& T_cam_obj) {
   out.solo_leak = s.solo_leak;
   out.rank = s.rank;
   out.in_image = s.in_image;
+  out.stands = stands(hyps.front());
   return out;
 }
 
@@ -876,6 +883,25 @@ double ModelRecognizer::Pass::min_in_image(const Hypothesis& h) const {
                  : p.min_in_image_fraction;
 }
 
+/// Whether a hypothesis rests on the support plane or stands on observed surface (a stacked
+/// object on the top of what holds it); measured once. Always true with require_standing off.
+bool ModelRecognizer::Pass::stands(Hypothesis& h) {
+  if (!p.require_standing || g.planes.empty() || !std::isfinite(h.lowest_m) ||
+      h.lowest_m < p.resting_tolerance_m)
+    return true;
+  if (h.stands < 0) {
+    if (!normals) normals.emplace(g, p.normal_radius_cells);
+    h.stands = stands_on_observed_surface(
+        g, *normals, K, rec.models_[static_cast<size_t>(h.model)], h.T_cam_obj,
+        static_cast<float>(h.lowest_m), static_cast<float>(p.standing_height_tolerance_m),
+        static_cast<float>(p.standing_max_tilt_deg), p.standing_window_cells, p.standing_min_points);
+    if (!h.stands)
+      spdlog::trace("recognition: {} with its foot {:.3f} m over the support stands on nothing",
+                    rec.models_[static_cast<size_t>(h.model)].name, h.lowest_m);
+  }
+  return h.stands > 0;
+}
+
 /// Greedy selection, best first: a hypothesis is kept when it newly explains enough points.
 void ModelRecognizer::Pass::select() {
   measure_solo_leaks();
@@ -893,7 +919,8 @@ void ModelRecognizer::Pass::select() {
   for (int i : order) {
     const Hypothesis& h = hyps[static_cast<size_t>(i)];
     if (h.dropped || h.support < p.min_support || h.violation > p.max_violation ||
-        h.colour < p.min_colour_ncc || (!h.from_track && h.in_image < min_in_image(h)))
+        h.colour < p.min_colour_ncc ||
+        (!h.from_track && (h.in_image < min_in_image(h) || !stands(hyps[static_cast<size_t>(i)]))))
       continue;
     int fresh = 0;
     for (int c : h.explained) fresh += explained_by[c] < 0;

@@ -70,6 +70,11 @@ struct RecognitionParams {
   double min_in_image_fraction = 0.5;  ///< of its camera-facing model points inside the image
   double resting_min_in_image_fraction = 0.1;  ///< the same for one resting on the support
   double max_violation = 0.15;    ///< model points in free space or below the support, fraction
+  bool require_standing = true;   ///< a searched object off the support stands on seen surface
+  double standing_max_tilt_deg = 25;  ///< what it stands on: normal this close to the support's
+  int standing_window_cells = 3;      ///< looked for this many grid cells around its foot points
+  int standing_min_points = 2;        ///< foot points with a support cell around them
+  double standing_height_tolerance_m = 0.04;  ///< support cell this close to the foot's height
   int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
   double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
   bool colour_shading_correction = true;  ///< regress a + b . normal out of both greys first
@@ -209,6 +214,26 @@ struct RecognitionParams {
       "held by its height over the table as well as by what the frame shows of it (a box close "
       "to the camera at the bottom border, 14-17 % of its camera-facing points in view); 0 = "
       "no image-border test for resting objects");
+    v("require_standing", require_standing,
+      "A searched hypothesis whose lowest model point is more than resting_tolerance_m over the "
+      "support plane must stand on observed surface: at least standing_min_points of its foot "
+      "points (model points within 1 cm of its lowest) have, within standing_window_cells grid "
+      "cells of their projection, a kept cell within standing_height_tolerance_m of the foot's "
+      "height whose normal is within standing_max_tilt_deg of the support's (the top of the crate a "
+      "can is stacked on), or lie on another removed plane (a shelf board). A can model fitted "
+      "to the top end of a taller cylinder floats: under its foot the cylinder's side goes on "
+      "down. Foot points outside the image are no evidence either way; known objects are not "
+      "tested; false = off");
+    v("standing_max_tilt_deg", standing_max_tilt_deg,
+      "Standing test: a support cell's normal is within this angle (deg) of the support plane's");
+    v("standing_window_cells", standing_window_cells,
+      "Standing test: half-width (grid cells) of the window around a foot point's projection");
+    v("standing_min_points", standing_min_points,
+      "Standing test: foot points that must find a support cell");
+    v("standing_height_tolerance_m", standing_height_tolerance_m,
+      "Standing test: a support cell lies within this distance (m) of the foot's height over the "
+      "support plane (a searched pose of a stacked can may float 2-3 cm over the crate's top "
+      "before its refinement)");
     v("max_violation", max_violation,
       "A hypothesis may have at most this fraction of model points in free space / below the "
       "support");
@@ -365,6 +390,7 @@ struct RecognizedObject {
   double solo_leak = -1;  ///< outline leak as if alone (-1: not measured)
   double rank = 0;
   double in_image = 1;  ///< of its camera-facing model points, the fraction inside the image
+  bool stands = true;   ///< rests on the support or stands on observed surface (require_standing)
 };
 
 class ModelRecognizer final : public Segmenter {

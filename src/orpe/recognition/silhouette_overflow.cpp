@@ -74,4 +74,41 @@ bool is_support_cell(const SceneGrid& g, GridNormals& normals, const Plane& supp
          std::cos(max_tilt_deg * static_cast<float>(M_PI) / 180.0f);
 }
 
+bool stands_on_observed_surface(const SceneGrid& g, GridNormals& normals,
+                                const PinholeIntrinsics& K, const ObjectModel& model,
+                                const SE3& T_cam_obj, float base_m, float height_tolerance_m,
+                                float max_tilt_deg, int radius_cells, int min_points) {
+  if (g.planes.empty()) return true;
+  const Plane& support = g.planes.front();
+  const Eigen::Matrix3f R = T_cam_obj.rotation().cast<float>();
+  const Eigen::Vector3f t = T_cam_obj.translation().cast<float>();
+  const size_t step = std::max<size_t>(1, model.points.size() / 400);
+  const float stride = static_cast<float>(g.stride);
+  int projected = 0, supported = 0;
+  for (size_t k = 0; k < model.points.size() && supported < min_points; k += step) {
+    const Eigen::Vector3f q = R * model.points[k] + t;
+    if (support.signed_distance(q) > base_m + 0.01f || q.z() <= 0.05f) continue;
+    bool on_plane = false;
+    for (size_t j = 1; j < g.planes.size() && !on_plane; ++j)
+      on_plane = std::abs(g.planes[j].signed_distance(q)) < height_tolerance_m;
+    if (on_plane) {
+      ++supported;
+      continue;
+    }
+    const int cu = static_cast<int>(std::lround((K.fx * q.x() / q.z() + K.cx) / stride));
+    const int cv = static_cast<int>(std::lround((K.fy * q.y() / q.z() + K.cy) / stride));
+    if (cu < 0 || cv < 0 || cu >= g.width || cv >= g.height) continue;
+    ++projected;
+    bool found = false;
+    for (int v = std::max(0, cv - radius_cells); v <= std::min(g.height - 1, cv + radius_cells) && !found; ++v)
+      for (int u = std::max(0, cu - radius_cells); u <= std::min(g.width - 1, cu + radius_cells) && !found; ++u) {
+        const int c = g.cell(u, v);
+        found = g.kept[c] &&
+                is_support_cell(g, normals, support, c, base_m, height_tolerance_m, max_tilt_deg);
+      }
+    supported += found;
+  }
+  return supported >= min_points || projected == 0;
+}
+
 }  // namespace orpe

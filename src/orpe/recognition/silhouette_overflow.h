@@ -37,4 +37,15 @@ int silhouette_overflow(const SceneGrid& g, const std::vector<int>& explained_by
 bool is_support_cell(const SceneGrid& g, GridNormals& normals, const Plane& support, int c,
                      float base_m, float height_tolerance_m, float max_tilt_deg);
 
+/// Whether an object whose lowest model point lies `base_m` over the support plane (g.planes
+/// front) stands on observed surface: of its foot -- the model points (at T_cam_obj) within 1 cm
+/// of that height, subsampled to about 400 -- at least `min_points` have a support cell
+/// (is_support_cell at `base_m`) within `radius_cells` grid cells of their projection, or lie
+/// within `height_tolerance_m` of another removed plane (a shelf board). True when no foot point
+/// projects into the grid (no evidence) or the grid has no plane.
+bool stands_on_observed_surface(const SceneGrid& g, GridNormals& normals,
+                                const PinholeIntrinsics& K, const ObjectModel& model,
+                                const SE3& T_cam_obj, float base_m, float height_tolerance_m,
+                                float max_tilt_deg, int radius_cells, int min_points);
+
 }  // namespace orpe

@@ -129,12 +129,17 @@ namespace {
 
 // A box of which the frame shows only a strip at the image border: geometry fits the model to
 // the strip, but most of the surface it predicts facing the camera lies outside the image. With
-// min_in_image_fraction it is not kept; a box in full view is.
+// min_in_image_fraction it is not kept; a box in full view is. A box resting on the support is
+// held to resting_min_in_image_fraction instead (its height over the table vouches for it).
 TEST(RecognitionExplanation, AModelHeldByAStripAtTheImageBorderIsNotKept) {
   const TestShapes sh;
-  auto detected = [&](double x, double fraction) {
+  auto detected = [&](double x, double fraction, double resting_fraction) {
     RecognitionParams p;
     p.min_in_image_fraction = fraction;
+    p.resting_min_in_image_fraction = resting_fraction;
+    // The resting search's poses placed on the box's top, refined on the strip, slide 2.5 cm into
+    // view (in image 0.61, support 0.69) and pass the 0.5 rule; only the image-border rule here.
+    p.resting_search = false;
     const ModelRecognizer rec(SegmentationParams{}, p, SceneGeometryParams{}, sh.models());
     const RgbdFrame f =
         test::render_table_scene({{1, &sh.box, TestShapes::on_table(x, 0, 0, 0.025)}});
@@ -144,9 +149,11 @@ TEST(RecognitionExplanation, AModelHeldByAStripAtTheImageBorderIsNotKept) {
   };
   // At x = 0.355 m the box is cut by the right image border (x 0.345: enough of it in view for
   // 0.5; x 0.36: too little for a region).
-  EXPECT_EQ(detected(0.355, 0), 1);  // the rule off: the strip is a box
-  EXPECT_EQ(detected(0.355, 0.5), 0);
-  EXPECT_EQ(detected(0, 0.5), 1);
+  EXPECT_EQ(detected(0.355, 0, 0), 1);  // the rule off: the strip is a box
+  EXPECT_EQ(detected(0.355, 0.5, 0.5), 0);
+  EXPECT_EQ(detected(0, 0.5, 0.5), 1);
+  // The default for resting objects (0.1): the box on the table, cut by the border, is kept.
+  EXPECT_EQ(detected(0.355, 0.5, RecognitionParams{}.resting_min_in_image_fraction), 1);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
+#include <string>
 
 #include "orpe/recognition/model_recognizer.h"
 #include "orpe/recognition/silhouette_overflow.h"
@@ -34,6 +36,7 @@ TEST(SilhouetteOverflow, AnObjectLongerThanTheModelFittedToItIsRejected) {
     RecognitionParams p;
     p.max_silhouette_overflow = max_overflow;
     p.silhouette_support_max_tilt_deg = support_tilt;
+    p.require_standing = false;  // the standing rule drops it too (StandingRule tests)
     return classes_of(
         ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, models).detect(f));
   };
@@ -98,6 +101,102 @@ TEST(SilhouetteOverflow, AnObjectStackedOnAnUnexplainedCrateIsKept) {
   };
   EXPECT_EQ(cans_with(25), 1);
   EXPECT_EQ(cans_with(0), 0);  // the stop off: the crate top is the can's overflow
+}
+
+/// Height over the support plane of the lowest model point at T_cam_obj.
+float lowest_over(const Plane& support, const ObjectModel& m, const SE3& T_cam_obj) {
+  float lowest = 1e9f;
+  for (const auto& p : m.points)
+    lowest = std::min(lowest, support.signed_distance((T_cam_obj * p.cast<double>()).cast<float>()));
+  return lowest;
+}
+
+// The standing test on its own. A can stacked on a crate stands on the crate's top at its true
+// pose; lifted 6 cm it floats (no horizontal surface within 4 cm of its foot's height around its
+// foot); a can model at the top end of a 0.25 m cylinder floats too: below its foot the
+// cylinder's side runs on down.
+TEST(StandingRule, AStackedCanStandsAndAFloatingOneDoesNot) {
+  const TestShapes s;
+  const test::SurfaceSamples crate = test::sample_box({0.30f, 0.22f, 0.12f}, 0.0015f);
+  const test::SurfaceSamples tall = test::sample_cylinder(0.035f, 0.25f, 0.0015f);
+  const SE3 can_on_crate = TestShapes::on_table(0.04, 0.0, 0, 0.12 + 0.055);
+  const SE3 tall_at = TestShapes::on_table(-0.28, 0.03, 0, 0.125);
+  const RgbdFrame f = test::render_table_scene(
+      {{0, &crate, TestShapes::on_table(0, 0.02, 0.1, 0.06)}, {2, &s.can, can_on_crate},
+       {0, &tall, tall_at}},
+      Vec3(-0.05, -0.65, 0.6), Vec3(-0.08, 0, 0.1));
+  SceneGeometryParams gp;
+  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+  remove_support_planes(g, gp);
+  split_regions(g, gp);
+  ASSERT_FALSE(g.planes.empty());
+  GridNormals normals(g, 3);
+  const ObjectModel can = s.models()[1];
+  const SE3 T_cam_world = f.T_world_cam_gt->inverse();
+  auto stands = [&](const SE3& T_world_obj) {
+    const SE3 T = T_cam_world * T_world_obj;
+    return stands_on_observed_surface(g, normals, f.intrinsics, can, T,
+                                      lowest_over(g.planes.front(), can, T), 0.04f, 25.0f, 3, 2);
+  };
+  EXPECT_TRUE(stands(can_on_crate));
+  EXPECT_FALSE(stands(SE3(Eigen::Matrix3d::Identity(), Vec3(0, 0, 0.06)) * can_on_crate));
+  EXPECT_FALSE(stands(TestShapes::on_table(-0.28, 0.03, 0, 0.25 - 0.055)));
+}
+
+// A can model fitted to the top end of a tall flat-painted cylinder (a distractor) beside a real
+// can, with the silhouette-overflow rule off: the standing rule drops it, the real can on the
+// table is kept; the rule off, a model is kept on the tall cylinder too.
+TEST(StandingRule, AModelFittedToTheTopOfATallerCylinderIsRejected) {
+  const TestShapes s;
+  const test::SurfaceSamples tall = test::sample_cylinder(0.035f, 0.25f, 0.0015f);
+  const RgbdFrame f =
+      test::render_table_scene({{2, &s.can, TestShapes::on_table(0.10, 0.02, 0, 0.055)},
+                                {0, &tall, TestShapes::on_table(-0.10, 0.03, 0, 0.125)}},
+                               Vec3(0.05, -0.55, 0.40), Vec3(0, 0, 0.08));
+  const std::vector<ObjectModel> models = s.models();
+  auto classes_with = [&](bool standing) {
+    RecognitionParams p;
+    p.max_silhouette_overflow = -1;
+    p.require_standing = standing;
+    return classes_of(
+        ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, models).detect(f));
+  };
+  EXPECT_EQ(classes_with(true), (std::map<int, int>{{2, 1}}));
+  EXPECT_GT(classes_with(false).size(), 1u);
+}
+
+// The rule keeps what stands on something: a can stacked on a crate no model explains.
+TEST(StandingRule, ACanStackedOnACrateIsKept) {
+  const TestShapes s;
+  const test::SurfaceSamples crate = test::sample_box({0.30f, 0.22f, 0.12f}, 0.0015f);
+  const RgbdFrame f =
+      test::render_table_scene({{0, &crate, TestShapes::on_table(0, 0.02, 0.1, 0.06)},
+                                {2, &s.can, TestShapes::on_table(0.04, 0.0, 0, 0.12 + 0.055)}},
+                               Vec3(0.05, -0.6, 0.6), Vec3(0, 0, 0.1));
+  RecognitionParams p;
+  p.require_standing = true;
+  p.min_region_coverage = 0;  // the crate, unexplained, holds most of the region: not tested here
+  EXPECT_EQ(
+      classes_of(
+          ModelRecognizer(SegmentationParams{}, p, SceneGeometryParams{}, s.models()).detect(f))[2],
+      1);
+}
+
+TEST(StandingRule, SettingsAreChecked) {
+  std::string why;
+  RecognitionParams p;
+  EXPECT_TRUE(p.IsValid(&why)) << why;
+  p.standing_height_tolerance_m = 0;
+  EXPECT_FALSE(p.IsValid(&why));
+  EXPECT_NE(why.find("standing_height_tolerance_m"), std::string::npos) << why;
+  p = RecognitionParams{};
+  p.standing_max_tilt_deg = 90;
+  EXPECT_FALSE(p.IsValid(&why));
+  EXPECT_NE(why.find("standing_max_tilt_deg"), std::string::npos) << why;
+  p = RecognitionParams{};
+  p.resting_min_in_image_fraction = 1.5;
+  EXPECT_FALSE(p.IsValid(&why));
+  EXPECT_NE(why.find("resting_min_in_image_fraction"), std::string::npos) << why;
 }
 
 }  // namespace

@@ -886,6 +886,9 @@ double ModelRecognizer::Pass::min_in_image(const Hypothesis& h) const {
 /// Whether a hypothesis rests on the support plane or stands on observed surface (a stacked
 /// object on the top of what holds it); measured once. Always true with require_standing off.
 bool ModelRecognizer::Pass::stands(Hypothesis& h) {
+  // A foot within resting_tolerance_m of the support plane rests on it. (Not the looser
+  // standing_height_tolerance_m: a model 1-4 cm over the table beside a crate explains a part of
+  // the crate's side, and stands on nothing.)
   if (!p.require_standing || g.planes.empty() || !std::isfinite(h.lowest_m) ||
       h.lowest_m < p.resting_tolerance_m)
     return true;

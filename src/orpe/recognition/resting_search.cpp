@@ -98,10 +98,16 @@ std::vector<float> outline_directions(const std::vector<Eigen::Vector2f>& hull) 
 }
 
 /// Centres of a side of length `side` over an observed extent [lo, hi]: the middle when the
-/// extent spans the side (within `slack`), else flush with either end.
-std::vector<float> placements(float lo, float hi, float side, float slack) {
+/// extent spans the side (within `slack`), else flush with either end -- but not with an end cut by
+/// the image border (`lo_cut`, `hi_cut`) while the other end is in view: the object goes on out of
+/// sight there, and flush with it the rest of it would lie in view, where nothing is seen.
+std::vector<float> placements(float lo, float hi, float side, float slack, bool lo_cut = false,
+                              bool hi_cut = false) {
   if (side - (hi - lo) < slack) return {0.5f * (lo + hi)};
-  return {lo + 0.5f * side, hi - 0.5f * side};
+  std::vector<float> out;
+  if (!lo_cut || hi_cut) out.push_back(lo + 0.5f * side);
+  if (!hi_cut || lo_cut) out.push_back(hi - 0.5f * side);
+  return out;
 }
 
 }  // namespace
@@ -216,6 +222,11 @@ std::vector<VerticalFace> vertical_faces(const SceneGrid& g, GridNormals& normal
     f.offset = percentile(on, 0.5);
     f.s_min = percentile(s, 0.02), f.s_max = percentile(s, 0.98);
     f.bottom = percentile(height, 0.02), f.top = percentile(height, 0.98);
+    for (size_t i = 0; i < face_cells.size(); ++i)
+      if (on_image_border(g, face_cells[i])) {
+        f.s_min_cut |= s[i] < f.s_min + 0.01f;
+        f.s_max_cut |= s[i] > f.s_max - 0.01f;
+      }
     if (f.bottom > p.max_bottom_m && !foot_out_of_view(g, face_cells, height, f.bottom)) continue;
     faces.push_back(f);
     if (static_cast<int>(faces.size()) >= p.max_faces) break;
@@ -239,11 +250,8 @@ std::vector<SE3> resting_poses(const ModelFaceAxes& axes, const VerticalFace& fa
       if (j == k) continue;
       const float side = axes.extents[3 - j - k];
       if (width > side + slack) continue;
-      std::vector<float> along;
-      if (side - width < slack)
-        along = {0.5f * (face.s_min + face.s_max)};
-      else
-        along = {face.s_min + 0.5f * side, face.s_max - 0.5f * side};
+      const std::vector<float> along =
+          placements(face.s_min, face.s_max, side, slack, face.s_min_cut, face.s_max_cut);
       // One sign of each axis: the other three are the same box turned by 180 degrees, which the
       // refinement and the verification do not tell apart (measured: identical fits).
       Eigen::Matrix3f obj;
@@ -300,10 +308,10 @@ std::vector<TopFace> top_faces(const SceneGrid& g, GridNormals& normals,
     for (size_t i = 0; i < flat.size(); ++i) {
       if (taken[i] || std::abs(heights[i] - mode) > kHalfWidth) continue;
       taken[i] = 1;
-      on_border += on_image_border(g, flat[i]);
       const Vec3f d = g.points[static_cast<size_t>(flat[i])] - origin;
       on.push_back(heights[i]);
       pts.emplace_back(d.dot(f.e1), d.dot(f.e2));
+      if (on_image_border(g, flat[i])) ++on_border, f.border.push_back(pts.back());
     }
     f.cells = static_cast<int>(on.size());
     if (f.cells < p.min_cells) continue;
@@ -329,6 +337,13 @@ std::vector<SE3> resting_poses_on_top(const ModelFaceAxes& axes, const TopFace& 
       a0 = std::min(a0, q.dot(d1)), a1 = std::max(a1, q.dot(d1));
       b0 = std::min(b0, q.dot(d2)), b1 = std::max(b1, q.dot(d2));
     }
+    // Which ends of the face the image border cuts (a border cell within 1 cm of the end).
+    bool a0_cut = false, a1_cut = false, b0_cut = false, b1_cut = false;
+    constexpr float kEnd = 0.01f;
+    for (const Eigen::Vector2f& q : face.border) {
+      a0_cut |= q.dot(d1) < a0 + kEnd, a1_cut |= q.dot(d1) > a1 - kEnd;
+      b0_cut |= q.dot(d2) < b0 + kEnd, b1_cut |= q.dot(d2) > b1 - kEnd;
+    }
     const Vec3f D1 = d1.x() * face.e1 + d1.y() * face.e2;
     Eigen::Matrix3f cam;
     cam.col(0) = D1, cam.col(1) = up.cross(D1), cam.col(2) = up;
@@ -344,8 +359,8 @@ std::vector<SE3> resting_poses_on_top(const ModelFaceAxes& axes, const TopFace& 
         obj.col(0) = axes.axes.col(i), obj.col(1) = axes.axes.col(j);
         obj.col(2) = obj.col(0).cross(obj.col(1));
         const Eigen::Matrix3f R = cam * obj.transpose();
-        for (float c1 : placements(a0, a1, side1, slack))
-          for (float c2 : placements(b0, b1, side2, slack)) {
+        for (float c1 : placements(a0, a1, side1, slack, a0_cut, a1_cut))
+          for (float c2 : placements(b0, b1, side2, slack, b0_cut, b1_cut)) {
             const Vec3f centre = origin + c1 * D1 + c2 * cam.col(1) + 0.5f * height * up;
             out.emplace_back(R.cast<double>(), (centre - R * axes.centre).cast<double>());
           }

@@ -35,6 +35,7 @@ struct VerticalFace {
   Eigen::Vector3f along;       ///< horizontal, in the face (up x normal)
   float offset = 0;            ///< normal . p of the face's points, relative to the plane origin
   float s_min = 0, s_max = 0;  ///< extent along `along` (2nd / 98th percentiles)
+  bool s_min_cut = false, s_max_cut = false;  ///< that end lies on the image border
   float bottom = 0, top = 0;   ///< heights over the support (2nd / 98th percentiles)
   int cells = 0;
 };
@@ -57,6 +58,7 @@ struct TopFace {
   std::vector<Eigen::Vector2f> hull;
   int cells = 0;
   bool at_border = false;  ///< some of its cells lie on the image border (it leaves the view)
+  std::vector<Eigen::Vector2f> border;  ///< its cells on the image border, as `hull`
 };
 
 /// The top faces of `cells`, largest first: cells whose normal lies within max_tilt_deg of the
@@ -71,7 +73,7 @@ std::vector<TopFace> top_faces(const SceneGrid& g, GridNormals& normals,
 /// face's dominant outline directions (the two longest directions of its hull edges, modulo 90
 /// degrees), each way round, when the face fits in the model's top (+ width_slack_m); centred on
 /// the face along a side the face spans, else aligned with either end of it (the rest hidden, or
-/// outside the image).
+/// outside the image) -- but not with an end the image border cuts while the other is in view.
 std::vector<SE3> resting_poses_on_top(const ModelFaceAxes& axes, const TopFace& face,
                                       const Plane& support, const RestingFaceParams& p);
 
@@ -87,7 +89,8 @@ std::vector<VerticalFace> vertical_faces(const SceneGrid& g, GridNormals& normal
 /// (height_tolerance_m) and of the axis along the face normal whose remaining side is at least the
 /// face's width (- width_slack_m), one sign of each (the others are the box turned by 180
 /// degrees); centred on the face when the face is about
-/// as wide as the model's side, else aligned with either end of it (the rest hidden).
+/// as wide as the model's side, else aligned with either end of it (the rest hidden) -- but not
+/// with an end the image border cuts while the other is in view (the rest would be in view).
 std::vector<SE3> resting_poses(const ModelFaceAxes& axes, const VerticalFace& face,
                                const Plane& support, const RestingFaceParams& p);
 

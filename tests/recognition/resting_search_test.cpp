@@ -93,3 +93,46 @@ TEST(RestingSearch, FindsABoxTheRotationGridMisses) {
 
 }  // namespace
 }  // namespace orpe
+
+namespace orpe {
+namespace {
+
+// A box close to the camera, cut by the bottom image border: its front face and foot are out of
+// view, only a strip of its top is seen. The top face is found (on the border), and one of the
+// poses placed on it -- flush with its end in view, the rest out of sight -- is the box's own
+// within 6 mm ADD-S; none is flush with the end the border cuts.
+TEST(RestingSearch, PlacesABoxCutByTheImageBorderOnItsTopFace) {
+  const TestShapes s;
+  const SE3 T_world_obj = TestShapes::on_table(0.0, -0.30, 0.0, 0.025);
+  const RgbdFrame f = test::render_table_scene({{1, &s.box, T_world_obj}});
+  const SceneGeometryParams gp;
+  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
+  remove_support_planes(g, gp);
+  const auto regions = split_regions(g, gp);
+  ASSERT_EQ(regions.size(), 1u);
+  GridNormals normals(g, 3);
+  RestingFaceParams fp;
+  fp.min_cells = 20;
+  EXPECT_TRUE(vertical_faces(g, normals, regions[0].cells, g.planes.front(), fp).empty());
+  const auto faces = top_faces(g, normals, regions[0].cells, g.planes.front(), fp);
+  ASSERT_FALSE(faces.empty());
+  EXPECT_TRUE(faces[0].at_border);
+  EXPECT_NEAR(faces[0].height, 0.05, 0.01);
+  const ObjectModel model = s.models()[0];
+  const SE3 T_true = f.T_world_cam_gt->inverse() * T_world_obj;
+  double best = 1e9;
+  const auto poses = resting_poses_on_top(model_face_axes(model), faces[0], g.planes.front(), fp);
+  for (const SE3& T : poses) best = std::min(best, adds(model, T, T_true));
+  EXPECT_LT(best, 0.006);
+  // Flush with the cut end, the box (on its 5 cm side, as it lies) would lie wholly in view: its
+  // centre 3-5 cm farther from the camera than the true one. No such pose (the rule off: two).
+  for (const SE3& T : poses) {
+    const Vec3 t = (*f.T_world_cam_gt * T).translation();
+    if (std::abs(t.z() - 0.025) < 0.005) {
+      EXPECT_LT(t.y(), T_world_obj.translation().y() + 0.02) << t.transpose();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace orpe

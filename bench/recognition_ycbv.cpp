@@ -150,10 +150,11 @@ std::string score_frame(const RgbdFrame& frame, const DatasetInfo& info,
                   gt.T_cam_obj.translation().y(), gt.T_cam_obj.translation().z());
     if (spdlog::should_log(spdlog::level::debug)) {
       const RecognizedObject s = rec.score_pose(frame, gt.class_id, gt.T_cam_obj);
-      spdlog::debug("  scored at its true pose: explains {}, fit {:.0f}, support {:.2f}, violation "
-                    "{:.2f}, in image {:.2f}, solo leak {:.2f}, rank {:.0f}, stands {}",
-                    s.explained_points, s.fit, s.support, s.violation, s.in_image, s.solo_leak,
-                    s.rank, s.stands);
+      spdlog::debug(
+          "  scored at its true pose: explains {}, fit {:.0f}, support {:.2f}, violation "
+          "{:.2f}, in image {:.2f}, solo leak {:.2f}, rank {:.0f}, stands {}",
+          s.explained_points, s.fit, s.support, s.violation, s.in_image, s.solo_leak, s.rank,
+          s.stands);
     }
     auto& pc = t.per_class[name];
     ++pc.second;

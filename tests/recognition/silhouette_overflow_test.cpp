@@ -107,7 +107,8 @@ TEST(SilhouetteOverflow, AnObjectStackedOnAnUnexplainedCrateIsKept) {
 float lowest_over(const Plane& support, const ObjectModel& m, const SE3& T_cam_obj) {
   float lowest = 1e9f;
   for (const auto& p : m.points)
-    lowest = std::min(lowest, support.signed_distance((T_cam_obj * p.cast<double>()).cast<float>()));
+    lowest =
+        std::min(lowest, support.signed_distance((T_cam_obj * p.cast<double>()).cast<float>()));
   return lowest;
 }
 
@@ -121,10 +122,11 @@ TEST(StandingRule, AStackedCanStandsAndAFloatingOneDoesNot) {
   const test::SurfaceSamples tall = test::sample_cylinder(0.035f, 0.25f, 0.0015f);
   const SE3 can_on_crate = TestShapes::on_table(0.04, 0.0, 0, 0.12 + 0.055);
   const SE3 tall_at = TestShapes::on_table(-0.28, 0.03, 0, 0.125);
-  const RgbdFrame f = test::render_table_scene(
-      {{0, &crate, TestShapes::on_table(0, 0.02, 0.1, 0.06)}, {2, &s.can, can_on_crate},
-       {0, &tall, tall_at}},
-      Vec3(-0.05, -0.65, 0.6), Vec3(-0.08, 0, 0.1));
+  const RgbdFrame f =
+      test::render_table_scene({{0, &crate, TestShapes::on_table(0, 0.02, 0.1, 0.06)},
+                                {2, &s.can, can_on_crate},
+                                {0, &tall, tall_at}},
+                               Vec3(-0.05, -0.65, 0.6), Vec3(-0.08, 0, 0.1));
   SceneGeometryParams gp;
   SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
   remove_support_planes(g, gp);

@@ -83,8 +83,9 @@ bool RecognitionParams::IsValid(std::string* why) const {
     return fail("min_in_image_fraction must be in [0, 1]");
   if (!(standing_max_tilt_deg > 0 && standing_max_tilt_deg < 90) || standing_window_cells < 0 ||
       standing_min_points < 1 || !(standing_height_tolerance_m > 0))
-    return fail("standing_max_tilt_deg must be in (0, 90), standing_window_cells >= 0, "
-                "standing_min_points >= 1 and standing_height_tolerance_m > 0");
+    return fail(
+        "standing_max_tilt_deg must be in (0, 90), standing_window_cells >= 0, "
+        "standing_min_points >= 1 and standing_height_tolerance_m > 0");
   if (!(resting_min_in_image_fraction >= 0 && resting_min_in_image_fraction <= 1))
     return fail("resting_min_in_image_fraction must be in [0, 1]");
   if (!(solo_leak_weight >= 0 && solo_leak_weight <= 1))
@@ -894,10 +895,11 @@ bool ModelRecognizer::Pass::stands(Hypothesis& h) {
     return true;
   if (h.stands < 0) {
     if (!normals) normals.emplace(g, p.normal_radius_cells);
-    h.stands = stands_on_observed_surface(
-        g, *normals, K, rec.models_[static_cast<size_t>(h.model)], h.T_cam_obj,
-        static_cast<float>(h.lowest_m), static_cast<float>(p.standing_height_tolerance_m),
-        static_cast<float>(p.standing_max_tilt_deg), p.standing_window_cells, p.standing_min_points);
+    h.stands = stands_on_observed_surface(g, *normals, K, rec.models_[static_cast<size_t>(h.model)],
+                                          h.T_cam_obj, static_cast<float>(h.lowest_m),
+                                          static_cast<float>(p.standing_height_tolerance_m),
+                                          static_cast<float>(p.standing_max_tilt_deg),
+                                          p.standing_window_cells, p.standing_min_points);
     if (!h.stands)
       spdlog::trace("recognition: {} with its foot {:.3f} m over the support stands on nothing",
                     rec.models_[static_cast<size_t>(h.model)].name, h.lowest_m);

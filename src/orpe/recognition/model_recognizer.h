@@ -69,14 +69,14 @@ struct RecognitionParams {
   double min_support = 0.55;           ///< visible model points on the observed depth, fraction
   double min_in_image_fraction = 0.5;  ///< of its camera-facing model points inside the image
   double resting_min_in_image_fraction = 0.1;  ///< the same for one resting on the support
-  double max_violation = 0.15;    ///< model points in free space or below the support, fraction
-  bool require_standing = true;   ///< a searched object off the support stands on seen surface
+  double max_violation = 0.15;        ///< model points in free space or below the support, fraction
+  bool require_standing = true;       ///< a searched object off the support stands on seen surface
   double standing_max_tilt_deg = 25;  ///< what it stands on: normal this close to the support's
   int standing_window_cells = 3;      ///< looked for this many grid cells around its foot points
   int standing_min_points = 2;        ///< foot points with a support cell around them
   double standing_height_tolerance_m = 0.04;  ///< support cell this close to the foot's height
-  int min_explained_points = 25;  ///< grid points a hypothesis must newly explain
-  double min_colour_ncc = 0.1;    ///< a model with colour: best grey NCC with the image (-1 = off)
+  int min_explained_points = 25;              ///< grid points a hypothesis must newly explain
+  double min_colour_ncc = 0.1;  ///< a model with colour: best grey NCC with the image (-1 = off)
   bool colour_shading_correction = true;  ///< regress a + b . normal out of both greys first
   double colour_min_print_contrast = 0;   ///< plain NCC under this; tracks corrected too (0 off)
   double resting_bonus = 0.1;          ///< rank x (1 + this) for an object resting on the support
@@ -219,7 +219,8 @@ struct RecognitionParams {
       "support plane must stand on observed surface: at least standing_min_points of its foot "
       "points (model points within 1 cm of its lowest) have, within standing_window_cells grid "
       "cells of their projection, a kept cell within standing_height_tolerance_m of the foot's "
-      "height whose normal is within standing_max_tilt_deg of the support's (the top of the crate a "
+      "height whose normal is within standing_max_tilt_deg of the support's (the top of the crate "
+      "a "
       "can is stacked on), or lie on another removed plane (a shelf board). A can model fitted "
       "to the top end of a taller cylinder floats: under its foot the cylinder's side goes on "
       "down. Foot points outside the image are no evidence either way; known objects are not "

@@ -3,8 +3,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
-#include <limits>
 #include <cmath>
+#include <limits>
 
 namespace orpe {
 
@@ -341,8 +341,8 @@ std::vector<SE3> resting_poses_on_top(const ModelFaceAxes& axes, const TopFace& 
     bool a0_cut = false, a1_cut = false, b0_cut = false, b1_cut = false;
     constexpr float kEnd = 0.01f;
     for (const Eigen::Vector2f& q : face.border) {
-      a0_cut |= q.dot(d1) < a0 + kEnd, a1_cut |= q.dot(d1) > a1 - kEnd;
-      b0_cut |= q.dot(d2) < b0 + kEnd, b1_cut |= q.dot(d2) > b1 - kEnd;
+      a0_cut |= q.dot(d1)<a0 + kEnd, a1_cut |= q.dot(d1)> a1 - kEnd;
+      b0_cut |= q.dot(d2)<b0 + kEnd, b1_cut |= q.dot(d2)> b1 - kEnd;
     }
     const Vec3f D1 = d1.x() * face.e1 + d1.y() * face.e2;
     Eigen::Matrix3f cam;

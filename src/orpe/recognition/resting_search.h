@@ -36,7 +36,7 @@ struct VerticalFace {
   float offset = 0;            ///< normal . p of the face's points, relative to the plane origin
   float s_min = 0, s_max = 0;  ///< extent along `along` (2nd / 98th percentiles)
   bool s_min_cut = false, s_max_cut = false;  ///< that end lies on the image border
-  float bottom = 0, top = 0;   ///< heights over the support (2nd / 98th percentiles)
+  float bottom = 0, top = 0;                  ///< heights over the support (2nd / 98th percentiles)
   int cells = 0;
 };
 
@@ -53,7 +53,7 @@ struct RestingFaceParams {
 struct TopFace {
   Eigen::Vector3f e1 = Eigen::Vector3f::UnitX();  ///< horizontal, camera frame
   Eigen::Vector3f e2 = Eigen::Vector3f::UnitY();  ///< horizontal, support normal x e1
-  float height = 0;                                ///< over the support (median), m
+  float height = 0;                               ///< over the support (median), m
   /// convex hull of its points in (e1, e2) coordinates from the plane's point nearest the camera
   std::vector<Eigen::Vector2f> hull;
   int cells = 0;

@@ -100,8 +100,10 @@ bool stands_on_observed_surface(const SceneGrid& g, GridNormals& normals,
     if (cu < 0 || cv < 0 || cu >= g.width || cv >= g.height) continue;
     ++projected;
     bool found = false;
-    for (int v = std::max(0, cv - radius_cells); v <= std::min(g.height - 1, cv + radius_cells) && !found; ++v)
-      for (int u = std::max(0, cu - radius_cells); u <= std::min(g.width - 1, cu + radius_cells) && !found; ++u) {
+    for (int v = std::max(0, cv - radius_cells);
+         v <= std::min(g.height - 1, cv + radius_cells) && !found; ++v)
+      for (int u = std::max(0, cu - radius_cells);
+           u <= std::min(g.width - 1, cu + radius_cells) && !found; ++u) {
         const int c = g.cell(u, v);
         found = g.kept[c] &&
                 is_support_cell(g, normals, support, c, base_m, height_tolerance_m, max_tilt_deg);

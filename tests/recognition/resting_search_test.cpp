@@ -26,6 +26,14 @@ double adds(const ObjectModel& m, const SE3& T, const SE3& T_true) {
   return sum / static_cast<double>(m.points.size());
 }
 
+/// The frame's scene grid (into `g`), its support plane removed, and its regions.
+std::vector<SceneRegion> segment(const RgbdFrame& f, SceneGrid& g) {
+  const SceneGeometryParams gp;
+  g = make_scene_grid(f.depth, f.intrinsics, gp);
+  remove_support_planes(g, gp);
+  return split_regions(g, gp);
+}
+
 TEST(RestingSearch, FaceAxesOfABoxAreItsEdges) {
   const ModelFaceAxes ax = model_face_axes(TestShapes().models()[0]);  // 0.12 x 0.07 x 0.05
   std::vector<float> e(ax.extents.data(), ax.extents.data() + 3);
@@ -45,10 +53,8 @@ TEST(RestingSearch, PlacesABoxOnItsObservedFace) {
   const TestShapes s;
   const SE3 T_world_obj = TestShapes::on_table(0.01, 0.02, 0.35, 0.025);
   const RgbdFrame f = test::render_table_scene({{1, &s.box, T_world_obj}});
-  const SceneGeometryParams gp;
-  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
-  remove_support_planes(g, gp);
-  const auto regions = split_regions(g, gp);
+  SceneGrid g;
+  const auto regions = segment(f, g);
   ASSERT_EQ(regions.size(), 1u);
   GridNormals normals(g, 3);
   const RestingFaceParams fp;
@@ -105,10 +111,8 @@ TEST(RestingSearch, PlacesABoxCutByTheImageBorderOnItsTopFace) {
   const TestShapes s;
   const SE3 T_world_obj = TestShapes::on_table(0.0, -0.30, 0.0, 0.025);
   const RgbdFrame f = test::render_table_scene({{1, &s.box, T_world_obj}});
-  const SceneGeometryParams gp;
-  SceneGrid g = make_scene_grid(f.depth, f.intrinsics, gp);
-  remove_support_planes(g, gp);
-  const auto regions = split_regions(g, gp);
+  SceneGrid g;
+  const auto regions = segment(f, g);
   ASSERT_EQ(regions.size(), 1u);
   GridNormals normals(g, 3);
   RestingFaceParams fp;

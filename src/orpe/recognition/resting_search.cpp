@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "orpe/core/convex_hull.h"
+
 namespace orpe {
 
 namespace {
@@ -48,29 +50,6 @@ float percentile(std::vector<float> v, double q) {
   const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
   return v[k];
-}
-
-/// The convex hull of 2-D points, counter-clockwise (Andrew's monotone chain).
-std::vector<Eigen::Vector2f> convex_hull(std::vector<Eigen::Vector2f> pts) {
-  std::sort(pts.begin(), pts.end(), [](const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  if (pts.size() < 3) return pts;
-  auto cross = [](const Eigen::Vector2f& o, const Eigen::Vector2f& a, const Eigen::Vector2f& b) {
-    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-  };
-  std::vector<Eigen::Vector2f> h(2 * pts.size());
-  size_t k = 0;
-  for (size_t i = 0; i < pts.size(); ++i) {
-    while (k >= 2 && cross(h[k - 2], h[k - 1], pts[i]) <= 0) --k;
-    h[k++] = pts[i];
-  }
-  for (size_t i = pts.size() - 1, t = k + 1; i > 0; --i) {
-    while (k >= t && cross(h[k - 2], h[k - 1], pts[i - 1]) <= 0) --k;
-    h[k++] = pts[i - 1];
-  }
-  h.resize(k - 1);
-  return h;
 }
 
 /// The two directions (radians, modulo 90 degrees, 5-degree bins) along which a hull's edges are

@@ -9,6 +9,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "orpe/core/convex_hull.h"
 #include "orpe/core/error.h"
 #include "orpe/render/mesh_io.h"
 #include "orpe/render/primitives.h"
@@ -397,26 +398,7 @@ ObjectModel load_object_model(const std::string& path, double metres_per_unit) {
 }
 
 std::vector<Eigen::Vector2d> convex_hull_2d(std::vector<Eigen::Vector2d> p) {
-  std::sort(p.begin(), p.end(), [](const auto& a, const auto& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  p.erase(std::unique(p.begin(), p.end()), p.end());
-  if (p.size() < 3) return p;
-  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-  };
-  std::vector<Eigen::Vector2d> h(2 * p.size());
-  size_t k = 0;
-  for (size_t i = 0; i < p.size(); ++i) {
-    while (k >= 2 && cross(h[k - 2], h[k - 1], p[i]) <= 0) --k;
-    h[k++] = p[i];
-  }
-  for (size_t i = p.size() - 1, t = k + 1; i-- > 0;) {
-    while (k >= t && cross(h[k - 2], h[k - 1], p[i]) <= 0) --k;
-    h[k++] = p[i];
-  }
-  h.resize(k - 1);
-  return h;
+  return convex_hull(std::move(p));
 }
 
 Vec3 mesh_centroid(const TriangleMesh& mesh) {

@@ -220,8 +220,7 @@ struct RecognitionParams {
       "points (model points within 1 cm of its lowest) have, within standing_window_cells grid "
       "cells of their projection, a kept cell within standing_height_tolerance_m of the foot's "
       "height whose normal is within standing_max_tilt_deg of the support's (the top of the crate "
-      "a "
-      "can is stacked on), or lie on another removed plane (a shelf board). A can model fitted "
+      "a can is stacked on), or lie on another removed plane (a shelf board). A can model fitted "
       "to the top end of a taller cylinder floats: under its foot the cylinder's side goes on "
       "down. Foot points outside the image are no evidence either way; known objects are not "
       "tested; false = off");

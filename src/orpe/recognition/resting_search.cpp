@@ -283,19 +283,18 @@ std::vector<TopFace> top_faces(const SceneGrid& g, GridNormals& normals,
     f.e1 = up.unitOrthogonal(), f.e2 = up.cross(f.e1);
     std::vector<float> on;
     std::vector<Eigen::Vector2f> pts;
-    int on_border = 0;
     for (size_t i = 0; i < flat.size(); ++i) {
       if (taken[i] || std::abs(heights[i] - mode) > kHalfWidth) continue;
       taken[i] = 1;
       const Vec3f d = g.points[static_cast<size_t>(flat[i])] - origin;
       on.push_back(heights[i]);
       pts.emplace_back(d.dot(f.e1), d.dot(f.e2));
-      if (on_image_border(g, flat[i])) ++on_border, f.border.push_back(pts.back());
+      if (on_image_border(g, flat[i])) f.border.push_back(pts.back());
     }
     f.cells = static_cast<int>(on.size());
     if (f.cells < p.min_cells) continue;
     f.height = percentile(on, 0.5);
-    f.at_border = on_border >= 3;
+    f.at_border = f.border.size() >= 3;
     f.hull = convex_hull(std::move(pts));
     faces.push_back(std::move(f));
   }
@@ -320,8 +319,9 @@ std::vector<SE3> resting_poses_on_top(const ModelFaceAxes& axes, const TopFace& 
     bool a0_cut = false, a1_cut = false, b0_cut = false, b1_cut = false;
     constexpr float kEnd = 0.01f;
     for (const Eigen::Vector2f& q : face.border) {
-      a0_cut |= q.dot(d1)<a0 + kEnd, a1_cut |= q.dot(d1)> a1 - kEnd;
-      b0_cut |= q.dot(d2)<b0 + kEnd, b1_cut |= q.dot(d2)> b1 - kEnd;
+      const float a = q.dot(d1), b = q.dot(d2);
+      a0_cut |= (a < a0 + kEnd), a1_cut |= (a > a1 - kEnd);
+      b0_cut |= (b < b0 + kEnd), b1_cut |= (b > b1 - kEnd);
     }
     const Vec3f D1 = d1.x() * face.e1 + d1.y() * face.e2;
     Eigen::Matrix3f cam;

@@ -5,6 +5,19 @@
 
 namespace orpe {
 
+namespace {
+
+/// The grid cell (column, row; maybe outside the grid) a camera-frame point projects to.
+Eigen::Vector2i grid_cell_of(const SceneGrid& g, const PinholeIntrinsics& K,
+                             const Eigen::Vector3f& q) {
+  const float stride = static_cast<float>(g.stride);
+  const float gu = static_cast<float>(K.fx * q.x() / q.z() + K.cx) / stride;
+  const float gv = static_cast<float>(K.fy * q.y() / q.z() + K.cy) / stride;
+  return {static_cast<int>(std::lround(gu)), static_cast<int>(std::lround(gv))};
+}
+
+}  // namespace
+
 std::vector<std::uint8_t> model_silhouette(const SceneGrid& g, const PinholeIntrinsics& K,
                                            const ObjectModel& model, const SE3& T_cam_obj,
                                            int margin_cells) {
@@ -16,11 +29,10 @@ std::vector<std::uint8_t> model_silhouette(const SceneGrid& g, const PinholeIntr
   for (const Eigen::Vector3f& p : model.points) {
     const Eigen::Vector3f q = R * p + t;
     if (q.z() <= 0.05f) continue;
-    const float gu = static_cast<float>(K.fx * q.x() / q.z() + K.cx) / stride;
-    const float gv = static_cast<float>(K.fy * q.y() / q.z() + K.cy) / stride;
     const int r = static_cast<int>(std::ceil(static_cast<float>(K.fx) * spacing / q.z() / stride)) +
                   margin_cells;
-    const int cu = static_cast<int>(std::lround(gu)), cv = static_cast<int>(std::lround(gv));
+    const Eigen::Vector2i cell = grid_cell_of(g, K, q);
+    const int cu = cell.x(), cv = cell.y();
     for (int v = std::max(0, cv - r); v <= std::min(g.height - 1, cv + r); ++v)
       for (int u = std::max(0, cu - r); u <= std::min(g.width - 1, cu + r); ++u)
         if ((u - cu) * (u - cu) + (v - cv) * (v - cv) <= r * r) in[g.cell(u, v)] = 1;
@@ -83,7 +95,6 @@ bool stands_on_observed_surface(const SceneGrid& g, GridNormals& normals,
   const Eigen::Matrix3f R = T_cam_obj.rotation().cast<float>();
   const Eigen::Vector3f t = T_cam_obj.translation().cast<float>();
   const size_t step = std::max<size_t>(1, model.points.size() / 400);
-  const float stride = static_cast<float>(g.stride);
   int projected = 0, supported = 0;
   for (size_t k = 0; k < model.points.size() && supported < min_points; k += step) {
     const Eigen::Vector3f q = R * model.points[k] + t;
@@ -95,8 +106,8 @@ bool stands_on_observed_surface(const SceneGrid& g, GridNormals& normals,
       ++supported;
       continue;
     }
-    const int cu = static_cast<int>(std::lround((K.fx * q.x() / q.z() + K.cx) / stride));
-    const int cv = static_cast<int>(std::lround((K.fy * q.y() / q.z() + K.cy) / stride));
+    const Eigen::Vector2i cell = grid_cell_of(g, K, q);
+    const int cu = cell.x(), cv = cell.y();
     if (cu < 0 || cv < 0 || cu >= g.width || cv >= g.height) continue;
     ++projected;
     bool found = false;

@@ -4,12 +4,16 @@
 #   bash scripts/fuzz.sh NAME [RUNS=1000000] [MAX_SECONDS=0 (no limit)] [extra libFuzzer flags]
 #   bash scripts/fuzz.sh --merge NAME [MAX_FILES=30]   # minimised new inputs -> fuzz/corpus/NAME
 # Needs the fuzz build: bash scripts/install-deps.sh --fuzz; cmake --preset fuzz;
-# cmake --build build-fuzz --target orpe_fuzz_NAME.
+# cmake --build build-fuzz --target orpe_fuzz_NAME. ORPE_FUZZ_BUILD_DIR=build-fuzz-fast runs the
+# preset fuzz-fast's binary instead (UBSan only, no ASan: for a target ASan slows down too much,
+# docs/FUZZING.md; replay its work corpus through build-fuzz afterwards).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN_DIR=${ORPE_FUZZ_BUILD_DIR:-build-fuzz}/bin
 WORK=${ORPE_FUZZ_WORK:-/dev/shm/orpe_fuzz_work}
 export TMPDIR=${TMPDIR:-/dev/shm}  # the targets' scratch files (tmpfs: no disk traffic per input)
+# A UBSan report is a finding: stop at it (UBSan alone, as in the fuzz-fast build, would print and go on).
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
 if [ "${1:-}" = --merge ]; then
   name=$2
   max_files=${3:-30}

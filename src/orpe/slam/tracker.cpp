@@ -107,6 +107,10 @@ bool TrackerParams::IsValid(std::string* why) const {
   if (!(rgb_max_depth_diff_m > 0)) return fail("rgb_max_depth_diff_m must be positive");
   if (rgb_min_gradient_level0 < 0 || rgb_min_gradient_level1 < 0 || rgb_min_gradient_level2 < 0)
     return fail("rgb_min_gradient_* must be >= 0");
+  if (rgb_edge_margin_px < 0 || rgb_edge_margin_px > 8)
+    return fail("rgb_edge_margin_px must be in 0..8");
+  if (!(rgb_edge_jump_m > 0) || !(rgb_edge_jump_per_m >= 0) || !std::isfinite(rgb_edge_jump_per_m))
+    return fail("need rgb_edge_jump_m > 0 and rgb_edge_jump_per_m >= 0");
   if (level0_pixel_step < 1 || level0_pixel_step > 4)
     return fail("level0_pixel_step must be in 1..4");
   if (!(max_translation_update_m > 0 && max_rotation_update_deg > 0))
@@ -134,6 +138,48 @@ bool TrackerParams::IsValid(std::string* why) const {
     return fail("need 0 <= min_overlap_fraction <= good_overlap_fraction <= 1");
   if (!(max_final_step > 0)) return fail("max_final_step must be positive");
   return true;
+}
+
+void photometric_edge_mask(const DepthImage& depth, int margin_px, float jump_m, float jump_per_m,
+                           float pixel_scale, MaskImage* out) {
+  const int W = depth.width(), H = depth.height();
+  ensure_size(*out, W, H);
+  // Seeds (0): pixels without depth and pixels with a neighbour across a depth discontinuity.
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y) {
+    for (int x = 0; x < W; ++x) {
+      const float z = depth.at(x, y);
+      bool seed = !(z > 0.0f);
+      const float jump = jump_m + jump_per_m * z * pixel_scale;
+      for (int dy = -1; dy <= 1 && !seed; ++dy)
+        for (int dx = -1; dx <= 1 && !seed; ++dx) {
+          const int u = x + dx, v = y + dy;
+          if (u < 0 || v < 0 || u >= W || v >= H) continue;
+          const float zn = depth.at(u, v);
+          seed = !(zn > 0.0f) || std::fabs(zn - z) > jump;
+        }
+      out->at(x, y) = seed ? 0 : 1;
+    }
+  }
+  if (margin_px <= 0) return;
+  // Erode the usable pixels by the margin (a min filter, rows then columns: Chebyshev distance).
+  MaskImage rows(W, H);
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      std::uint8_t m = 1;
+      for (int u = std::max(0, x - margin_px); u <= std::min(W - 1, x + margin_px) && m; ++u)
+        m = out->at(u, y);
+      rows.at(x, y) = m;
+    }
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      std::uint8_t m = 1;
+      for (int v = std::max(0, y - margin_px); v <= std::min(H - 1, y + margin_px) && m; ++v)
+        m = rows.at(x, v);
+      out->at(x, y) = m;
+    }
 }
 
 void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, int levels,
@@ -292,7 +338,7 @@ NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& mode
 
 NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& model,
                                   const SE3& T_ref_cam, float min_gradient, int pixel_step,
-                                  float huber_delta) const {
+                                  float huber_delta, const MaskImage* usable) const {
   const RigidF T_cam_ref(T_ref_cam.inverse());
   const int W = live.depth.width(), H = live.depth.height();
   const int MW = model.depth.width(), MH = model.depth.height();
@@ -313,7 +359,9 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
     int count = 0;
     const Vec3f* vrow = model.color_point.row(y);
     const float* irow = model.intensity.row(y);
+    const std::uint8_t* urow = usable ? usable->row(y) : nullptr;
     for (int x = 0; x < MW; x += step) {
+      if (urow && !urow[x]) continue;
       const Vec3f& vm = vrow[x];
       if (vm.z() <= 0.0f || vm.z() > max_z) continue;
       const Vec3f p = T_cam_ref(vm);
@@ -364,7 +412,18 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
     const int step = level == 0 ? params_.level0_pixel_step : 1;
     // The photometric loop runs over model pixels: sparser already when the model is coarser.
     const int rgb_step_px = (level == 0 && model.first_level == 0) ? params_.level0_pixel_step : 1;
+    // Reference pixels near depth discontinuities are left out of the photometric term at full
+    // resolution, where the estimate is settled (coarser levels only bring it into the basin, and
+    // at their coarse pixels the margin would take too much of a cluttered view away).
+    MaskImage usable;
+    const bool edge_mask = params_.use_rgb && params_.rgb_edge_margin_px > 0 && level == 0;
+    if (edge_mask)
+      photometric_edge_mask(M.depth, params_.rgb_edge_margin_px,
+                            static_cast<float>(params_.rgb_edge_jump_m),
+                            static_cast<float>(params_.rgb_edge_jump_per_m),
+                            static_cast<float>(1 << (model_level + model.first_level)), &usable);
     const int iters = iterations_for_level(params_, level);
+    Vec6 prev_xi = Vec6::Zero();
     for (int it = 0; it < iters; ++it) {
       ++res.iterations;
       Mat6 A = Mat6::Zero();
@@ -376,7 +435,8 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
       }
       if (params_.use_rgb) {
         const float delta = static_cast<float>(params_.rgb_huber_sigmas) * rgb_sigma;
-        last_rgb = rgb_step(L, M, T, gradient_for_level(params_, level), rgb_step_px, delta);
+        last_rgb = rgb_step(L, M, T, gradient_for_level(params_, level), rgb_step_px, delta,
+                            edge_mask ? &usable : nullptr);
         if (last_rgb.count > 0) {
           const double sigma2 = std::max(last_rgb.sum_sq / last_rgb.count, 1.0);
           rgb_sigma = static_cast<float>(std::sqrt(sigma2));
@@ -397,12 +457,17 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
         res.reason = "singular normal equations";
         break;
       }
-      const Vec6 xi = ldlt.solve(-b);
+      Vec6 xi = ldlt.solve(-b);
       if (!xi.allFinite()) {
         numerically_failed = true;
         res.reason = "non-finite update";
         break;
       }
+      // A step that mostly undoes the previous one is a limit cycle of the data association (the
+      // projective correspondences flip between two sets): take half of it, which lands between
+      // the two poses of the cycle instead of jumping back.
+      if (it > 0 && xi.dot(prev_xi) < -0.5 * xi.norm() * prev_xi.norm()) xi *= 0.5;
+      prev_xi = xi;
       T = SE3::exp(xi) * T;
       if (level == 0) res.final_step = xi.norm();
       if (xi.norm() < params_.convergence_step) {

@@ -44,6 +44,17 @@ struct TrackerParams {
   /// Huber threshold of photometric residuals in units of their RMS (of the previous iteration);
   /// 0 = plain least squares (EF)
   double rgb_huber_sigmas = 0.0;
+  /// Photometric term: reference (model) pixels within this many pixels (of their pyramid level)
+  /// of a depth discontinuity or of a pixel without depth are not used. Colour there mixes two
+  /// surfaces (optics, antialiasing, the pyramid's averaging, the bilinear lookup) whose parallax
+  /// differs, which biases the motion along the translation-rotation ambiguity (docs/SLAM.md,
+  /// "Photometric term near depth edges"). 0 = every pixel (ElasticFusion). Typical 1-2. Applied at
+  /// full resolution (pyramid level 0) only.
+  int rgb_edge_margin_px = 1;
+  /// A depth discontinuity: 8-neighbours differ by more than rgb_edge_jump_m + rgb_edge_jump_per_m
+  /// x z x (the level's pixel size in full-resolution pixels) (m).
+  double rgb_edge_jump_m = 0.01;
+  double rgb_edge_jump_per_m = 0.02;
   /// Step the pixel loops by this at level 0 (1 = every pixel; 2 = every 2nd row and column).
   int level0_pixel_step = 1;
   double convergence_step = 1e-5;         ///< stop a level when |xi| (m, rad) falls below this
@@ -122,6 +133,13 @@ struct TrackerParams {
     v("rgb_huber_sigmas", rgb_huber_sigmas,
       "Huber threshold of photometric residuals, in RMS residuals of the previous iteration; 0 = "
       "off (EF)");
+    v("rgb_edge_margin_px", rgb_edge_margin_px,
+      "Photometric: skip reference pixels within this many pixels of a depth discontinuity "
+      "(mixed colours bias the motion); 0 = off (EF)");
+    v("rgb_edge_jump_m", rgb_edge_jump_m,
+      "Photometric: a depth discontinuity is a neighbour depth difference above this (m) ...");
+    v("rgb_edge_jump_per_m", rgb_edge_jump_per_m,
+      "... plus this times the depth and the level's pixel size (m per m)");
     v("level0_pixel_step", level0_pixel_step,
       "Use every n-th row and column at level 0 (speed; 1 = all)");
     v("convergence_step", convergence_step, "Stop a level when the update norm is below this");
@@ -190,6 +208,13 @@ struct ModelPyramid {
 void build_model_pyramid(const RenderedView& view, const PinholeIntrinsics& K, int levels,
                          float max_depth_jump_m, ModelPyramid* out, int first_level = 0);
 
+/// Marks with 1 the pixels of `depth` (m; <= 0: none) farther than `margin_px` pixels (Chebyshev)
+/// from a depth discontinuity (8-neighbours whose depths differ by more than
+/// jump_m + jump_per_m * z * pixel_scale, pixel_scale = the pixel's size in full-resolution pixels)
+/// and from a pixel without depth; 0 elsewhere.
+void photometric_edge_mask(const DepthImage& depth, int margin_px, float jump_m, float jump_per_m,
+                           float pixel_scale, MaskImage* out);
+
 /// Outcome of one alignment (no state; the SLAM system turns it into OK / DEGRADED / LOST).
 struct AlignmentResult {
   SE3 T_ref_cam;  ///< estimate
@@ -248,9 +273,11 @@ class Tracker {
   /// One linearisation of each term at `T_ref_cam` on `level` (used by align and the tests).
   NormalEquations icp_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
                            int pixel_step) const;
-  /// `huber_delta` (0..255; <= 0 off) down-weights large photometric residuals.
+  /// `huber_delta` (0..255; <= 0 off) down-weights large photometric residuals. `usable` (optional,
+  /// the model level's size): only model pixels where it is non-zero are used.
   NormalEquations rgb_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
-                           float min_gradient, int pixel_step, float huber_delta = 0.0f) const;
+                           float min_gradient, int pixel_step, float huber_delta = 0.0f,
+                           const MaskImage* usable = nullptr) const;
 
  private:
   TrackerParams params_;

@@ -1,6 +1,6 @@
 // A small analytic scene for SLAM tests: a room (seen from inside) with solid boxes, ray cast into
-// depth + colour at any camera pose. The colour is a smooth procedural texture of the world point so
-// photometric tracking has gradients everywhere.
+// depth + colour at any camera pose. The colour is a smooth procedural texture of the world point
+// so photometric tracking has gradients everywhere.
 #pragma once
 
 #include <algorithm>
@@ -30,8 +30,8 @@ struct SyntheticScene {
     return s;
   }
 
-  /// A 3 x 2.7 x 4 m room around the origin (the camera looks along +z at its far wall) with boxes on
-  /// the floor and the walls, so that every direction of motion is constrained by some surface.
+  /// A 3 x 2.7 x 4 m room around the origin (the camera looks along +z at its far wall) with boxes
+  /// on the floor and the walls, so that every direction of motion is constrained by some surface.
   static SyntheticScene room() {
     SyntheticScene s;
     s.boxes.push_back({Vec3(-1.5, -1.5, -1.0), Vec3(1.5, 1.2, 3.0), true});
@@ -60,7 +60,8 @@ struct SyntheticScene {
   double cast(const Vec3& o, const Vec3& d) const {
     double best = std::numeric_limits<double>::infinity();
     for (const Box& b : boxes) {
-      double t0 = -std::numeric_limits<double>::infinity(), t1 = std::numeric_limits<double>::infinity();
+      double t0 = -std::numeric_limits<double>::infinity(),
+             t1 = std::numeric_limits<double>::infinity();
       for (int k = 0; k < 3; ++k) {
         if (std::fabs(d[k]) < 1e-12) {
           if (o[k] < b.lo[k] || o[k] > b.hi[k]) t0 = std::numeric_limits<double>::infinity();
@@ -78,10 +79,11 @@ struct SyntheticScene {
     return best;
   }
 
-  /// Depth (m) and colour of the scene seen from T_world_cam. Depth is the pixel centre's ray; colour
-  /// averages `aa` x `aa` rays per pixel (a real lens band-limits the image; aliased texture would make
-  /// photometric residuals inconsistent between views).
-  RgbdFrame render(const SE3& T_world_cam, const PinholeIntrinsics& K, int index, int aa = 3) const {
+  /// Depth (m) and colour of the scene seen from T_world_cam. Depth is the pixel centre's ray;
+  /// colour averages `aa` x `aa` rays per pixel (a real lens band-limits the image; aliased texture
+  /// would make photometric residuals inconsistent between views).
+  RgbdFrame render(const SE3& T_world_cam, const PinholeIntrinsics& K, int index,
+                   int aa = 3) const {
     RgbdFrame f;
     f.index = index;
     f.timestamp_s = index / 30.0;
@@ -103,7 +105,8 @@ struct SyntheticScene {
         for (int sy = 0; sy < aa; ++sy)
           for (int sx = 0; sx < aa; ++sx) {
             const double du = (sx + 0.5) / aa - 0.5, dv = (sy + 0.5) / aa - 0.5;
-            const Vec3 ds = T_world_cam.rotation() * Vec3((u + du - K.cx) / K.fx, (v + dv - K.cy) / K.fy, 1.0);
+            const Vec3 ds =
+                T_world_cam.rotation() * Vec3((u + du - K.cx) / K.fx, (v + dv - K.cy) / K.fy, 1.0);
             const double ts = cast(o, ds);
             if (!std::isfinite(ts)) continue;
             const Rgb8 c = texture(o + ts * ds);
@@ -119,22 +122,29 @@ struct SyntheticScene {
   }
 };
 
-inline PinholeIntrinsics small_intrinsics() {
+/// The 7-Scenes (Kinect v1) camera, 640 x 480 with f = 585 px, at 1 / `divisor` of its resolution.
+inline PinholeIntrinsics kinect_intrinsics(int divisor) {
   PinholeIntrinsics K;
-  K.width = 160;
-  K.height = 120;
-  K.fx = K.fy = 146.25;  // 585 / 4: the 7-Scenes camera at a quarter of the resolution
-  K.cx = 79.5;
-  K.cy = 59.5;
+  K.width = 640 / divisor;
+  K.height = 480 / divisor;
+  K.fx = K.fy = 585.0 / divisor;
+  K.cx = 0.5 * K.width - 0.5;
+  K.cy = 0.5 * K.height - 0.5;
   return K;
 }
 
-/// A smooth hand-held-like trajectory: the camera near (0, -0.2, 0) looking along +z and down, swinging.
+inline PinholeIntrinsics small_intrinsics() {
+  return kinect_intrinsics(4);
+}
+
+/// A smooth hand-held-like trajectory: the camera near (0, -0.2, 0) looking along +z and down,
+/// swinging.
 inline SE3 trajectory_pose(int i) {
   const double s = i * 0.05;
   const Vec3 t(0.25 * std::sin(s), -0.2 + 0.08 * std::sin(1.7 * s), 0.15 * (1 - std::cos(0.8 * s)));
   // Pitched down by ~0.3 rad so the floor is in view.
-  const Vec3 rot(-0.3 + 0.12 * std::sin(0.9 * s), 0.35 * std::sin(0.6 * s), 0.05 * std::sin(1.3 * s));
+  const Vec3 rot(-0.3 + 0.12 * std::sin(0.9 * s), 0.35 * std::sin(0.6 * s),
+                 0.05 * std::sin(1.3 * s));
   return SE3(so3_exp(rot), t);
 }
 

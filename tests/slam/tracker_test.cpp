@@ -141,12 +141,7 @@ INSTANTIATE_TEST_SUITE_P(Terms, TrackerConvergence,
 // is within a few per cent of the sideways translation; without it, it is short.
 TEST(TrackerPhotometricEdges, MixedColoursAtDepthEdgesDoNotBiasASidewaysMotion) {
   const SyntheticScene scene = SyntheticScene::room();
-  PinholeIntrinsics K;
-  K.width = 320;
-  K.height = 240;
-  K.fx = K.fy = 292.5;
-  K.cx = 159.5;
-  K.cy = 119.5;
+  const PinholeIntrinsics K = test::kinect_intrinsics(2);
   double err_on = 0, err_off = 0;
   for (int i = 0; i < 4; ++i) {
     const SE3 T_world_ref = test::trajectory_pose(8 * i);

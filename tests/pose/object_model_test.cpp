@@ -139,6 +139,53 @@ TEST(ObjectModel, BoundedSearchReturnsTheExactNearestOrNone) {
   EXPECT_GT(none, 50);
 }
 
+// nearest_near (the registration's warm-started search, issue #15): the exact nearest point within
+// the bound whatever the hint -- the point found for a nearby query, a far point, or none -- since
+// a hint only shortens the search; with duplicate points (ties) the distance is the nearest's.
+TEST(ObjectModel, HintedSearchEqualsTheBoundedSearch) {
+  test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.004f);
+  const size_t n = s.points.size();
+  for (size_t i = 0; i < n; i += 11) s.points.push_back(s.points[i]);  // ties
+  const ModelSearchIndex index(s.points);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.07f, 0.07f), step(-0.004f, 0.004f);
+  std::uniform_int_distribution<std::uint32_t> any(0, static_cast<std::uint32_t>(n - 1));
+  int found = 0, none = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Eigen::Vector3f q(u(rng), u(rng), u(rng));
+    float best = 0;
+    index.nearest(q, &best);
+    const Eigen::Vector3f before = q + Eigen::Vector3f(step(rng), step(rng), step(rng));
+    std::uint32_t hint = ModelSearchIndex::kNone;
+    if (i % 4 == 0) hint = index.nearest(before, nullptr);  // the previous iteration's answer
+    if (i % 4 == 1) hint = any(rng);                        // a far hint
+    if (i % 4 == 2) hint = index.nearest(q, nullptr);       // the answer itself
+    const float bound = (i % 3 == 0) ? 1e-4f : 1.0f;
+    float d2 = -1;
+    const std::uint32_t j = index.nearest_near(q, hint, bound, &d2);
+    if (best < bound) {
+      ASSERT_NE(j, ModelSearchIndex::kNone) << "query " << i << " hint " << hint;
+      EXPECT_FLOAT_EQ(d2, best) << "query " << i;
+      EXPECT_FLOAT_EQ(d2, (s.points[j] - q).squaredNorm());
+      ++found;
+    } else {
+      EXPECT_EQ(j, ModelSearchIndex::kNone) << "query " << i;
+      ++none;
+    }
+  }
+  EXPECT_GT(found, 1000);
+  EXPECT_GT(none, 100);
+  // Queries on the surface with the hint of a nearby point: the common case of a converging ICP.
+  for (size_t i = 0; i < n; i += 3) {
+    const Eigen::Vector3f q = s.points[i] + Eigen::Vector3f(step(rng), step(rng), step(rng)) * 0.5f;
+    float best = 0, d2 = -1;
+    index.nearest(q, &best);
+    const std::uint32_t j = index.nearest_near(q, static_cast<std::uint32_t>(i), 1e-4f, &d2);
+    ASSERT_NE(j, ModelSearchIndex::kNone);
+    EXPECT_FLOAT_EQ(d2, best) << "surface query " << i;
+  }
+}
+
 TEST(ObjectModel, GridNearestIsWithinOneCellOfTheExactNearest) {
   const test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.006f);
   const ModelSearchIndex index(s.points);

@@ -143,7 +143,7 @@ struct ObjectRpePipeline::Track {
   double best_score = -1e9;
   SE3 best_T_world_obj;
   int valid_views = 0;
-  SkipState skip;          // EKF variants
+  SkipState skip;                    // EKF variants
   std::int32_t last_slam_time = -1;  // SLAM frame counter of the last view fused (loop closure)
   int prior_in_a_row = 0;  // estimates in a row from the prior (pipeline.prior_max_consecutive)
 };
@@ -458,6 +458,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   f.projected_color = need_projected ? &f.view.color : &frame.color;
   candidates_from_map(f);
   candidates_from_detections(f);
+  preload_models(f);
   result.variants.resize(variants_.size());
   for (size_t vi = 0; vi < variants_.size(); ++vi) {
     VariantState& vs = variants_[vi];
@@ -586,6 +587,24 @@ void ObjectRpePipeline::candidates_from_detections(PoseFrame& f) const {
     if (area < pp.min_pose_mask_px || c.class_probability < pp.min_class_probability) continue;
     f.from_detections.push_back(c);
   }
+}
+
+void ObjectRpePipeline::preload_models(const PoseFrame& f) {
+  // The classes seen for the first time are loaded together, one per core (a YCB-Video model takes
+  // ~0.2 s to read and prepare); the results are the ones model_for() would load one by one.
+  std::vector<int> classes;
+  for (const auto* list : {&f.from_map, &f.from_detections})
+    for (const Candidate& c : *list)
+      if (models_.has(c.class_id) && !model_errors_.count(c.class_id))
+        classes.push_back(c.class_id);
+  if (classes.size() < 2) return;
+  const auto t_load = Clock::now();
+  try {
+    models_.preload(classes, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  } catch (const IoError&) {
+    // model_for() loads that class again and reports the error for it.
+  }
+  stats_.model_loading_ms += ms_since(t_load);
 }
 
 const ObjectModel* ObjectRpePipeline::model_for(const Candidate& c, ObjectFrameEstimate& est) {

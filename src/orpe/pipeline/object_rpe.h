@@ -263,6 +263,7 @@ class ObjectRpePipeline {
   void candidates_from_map(PoseFrame& f) const;
   void candidates_from_detections(PoseFrame& f) const;
   /// The candidate's model, or null (the estimate's reason says why: no model, not usable).
+  void preload_models(const PoseFrame& f);
   const ObjectModel* model_for(const Candidate& c, ObjectFrameEstimate& est);
   /// The pose track of the candidate's instance (null without an instance).
   Track* track_for(VariantState& vs, const Candidate& c);

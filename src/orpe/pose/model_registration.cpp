@@ -166,23 +166,12 @@ constexpr std::uint32_t kNone = ModelSearchIndex::kNone;
 
 /// Exact nearest point of `index` to `q` (what nearest() returns) when its squared distance is at
 /// most `max_d2`, else kNone. `prev` is the point found for this query in the previous ICP
-/// iteration (or kNone): the pose moved little since, so its distance bounds the search, which
-/// then prunes most of the tree. Updated to the point found.
+/// iteration (or kNone): the pose moved little since, so the true nearest point is usually among
+/// its precomputed neighbours (ModelSearchIndex::nearest_near). Updated to the point found.
 std::uint32_t nearest_warm(const ModelSearchIndex& index, const Eigen::Vector3f& q, float max_d2,
                            std::uint32_t& prev, float* d2) {
-  // A relative margin over the bounds: the tree's own float distance of the same point may differ
-  // in the last bit, and a bound a little above the nearest distance changes nothing.
-  constexpr float kMargin = 1.0f + 1e-5f;
-  float bound = max_d2 * kMargin + 1e-12f;
-  bool warm = false;
-  if (prev != kNone) {
-    const float dp = (index.points()[prev] - q).squaredNorm() * kMargin + 1e-12f;
-    if (dp < bound) bound = dp, warm = true;
-  }
-  std::uint32_t j = index.nearest_within(q, bound, d2);
-  if (j == kNone && warm)
-    j = index.nearest(q, d2);  // not reached unless rounding betrays the bound
-  prev = j;
+  const std::uint32_t j = index.nearest_near(q, prev, max_d2, d2);
+  if (j != kNone) prev = j;
   return j;
 }
 

@@ -23,11 +23,17 @@ Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> principal_axes(
   return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov);
 }
 
+/// 4 sigma along the smaller in-plane principal axis (plane_extent).
+float extent_of(const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& es) {
+  return static_cast<float>(4.0 * std::sqrt(std::max(0.0, es.eigenvalues()(1))));
+}
+
 }  // namespace
 
-Plane fit_plane(const std::vector<Eigen::Vector3f>& points) {
+Plane fit_plane(const std::vector<Eigen::Vector3f>& points, float* extent) {
   Eigen::Vector3d mean;
   const auto es = principal_axes(points, &mean);
+  if (extent) *extent = extent_of(es);
   Eigen::Vector3d n = es.eigenvectors().col(0);
   double d = -n.dot(mean);
   if (d < 0) {
@@ -42,8 +48,7 @@ Plane fit_plane(const std::vector<Eigen::Vector3f>& points) {
 
 float plane_extent(const std::vector<Eigen::Vector3f>& points) {
   Eigen::Vector3d mean;
-  const auto es = principal_axes(points, &mean);
-  return static_cast<float>(4.0 * std::sqrt(std::max(0.0, es.eigenvalues()(1))));
+  return extent_of(principal_axes(points, &mean));
 }
 
 bool find_large_plane(const std::vector<Eigen::Vector3f>& points,
@@ -53,6 +58,11 @@ bool find_large_plane(const std::vector<Eigen::Vector3f>& points,
   const float tol = static_cast<float>(params.distance_m);
   const size_t step =
       std::max<size_t>(1, candidates.size() / std::max<size_t>(1, params.max_scored));
+  // The scored subset, gathered once: the candidates are scattered over a large point array, and
+  // every hypothesis reads all of it.
+  std::vector<Eigen::Vector3f> scored;
+  scored.reserve(candidates.size() / step + 1);
+  for (size_t k = 0; k < candidates.size(); k += step) scored.push_back(points[candidates[k]]);
   std::uniform_int_distribution<size_t> pick(0, candidates.size() - 1);
   size_t best_count = 0;
   Plane best;
@@ -65,21 +75,23 @@ bool find_large_plane(const std::vector<Eigen::Vector3f>& points,
     n.normalize();
     const Plane pl{n, -n.dot(a)};
     size_t count = 0;
-    for (size_t k = 0; k < candidates.size(); k += step)
-      count += std::abs(pl.signed_distance(points[candidates[k]])) < tol;
+    for (const auto& p : scored) count += std::abs(pl.signed_distance(p)) < tol;
     if (count > best_count) {
       best_count = count;
       best = pl;
     }
   }
   if (best_count * step < params.min_inliers) return false;
+  std::vector<Eigen::Vector3f> in;
+  in.reserve(candidates.size());
   for (int r = 0; r < 2; ++r) {  // refine on the inliers, twice
-    std::vector<Eigen::Vector3f> in;
+    in.clear();
     for (const auto c : candidates)
       if (std::abs(best.signed_distance(points[c])) < tol) in.push_back(points[c]);
     if (in.size() < std::max<size_t>(3, params.min_inliers)) return false;
-    best = fit_plane(in);
-    if (r == 1 && plane_extent(in) < params.min_extent_m) return false;
+    float extent = 0;
+    best = fit_plane(in, r == 1 ? &extent : nullptr);
+    if (r == 1 && extent < params.min_extent_m) return false;
   }
   *out = best;
   return true;

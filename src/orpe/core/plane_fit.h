@@ -18,9 +18,9 @@ struct Plane {
   float signed_distance(const Eigen::Vector3f& p) const { return normal.dot(p) + d; }
 };
 
-/// Least-squares plane through the points (smallest principal axis). Precondition: >= 3 points
-/// not all on a line.
-Plane fit_plane(const std::vector<Eigen::Vector3f>& points);
+/// Least-squares plane through the points (smallest principal axis); `extent`, when given, gets
+/// plane_extent(points) from the same decomposition. Precondition: >= 3 points not all on a line.
+Plane fit_plane(const std::vector<Eigen::Vector3f>& points, float* extent = nullptr);
 
 /// Spread (4 sigma) of the points along the smaller of the two in-plane principal axes, m: a
 /// 16 x 20 cm box face gives ~0.18 m, a 1 x 2 m table ~1.15 m.

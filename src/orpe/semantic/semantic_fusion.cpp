@@ -469,7 +469,10 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     const SE3 T_cam_world = T_world_cam.inverse();
     const Eigen::Matrix3f R = T_cam_world.rotation().cast<float>();
     const Eigen::Vector3f t = T_cam_world.translation().cast<float>();
-    representative_.assign(map.size(), {std::numeric_limits<float>::max(), -1});
+    // The pixels' distances in parallel; the choice per surfel in pixel order (the first of equal
+    // distances wins); the updates in parallel (each surfel once: no write conflicts).
+    pixel_d2_.resize(static_cast<size_t>(W) * H);
+#pragma omp parallel for schedule(static)
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
         const std::int32_t i = pixel_surfel->at(u, v);
@@ -481,15 +484,29 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
           const float dv = static_cast<float>(K.fy) * p.y() / p.z() + static_cast<float>(K.cy) - v;
           d2 = du * du + dv * dv;
         }
-        auto& best = representative_[i];
-        if (d2 < best.first) best = {d2, v * W + u};
+        pixel_d2_[static_cast<size_t>(v) * W + u] = d2;
       }
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u) {
-        const std::int32_t i = pixel_surfel->at(u, v);
-        if (i >= 0 && i < n && representative_[i].second == v * W + u)
-          update_surfel(i, u, v, neighbourhood, missed_ptr, map, counts);
-      }
+    representative_.assign(map.size(), {std::numeric_limits<float>::max(), -1});
+    for (int k = 0; k < W * H; ++k) {
+      const std::int32_t i = (*pixel_surfel)[static_cast<size_t>(k)];
+      if (i < 0 || i >= n) continue;
+      auto& best = representative_[i];
+      if (pixel_d2_[static_cast<size_t>(k)] < best.first)
+        best = {pixel_d2_[static_cast<size_t>(k)], k};
+    }
+#pragma omp parallel
+    {
+      UpdateCounts local;
+#pragma omp for schedule(static)
+      for (int v = 0; v < H; ++v)
+        for (int u = 0; u < W; ++u) {
+          const std::int32_t i = pixel_surfel->at(u, v);
+          if (i >= 0 && i < n && representative_[i].second == v * W + u)
+            update_surfel(i, u, v, neighbourhood, missed_ptr, map, local);
+        }
+#pragma omp critical
+      counts.add(local);
+    }
   } else {
     slam::RenderOptions points;
     renderer_.render_index_map(map, T_world_cam, K, params_.index_supersample, points, &index_map_);

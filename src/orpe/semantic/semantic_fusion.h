@@ -385,6 +385,7 @@ class SemanticFusion {
   ProbabilityImage pixel_probability_;
   LabelImage missed_labels_;  // rendered pixels of visible instances that got no detection
   std::vector<std::pair<float, int>> representative_;  // per surfel: (squared px distance, pixel)
+  std::vector<float> pixel_d2_;  // per pixel: squared px distance to its surfel's projected centre
 };
 
 }  // namespace orpe

@@ -147,6 +147,8 @@ TEST(Config, PresetsAreValidAndOverridable) {
   apply_config_preset(c, "realtime");
   EXPECT_EQ(c.slam_tracking.level0_pixel_step, 2);
   EXPECT_EQ(c.slam_fusion.fusion_level, 1);
+  EXPECT_FALSE(c.slam_loop.enabled);
+  EXPECT_TRUE(OrpeConfig().slam_loop.enabled);  // on by default (docs/SLAM.md "Loop closure")
   apply_config_override(c, "slam_fusion.fusion_level=0");  // overrides come after the preset
   EXPECT_EQ(c.slam_fusion.fusion_level, 0);
   apply_config_preset(c, "default");

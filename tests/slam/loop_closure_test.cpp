@@ -32,7 +32,7 @@ const SE3 kDrift(so3_exp(Vec3(0.0, 0.0, 0.04)), Vec3(0.08, -0.04, 0.02));  // 9.
 
 slam::SlamParams loop_params(bool on) {
   slam::SlamParams p;
-  p.loop.enabled = on;  // off by default
+  p.loop.enabled = on;  // on by default
   p.loop.min_age_frames = 30;
   p.loop.detect_every_frames = 5;
   p.fusion.active_window_frames = 20;

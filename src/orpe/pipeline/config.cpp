@@ -161,6 +161,7 @@ void apply_config_preset(OrpeConfig& config, const std::string& name) {
     config.slam_tracking.level0_pixel_step = 2;
     config.slam_tracking.iterations_level0 = 5;
     config.slam_fusion.fusion_level = 1;
+    config.slam_loop.enabled = false;
   } else {
     throw ConfigError("unknown preset '" + name + "' (known: default, realtime)");
   }

@@ -23,9 +23,10 @@ namespace orpe::slam {
 
 /// Config section `slam_loop`.
 struct LoopClosureParams {
-  /// Off by default: one synthetic revisit with a fused, drifted copy of the scene made the end
-  /// error worse (docs/SLAM.md "Loop closure"); on: detection, verification and correction.
-  bool enabled = false;
+  /// Detection, verification and correction. On by default since session 18 (the synthetic
+  /// revisit that had made the end error worse no longer does, docs/SLAM.md "Loop closure"); off in
+  /// the `realtime` preset (a detection costs an ORB pass and a verification render).
+  bool enabled = true;
   /// A keyframe is a loop candidate only when stored at least this many frames before the current
   /// frame (frames; EF's active window is 200: older surfels are not tracked against).
   int min_age_frames = 300;

@@ -6,6 +6,7 @@
 #include <limits>
 #include <numeric>
 #include <optional>
+#include <set>
 
 #include "orpe/core/error.h"
 #include "orpe/semantic/segment_guard.h"
@@ -339,19 +340,53 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     if (d.probability.width() != W || d.probability.height() != H)
       throw IoError(frame.name, fmt::format("detection mask is {}x{}, the frame {}x{}",
                                             d.probability.width(), d.probability.height(), W, H));
-  const float threshold = static_cast<float>(params_.object_probability_threshold);
+  if (pixel_surfel && (pixel_surfel->width() != W || pixel_surfel->height() != H))
+    throw ConfigError(fmt::format("semantic fusion: pixel->surfel image is {}x{}, the frame {}x{}",
+                                  pixel_surfel->width(), pixel_surfel->height(), W, H));
 
   // 1. Instance masks M^ rendered from the map (geometry of this frame, semantics of t - 1).
   auto t0 = Clock::now();
   render_instances(map, T_world_cam, K, false, &view_);
   rep.render_ms = ms_since(t0);
 
-  // 2. Association, in order of decreasing score (ties: input order).
+  // 2. Association, in order of decreasing score (ties: input order), class observations, the
+  // instances seen but not detected, and the fused per-pixel labels.
   t0 = Clock::now();
   std::vector<size_t> order(detections.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(),
                    [&](size_t a, size_t b) { return detections[a].score > detections[b].score; });
+  const std::vector<int> instance_of = associate(detections, order, map, rep);
+  const std::set<int> detected = observe_classes(detections, order, instance_of, frame.index);
+  const std::vector<int> missed = missed_instances(detected);
+  rep.missed_instances = static_cast<int>(missed.size());
+  const bool skip_missed = params_.skip_missed_instances && !missed.empty();
+  if (skip_missed) label_missed_pixels(missed, W, H);
+  fuse_pixel_labels(frame.depth, detections, order, instance_of, K, rep);
+  rep.associate_ms = ms_since(t0);
+
+  // 3. Surfel updates: the surfels this frame observed, each once; then the segment guards.
+  t0 = Clock::now();
+  update_surfels(frame, T_world_cam, K, map, pixel_surfel, skip_missed, rep);
+  if (params_.segment_connectivity_guard) {
+    const SE3 T_cam_world = T_world_cam.inverse();
+    rep.surfels_detached = release_detached_surfels(map, static_cast<float>(params_.segment_link_m),
+                                                    params_.segment_min_component_fraction,
+                                                    &T_cam_world, params_.always_active_objects);
+  }
+  rep.surfels_on_support = release_support_surfels(map);
+  rep.update_ms = ms_since(t0);
+
+  // 4. Spurious instances.
+  rep.pruned_instances = prune_instances(map);
+  rep.total_ms = ms_since(t_start);
+  return rep;
+}
+
+std::vector<int> SemanticFusion::associate(const std::vector<Detection>& detections,
+                                           const std::vector<size_t>& order, slam::SurfelMap& map,
+                                           SemanticFrameReport& rep) {
+  const float threshold = static_cast<float>(params_.object_probability_threshold);
   std::vector<MaskImage> masks;
   masks.reserve(order.size());
   for (size_t k : order) masks.push_back(binary_mask(detections[k].probability, threshold));
@@ -382,6 +417,13 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     }
     instance_of[j] = id;
   }
+  return instance_of;
+}
+
+std::set<int> SemanticFusion::observe_classes(const std::vector<Detection>& detections,
+                                              const std::vector<size_t>& order,
+                                              const std::vector<int>& instance_of,
+                                              int frame_index) {
   // Class probabilities: one observation per keyframe and instance (detections of one instance in
   // one frame are averaged first).
   std::map<int, std::pair<std::map<int, double>, int>> frame_classes;
@@ -394,10 +436,17 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     InstanceInfo& info = instances_.at(id);
     for (const auto& [c, sum] : entry.first) info.class_probability_sum[c] += sum / entry.second;
     ++info.detections;
-    if (info.first_frame < 0) info.first_frame = frame.index;
-    info.last_frame = frame.index;
+    if (info.first_frame < 0) info.first_frame = frame_index;
+    info.last_frame = frame_index;
     info.consecutive_misses = 0;
   }
+  std::set<int> detected;
+  for (const auto& entry : frame_classes) detected.insert(entry.first);
+  return detected;
+}
+
+std::vector<int> SemanticFusion::missed_instances(const std::set<int>& detected) {
+  // Rendered instances visible enough this keyframe: those not detected count a miss.
   std::map<int, int> rendered_area;
   for (const auto id : view_.instance_id)
     if (id > 0) ++rendered_area[resolve_instance(id)];
@@ -406,22 +455,30 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     auto it = instances_.find(id);
     if (it == instances_.end() || area < params_.min_visible_area_px) continue;
     ++it->second.visible_keyframes;
-    if (!frame_classes.count(id)) {
+    if (!detected.count(id)) {
       ++it->second.consecutive_misses;
       ++it->second.missed_keyframes;
       if (it->second.detections >= params_.min_confirmed_detections) missed.push_back(id);
     }
   }
-  rep.missed_instances = static_cast<int>(missed.size());
-  const bool skip_missed = params_.skip_missed_instances && !missed.empty();
-  if (skip_missed) {
-    missed_labels_ = LabelImage(W, H, 0);
-    for (size_t k = 0; k < missed_labels_.size(); ++k) {
-      const int id = view_.instance_id[k] > 0 ? resolve_instance(view_.instance_id[k]) : 0;
-      if (id > 0 && std::binary_search(missed.begin(), missed.end(), id)) missed_labels_[k] = id;
-    }
-  }
+  return missed;
+}
 
+void SemanticFusion::label_missed_pixels(const std::vector<int>& missed, int W, int H) {
+  missed_labels_ = LabelImage(W, H, 0);
+  for (size_t k = 0; k < missed_labels_.size(); ++k) {
+    const int id = view_.instance_id[k] > 0 ? resolve_instance(view_.instance_id[k]) : 0;
+    if (id > 0 && std::binary_search(missed.begin(), missed.end(), id)) missed_labels_[k] = id;
+  }
+}
+
+void SemanticFusion::fuse_pixel_labels(const DepthImage& depth,
+                                       const std::vector<Detection>& detections,
+                                       const std::vector<size_t>& order,
+                                       const std::vector<int>& instance_of,
+                                       const PinholeIntrinsics& K, SemanticFrameReport& rep) {
+  const int W = K.width, H = K.height;
+  const float threshold = static_cast<float>(params_.object_probability_threshold);
   // Per-pixel fused segmentation: the highest-probability detection above threshold labels a pixel
   // (earlier = higher score wins ties); the pixel's non-background probability is the maximum soft
   // probability over the detections (0 where no detection reaches).
@@ -447,53 +504,23 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   }
   if (params_.edge_depth_guard)
     rep.pixels_behind_edges =
-        drop_pixels_behind_mask_edges(frame.depth, &detection_labels_, &pixel_probability_,
+        drop_pixels_behind_mask_edges(depth, &detection_labels_, &pixel_probability_,
                                       params_.edge_band_px, params_.edge_depth_tolerance_m, K.fx);
-  rep.associate_ms = ms_since(t0);
+}
 
-  // 3. Surfel updates: the surfels this frame observed, each once.
-  t0 = Clock::now();
+void SemanticFusion::update_surfels(const RgbdFrame& frame, const SE3& T_world_cam,
+                                    const PinholeIntrinsics& K, slam::SurfelMap& map,
+                                    const slam::IndexImage* pixel_surfel, bool skip_missed,
+                                    SemanticFrameReport& rep) {
+  const int W = K.width, H = K.height;
   const ObjectNeighbourhood neighbourhood(detection_labels_, params_.boundary_neighbourhood_px);
   std::optional<ObjectNeighbourhood> missed_zone;
   if (skip_missed) missed_zone.emplace(missed_labels_, params_.boundary_neighbourhood_px);
   const ObjectNeighbourhood* missed_ptr = missed_zone ? &*missed_zone : nullptr;
   UpdateCounts counts;
   if (pixel_surfel) {
-    if (pixel_surfel->width() != W || pixel_surfel->height() != H)
-      throw ConfigError(
-          fmt::format("semantic fusion: pixel->surfel image is {}x{}, the frame {}x{}",
-                      pixel_surfel->width(), pixel_surfel->height(), W, H));
-    // A surfel may cover several pixels (the SLAM lists the surfel a pixel updated, created or is
-    // covered by): each surfel is updated once, at its listed pixel nearest its projected centre.
-    const auto n = static_cast<std::int32_t>(map.size());
-    const SE3 T_cam_world = T_world_cam.inverse();
-    const Eigen::Matrix3f R = T_cam_world.rotation().cast<float>();
-    const Eigen::Vector3f t = T_cam_world.translation().cast<float>();
-    // The pixels' distances in parallel; the choice per surfel in pixel order (the first of equal
-    // distances wins); the updates in parallel (each surfel once: no write conflicts).
-    pixel_d2_.resize(static_cast<size_t>(W) * H);
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u) {
-        const std::int32_t i = pixel_surfel->at(u, v);
-        if (i < 0 || i >= n) continue;
-        const Eigen::Vector3f p = R * map.position_world[i] + t;
-        float d2 = std::numeric_limits<float>::max() / 2;  // behind the camera: any pixel will do
-        if (p.z() > 0) {
-          const float du = static_cast<float>(K.fx) * p.x() / p.z() + static_cast<float>(K.cx) - u;
-          const float dv = static_cast<float>(K.fy) * p.y() / p.z() + static_cast<float>(K.cy) - v;
-          d2 = du * du + dv * dv;
-        }
-        pixel_d2_[static_cast<size_t>(v) * W + u] = d2;
-      }
-    representative_.assign(map.size(), {std::numeric_limits<float>::max(), -1});
-    for (int k = 0; k < W * H; ++k) {
-      const std::int32_t i = (*pixel_surfel)[static_cast<size_t>(k)];
-      if (i < 0 || i >= n) continue;
-      auto& best = representative_[i];
-      if (pixel_d2_[static_cast<size_t>(k)] < best.first)
-        best = {pixel_d2_[static_cast<size_t>(k)], k};
-    }
+    choose_representative_pixels(T_world_cam, K, map, *pixel_surfel);
+    const auto n = static_cast<std::int32_t>(map.size());  // each surfel once: no write conflicts
 #pragma omp parallel
     {
       UpdateCounts local;
@@ -539,16 +566,48 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
   rep.surfels_released = counts.released;
   rep.boundary_candidates = counts.candidates;
   rep.boundary_joined = counts.joined;
-  if (params_.segment_connectivity_guard) {
-    const SE3 T_cam_world = T_world_cam.inverse();
-    rep.surfels_detached = release_detached_surfels(map, static_cast<float>(params_.segment_link_m),
-                                                    params_.segment_min_component_fraction,
-                                                    &T_cam_world, params_.always_active_objects);
-  }
-  rep.surfels_on_support = release_support_surfels(map);
-  rep.update_ms = ms_since(t0);
+}
 
-  // 4. Spurious instances: detected rarely and now repeatedly visible without a detection; and
+void SemanticFusion::choose_representative_pixels(const SE3& T_world_cam,
+                                                  const PinholeIntrinsics& K,
+                                                  const slam::SurfelMap& map,
+                                                  const slam::IndexImage& pixel_surfel) {
+  // A surfel may cover several pixels (the SLAM lists the surfel a pixel updated, created or is
+  // covered by): each surfel is updated once, at its listed pixel nearest its projected centre.
+  const int W = K.width, H = K.height;
+  const auto n = static_cast<std::int32_t>(map.size());
+  const SE3 T_cam_world = T_world_cam.inverse();
+  const Eigen::Matrix3f R = T_cam_world.rotation().cast<float>();
+  const Eigen::Vector3f t = T_cam_world.translation().cast<float>();
+  // The pixels' distances in parallel, the choice per surfel in pixel order (the first of equal
+  // distances wins).
+  pixel_d2_.resize(static_cast<size_t>(W) * H);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const std::int32_t i = pixel_surfel.at(u, v);
+      if (i < 0 || i >= n) continue;
+      const Eigen::Vector3f p = R * map.position_world[i] + t;
+      float d2 = std::numeric_limits<float>::max() / 2;  // behind the camera: any pixel will do
+      if (p.z() > 0) {
+        const float du = static_cast<float>(K.fx) * p.x() / p.z() + static_cast<float>(K.cx) - u;
+        const float dv = static_cast<float>(K.fy) * p.y() / p.z() + static_cast<float>(K.cy) - v;
+        d2 = du * du + dv * dv;
+      }
+      pixel_d2_[static_cast<size_t>(v) * W + u] = d2;
+    }
+  representative_.assign(map.size(), {std::numeric_limits<float>::max(), -1});
+  for (int k = 0; k < W * H; ++k) {
+    const std::int32_t i = pixel_surfel[static_cast<size_t>(k)];
+    if (i < 0 || i >= n) continue;
+    auto& best = representative_[i];
+    if (pixel_d2_[static_cast<size_t>(k)] < best.first)
+      best = {pixel_d2_[static_cast<size_t>(k)], k};
+  }
+}
+
+int SemanticFusion::prune_instances(slam::SurfelMap& map) {
+  // Spurious instances: detected rarely and now repeatedly visible without a detection; and
   // instances left without surfels (all released), which can never be rendered or matched again.
   std::map<int, int> surfel_count;
   for (const auto id : map.instance_id)
@@ -560,9 +619,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
         !surfel_count.count(id))
       doomed.push_back(id);
   for (int id : doomed) remove_instance(id, map);
-  rep.pruned_instances = static_cast<int>(doomed.size());
-  rep.total_ms = ms_since(t_start);
-  return rep;
+  return static_cast<int>(doomed.size());
 }
 
 int SemanticFusion::release_support_surfels(slam::SurfelMap& map) const {

@@ -45,6 +45,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -367,6 +368,37 @@ class SemanticFusion {
     int observed = 0, skipped = 0, labelled = 0, released = 0, candidates = 0, joined = 0;
     void add(const UpdateCounts& o);
   };
+  // The steps of integrate() (docs/SEMANTIC.md), in order.
+  /// Each detection (in `order`) associated to a rendered instance or a new one; same-class
+  /// instances it also overlaps merged. Returns the instance of each detection of `order`.
+  std::vector<int> associate(const std::vector<Detection>& detections,
+                             const std::vector<size_t>& order, slam::SurfelMap& map,
+                             SemanticFrameReport& rep);
+  /// One class observation per detected instance (its detections averaged); returns the
+  /// instances detected in this keyframe.
+  std::set<int> observe_classes(const std::vector<Detection>& detections,
+                                const std::vector<size_t>& order,
+                                const std::vector<int>& instance_of, int frame_index);
+  /// Instances rendered visibly but not detected: their misses counted; the confirmed ones
+  /// returned (ascending ids).
+  std::vector<int> missed_instances(const std::set<int>& detected);
+  /// missed_labels_: the rendered pixels of the `missed` instances.
+  void label_missed_pixels(const std::vector<int>& missed, int W, int H);
+  /// detection_labels_ and pixel_probability_: the per-pixel fused segmentation.
+  void fuse_pixel_labels(const DepthImage& depth, const std::vector<Detection>& detections,
+                         const std::vector<size_t>& order, const std::vector<int>& instance_of,
+                         const PinholeIntrinsics& K, SemanticFrameReport& rep);
+  /// representative_: per surfel of `pixel_surfel`, the listed pixel nearest its projected centre.
+  void choose_representative_pixels(const SE3& T_world_cam, const PinholeIntrinsics& K,
+                                    const slam::SurfelMap& map,
+                                    const slam::IndexImage& pixel_surfel);
+  /// update_surfel() for every surfel the frame observed, once each.
+  void update_surfels(const RgbdFrame& frame, const SE3& T_world_cam, const PinholeIntrinsics& K,
+                      slam::SurfelMap& map, const slam::IndexImage* pixel_surfel, bool skip_missed,
+                      SemanticFrameReport& rep);
+  /// Removes instances detected rarely and now repeatedly missed, and those left without
+  /// surfels; returns how many.
+  int prune_instances(slam::SurfelMap& map);
   /// The per-surfel rules for surfel i observed at pixel (u, v).
   void update_surfel(std::int32_t i, int u, int v, const ObjectNeighbourhood& neighbourhood,
                      const ObjectNeighbourhood* missed, slam::SurfelMap& map,

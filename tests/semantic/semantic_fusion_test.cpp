@@ -481,6 +481,12 @@ TEST(SemanticFusion, BadInputsAreErrors) {
   EXPECT_THROW(fusion.integrate(no_depth, {}, SE3(), s.map), IoError);
   slam::IndexImage wrong(3, 3, -1);
   EXPECT_THROW(fusion.integrate(s.frame(0), {}, SE3(), s.map, &wrong), ConfigError);
+  // ... refused before anything changed: no instance made from the frame's detection.
+  const int W = s.K.width, H = s.K.height;
+  EXPECT_THROW(fusion.integrate(s.frame(0), {test::rect_detection(W, H, 2, 0.9f, 10, 10, 19, 19)},
+                                SE3(), s.map, &wrong),
+               ConfigError);
+  EXPECT_TRUE(fusion.instances().empty());
   SemanticParams p;
   p.boundary_window_frames = 16;
   EXPECT_THROW(SemanticFusion{p}, ConfigError);

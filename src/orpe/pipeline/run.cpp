@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <ostream>
@@ -46,7 +47,8 @@ void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
     const CameraFileInfo& c = *info.camera;
     js.set("camera.file", c.path);
     js.set("camera.style", c.style);
-    js.set("camera.colour_fx_fy_cx_cy", std::vector<double>{c.colour.fx, c.colour.fy, c.colour.cx, c.colour.cy});
+    js.set("camera.colour_fx_fy_cx_cy",
+           std::vector<double>{c.colour.fx, c.colour.fy, c.colour.cx, c.colour.cy});
     js.set("camera.colour_size", std::vector<double>{static_cast<double>(c.colour.width),
                                                      static_cast<double>(c.colour.height)});
     js.set("camera.colour_distortion_k1_k2_p1_p2_k3",
@@ -56,11 +58,13 @@ void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
     js.set("camera.max_depth_m", c.max_depth_m);
     js.set("camera.registered_depth_camera", c.has_depth_camera);
     if (c.has_depth_camera) {
-      js.set("camera.depth_fx_fy_cx_cy", std::vector<double>{c.depth.fx, c.depth.fy, c.depth.cx, c.depth.cy});
+      js.set("camera.depth_fx_fy_cx_cy",
+             std::vector<double>{c.depth.fx, c.depth.fy, c.depth.cx, c.depth.cy});
       js.set("camera.depth_distortion_k1_k2_p1_p2_k3",
              std::vector<double>(c.depth_distortion.begin(), c.depth_distortion.end()));
       const Eigen::Matrix4d T = c.T_colour_depth.matrix();
-      js.set("camera.T_colour_depth", std::vector<double>(T.data(), T.data() + 16));  // column-major
+      js.set("camera.T_colour_depth",
+             std::vector<double>(T.data(), T.data() + 16));  // column-major
     }
   }
   if (!info.models_dir.empty()) {
@@ -68,8 +72,9 @@ void write_camera_and_models(const DatasetInfo& info, JsonSummary& js) {
     js.set("models.units_per_m", info.model_units_per_m);
     std::vector<std::string> classes;
     for (const auto& [id, path] : info.model_mesh_paths)
-      classes.push_back(std::to_string(id) + " " + info.class_names.at(id) + " " + path +
-                        (info.model_symmetry.count(id) ? " symmetry: " + info.model_symmetry.at(id).text : ""));
+      classes.push_back(
+          std::to_string(id) + " " + info.class_names.at(id) + " " + path +
+          (info.model_symmetry.count(id) ? " symmetry: " + info.model_symmetry.at(id).text : ""));
     js.set("models.classes", classes);
   }
 }
@@ -236,14 +241,19 @@ std::string RunSummary::report() const {
   return s + "\n";
 }
 
-RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
-  const auto t_start = Clock::now();
+namespace {
+
+/// The run's arguments checked, in the order their errors are reported (before any output).
+void check_run_request(const OrpeConfig& config, const RunOptions& options) {
   if (options.mode != "slam" && options.mode != "semantic" && options.mode != "full")
     throw ConfigError("run: unknown mode '" + options.mode + "' (slam | semantic | full)");
   if (options.out_dir.empty()) throw ConfigError("run: no output folder");
   std::string why;
   if (!config.IsValid(&why)) throw ConfigError("invalid configuration: " + why);
+}
 
+/// The pipeline's parameters for the run's mode and pose variants.
+ObjectRpeParams run_params(const OrpeConfig& config, const RunOptions& options) {
   ObjectRpeParams params = ObjectRpeParams::from_config(config);
   params.semantic_mapping = options.mode != "slam";
   params.variants.clear();
@@ -255,15 +265,17 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
         params.variants.push_back(PoseVariant::named(name));
     }
   }
-  const auto reader = open_dataset(options.dataset_path, config.dataset);
-  const DatasetInfo& info = reader->info();
-  if (reader->size() == 0)
+  return params;
+}
+
+/// The dataset and the output options that can only be checked once it is open.
+void check_dataset_and_outputs(const DatasetReader& reader, const RunOptions& options) {
+  if (reader.size() == 0)
     throw IoError(options.dataset_path,
                   "no frames selected (check dataset.first_frame/last_frame)");
-  if (options.mode == "full" && info.model_points_paths.empty())
+  if (options.mode == "full" && reader.info().model_points_paths.empty())
     throw IoError(options.dataset_path,
                   "the dataset has no object models (full mode estimates object poses)");
-  // Every output place and name is checked before the first frame; outputs go to a staging folder.
   check_render_view(options.render_view);
   // NaN passes every "> 0" test and used to render a blank picture.
   for (const auto& [flag, v] :
@@ -271,38 +283,33 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     if (!(std::isfinite(v) && v >= 0))
       throw ConfigError(fmt::format(
           "{} {}: must be a finite distance >= 0 (m; 0 = frame automatically)", flag, v));
-  StagedDir staged(options.out_dir, options.overwrite, "summary.json");
+}
 
-  ObjectRpePipeline pipeline(params, info);
-  RunSummary summary;
-  summary.out_dir = options.out_dir;
-  summary.mode = options.mode;
-  for (size_t v = 0; v < pipeline.num_variants(); ++v)
-    summary.variants.push_back(pipeline.variant(v).name);
-  auto progress = [&](const std::string& line) {
-    if (options.progress)
-      options.progress(line);
-    else
-      spdlog::info("{}", line);
-  };
-  progress(fmt::format("{} ({}, scene {}): {} frames, mode {}{}", options.dataset_path, info.format,
-                       info.scene_id, reader->size(), options.mode,
-                       summary.variants.empty()
-                           ? std::string()
-                           : fmt::format(", poses: {}", fmt::join(summary.variants, ", "))));
+using ProgressFn = std::function<void(const std::string&)>;
 
-  std::unique_ptr<MaskRecorder> masks;
-  if (options.write_masks) {
-    if (!pipeline.semantic()) throw ConfigError("run: --write-masks needs --mode semantic or full");
-    masks = std::make_unique<MaskRecorder>((std::filesystem::path(staged.dir()) / "masks").string(),
-                                           static_cast<float>(config.segmentation.mask_threshold));
-  }
-  FrameStream stream(*reader);
+/// What the frame loop leaves for the outputs and the summary.
+struct FrameLoop {
   FrameLog frame_log;
+  std::vector<std::string> wrong_size;  ///< frames left out: their size differs from the first's
+  std::vector<std::string> skipped;     ///< every frame left out, with why (unreadable, size)
+};
+
+/// Every frame of `reader` through the pipeline (until the end or a stop request), then the
+/// keyframes still waiting for their segmentation and the pipeline's finalisation. Fills the
+/// frame counts of `summary`; throws when no frame could be used.
+FrameLoop run_frames(ObjectRpePipeline& pipeline, const DatasetReader& reader,
+                     const OrpeConfig& config, const RunOptions& options, MaskRecorder* masks,
+                     const ProgressFn& progress, RunSummary& summary) {
+  FrameLoop loop;
+  FrameStream stream(reader);
   RgbdFrame frame, first_frame;
-  std::vector<std::string> wrong_size;
   const int every = config.pipeline.progress_every_n_frames;
-  const size_t total = reader->size();
+  const size_t total = reader.size();
+  auto record_masks = [&](const PipelineFrameResult& r) {
+    if (masks && r.keyframe)
+      masks->record(*pipeline.segmented_frame(), pipeline.segmented_T_world_cam(),
+                    pipeline.slam().map(), *pipeline.semantic());
+  };
   while (true) {
     if (options.stop_requested && options.stop_requested()) {
       summary.interrupted = true;
@@ -323,22 +330,22 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
                       frame.index, frame.name, frame.depth.width(), frame.depth.height(),
                       first_frame.depth.width(), first_frame.depth.height());
       spdlog::warn("skipping {}", msg);
-      wrong_size.push_back(msg);
+      loop.wrong_size.push_back(msg);
       continue;
     }
     const PipelineFrameResult& r = pipeline.process(frame);
-    frame_log.add(r, read_ms, pipeline.slam().map().size(), pipeline.slam().map().bytes());
+    loop.frame_log.add(r, read_ms, pipeline.slam().map().size(), pipeline.slam().map().bytes());
     ++summary.frames;
     summary.no_depth_frames += r.slam.no_depth;
     spdlog::debug("{}", r.slam.report());
-    if (masks && r.keyframe)
-      masks->record(*pipeline.segmented_frame(), pipeline.segmented_T_world_cam(),
-                    pipeline.slam().map(), *pipeline.semantic());
+    record_masks(r);
     if (every > 0 && (summary.frames % every == 0 || summary.frames == static_cast<int>(total)))
       progress(fmt::format("[{:4d}/{}] {}", summary.frames, total, r.report()));
   }
-  summary.wrong_size_frames = static_cast<int>(wrong_size.size());
-  summary.skipped_frames = static_cast<int>(stream.skipped() + wrong_size.size());
+  summary.wrong_size_frames = static_cast<int>(loop.wrong_size.size());
+  summary.skipped_frames = static_cast<int>(stream.skipped() + loop.wrong_size.size());
+  for (const auto& [pos, msg] : stream.skipped_frames()) loop.skipped.push_back(msg);
+  loop.skipped.insert(loop.skipped.end(), loop.wrong_size.begin(), loop.wrong_size.end());
   if (summary.frames == 0 && summary.interrupted)
     throw Interrupted("interrupted before the first frame was processed; nothing written");
   if (summary.frames == 0)
@@ -349,42 +356,19 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
         fmt::format("no frame had usable depth ({} frames; depth read at {} units per metre, "
                     "valid between slam_preprocess.min_depth_m and max_depth_m): check "
                     "dataset.depth_units_per_m and the depth images",
-                    summary.frames, info.depth_units_per_m));
+                    summary.frames, reader.info().depth_units_per_m));
   // Keyframes still waiting for their segmentation delay (pipeline.segmentation_delay_frames).
-  while (pipeline.flush_one())
-    if (masks && pipeline.last_result().keyframe)
-      masks->record(*pipeline.segmented_frame(), pipeline.segmented_T_world_cam(),
-                    pipeline.slam().map(), *pipeline.semantic());
+  while (pipeline.flush_one()) record_masks(pipeline.last_result());
   pipeline.finalize();
+  return loop;
+}
 
-  // Outputs, each atomic.
-  const auto t_out = Clock::now();
+/// The per-variant pose files: poses.csv (and poses_final.csv with the EKF), single_view.csv,
+/// objects.json; the first variant at the top, every variant under ablation/NAME/ in an ablation.
+void write_pose_outputs(const ObjectRpePipeline& pipeline, const RunOptions& options,
+                        const DatasetInfo& info, const std::string& out, RunSummary& summary) {
   namespace fs = std::filesystem;
-  const std::string out = staged.dir();
   auto path = [&](const std::string& name) { return (fs::path(out) / name).string(); };
-  write_tum_trajectory(path("trajectory.txt"), pipeline.trajectory());
-  summary.files.push_back("trajectory.txt");
-  frame_log.write(path("frames.csv"));
-  summary.files.push_back("frames.csv");
-  const float min_conf = static_cast<float>(config.pipeline.output_min_confidence);
-  slam::write_surfel_ply(path("map.ply"), pipeline.slam().map(), min_conf);
-  summary.files.push_back("map.ply");
-  summary.surfels = pipeline.slam().map().size();
-  if (const SemanticMapper* semantic = pipeline.semantic()) {
-    write_semantic_outputs(out, pipeline.slam().map(), semantic->fusion().instances(),
-                           info.class_names, min_conf);
-    summary.files.insert(summary.files.end(),
-                         {"semantic_map.ply", "semantic_map_instances.ply", "instances.json"});
-    summary.instances = static_cast<int>(semantic->fusion().instances().size());
-  }
-  if (masks) {
-    const std::string scene = !config.dataset.scene.empty() ? config.dataset.scene
-                              : info.format == "bop"        ? fmt::format("{:06d}", info.scene_id)
-                              : info.format == "ycbv"       ? fmt::format("{:04d}", info.scene_id)
-                                                            : std::string();
-    masks->finish(options.dataset_path, info.format, scene);
-    summary.files.push_back("masks/index.json");
-  }
   if (pipeline.num_variants() > 0) {
     // The evaluated frames as a YCB-Video keyframe list (`orpe eval poses --keyframes`), so that
     // frames without pose estimates on purpose are not scored as misses.
@@ -415,40 +399,76 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
       summary.files.push_back(dir + "objects.json");
     }
   }
-  std::string render_png;
-  if (!options.render_view.empty()) {
-    render_png = fs::path(options.render_view).is_absolute() ? options.render_view
-                                                             : path(options.render_view);
-    PinholeIntrinsics K;  // a fixed 640x480 viewer camera, whatever the dataset's
-    K.width = 640;
-    K.height = 480;
-    K.fx = K.fy = 420.0;
-    K.cx = 319.5;
-    K.cy = 239.5;
-    const auto& traj = pipeline.trajectory();
-    const auto& map = pipeline.slam().map();
-    const SE3& first = traj.front().T_world_cam;
-    // Framed on the objects (else the map), seen from the first camera's side; a fixed offset only
-    // when one is asked for, or for a map too small to have a box.
-    const Eigen::AlignedBox3d box = slam::map_focus_box(map, min_conf);
-    const bool fixed = options.view_back_m > 0 || options.view_up_m > 0 || box.isEmpty();
-    const SE3 view = fixed
-                         ? slam::overview_pose(map, first, min_conf,
+}
+
+/// --render-view: a picture of the map from a fixed 640x480 viewer camera.
+void write_render_view(const ObjectRpePipeline& pipeline, const RunOptions& options,
+                       const std::string& out, float min_conf, RunSummary& summary) {
+  namespace fs = std::filesystem;
+  const std::string render_png = fs::path(options.render_view).is_absolute()
+                                     ? options.render_view
+                                     : (fs::path(out) / options.render_view).string();
+  PinholeIntrinsics K;  // a fixed 640x480 viewer camera, whatever the dataset's
+  K.width = 640;
+  K.height = 480;
+  K.fx = K.fy = 420.0;
+  K.cx = 319.5;
+  K.cy = 239.5;
+  const auto& traj = pipeline.trajectory();
+  const auto& map = pipeline.slam().map();
+  const SE3& first = traj.front().T_world_cam;
+  // Framed on the objects (else the map), seen from the first camera's side; a fixed offset only
+  // when one is asked for, or for a map too small to have a box.
+  const Eigen::AlignedBox3d box = slam::map_focus_box(map, min_conf);
+  const bool fixed = options.view_back_m > 0 || options.view_up_m > 0 || box.isEmpty();
+  const SE3 view = fixed ? slam::overview_pose(map, first, min_conf,
                                                options.view_back_m > 0 ? options.view_back_m : 1.5,
                                                options.view_up_m > 0 ? options.view_up_m : 0.6)
                          : slam::framing_pose(box, first, K);
-    slam::MapRenderer viewer;
-    write_color_png(render_png,
-                    slam::render_map_image(viewer, pipeline.slam().map(), view, K, min_conf));
-    summary.files.push_back(fs::path(options.render_view).is_absolute()
-                                ? options.render_view
-                                : fs::path(render_png).lexically_relative(out).string());
-  }
-  summary.stats = pipeline.stats();
-  summary.output_ms = ms_since(t_out);
-  summary.wall_ms = ms_since(t_start);
+  slam::MapRenderer viewer;
+  write_color_png(render_png, slam::render_map_image(viewer, map, view, K, min_conf));
+  summary.files.push_back(fs::path(options.render_view).is_absolute()
+                              ? options.render_view
+                              : fs::path(render_png).lexically_relative(out).string());
+}
 
-  JsonSummary js;
+/// Every output file of the run but summary.json, each written atomically into `out`.
+void write_run_outputs(const ObjectRpePipeline& pipeline, const OrpeConfig& config,
+                       const RunOptions& options, const DatasetInfo& info, const FrameLoop& loop,
+                       MaskRecorder* masks, const std::string& out, RunSummary& summary) {
+  namespace fs = std::filesystem;
+  auto path = [&](const std::string& name) { return (fs::path(out) / name).string(); };
+  write_tum_trajectory(path("trajectory.txt"), pipeline.trajectory());
+  summary.files.push_back("trajectory.txt");
+  loop.frame_log.write(path("frames.csv"));
+  summary.files.push_back("frames.csv");
+  const float min_conf = static_cast<float>(config.pipeline.output_min_confidence);
+  slam::write_surfel_ply(path("map.ply"), pipeline.slam().map(), min_conf);
+  summary.files.push_back("map.ply");
+  summary.surfels = pipeline.slam().map().size();
+  if (const SemanticMapper* semantic = pipeline.semantic()) {
+    write_semantic_outputs(out, pipeline.slam().map(), semantic->fusion().instances(),
+                           info.class_names, min_conf);
+    summary.files.insert(summary.files.end(),
+                         {"semantic_map.ply", "semantic_map_instances.ply", "instances.json"});
+    summary.instances = static_cast<int>(semantic->fusion().instances().size());
+  }
+  if (masks) {
+    const std::string scene = !config.dataset.scene.empty() ? config.dataset.scene
+                              : info.format == "bop"        ? fmt::format("{:06d}", info.scene_id)
+                              : info.format == "ycbv"       ? fmt::format("{:04d}", info.scene_id)
+                                                            : std::string();
+    masks->finish(options.dataset_path, info.format, scene);
+    summary.files.push_back("masks/index.json");
+  }
+  write_pose_outputs(pipeline, options, info, out, summary);
+  if (!options.render_view.empty()) write_render_view(pipeline, options, out, min_conf, summary);
+}
+
+/// summary.json's dataset, camera and variant fields.
+void summarise_inputs(const ObjectRpePipeline& pipeline, const RunOptions& options,
+                      const DatasetInfo& info, size_t selected, const FrameLoop& loop,
+                      const RunSummary& summary, JsonSummary& js) {
   js.set("orpe_version", std::string(kVersion));
   js.set("mode", options.mode);
   js.set("complete", !summary.interrupted);
@@ -457,13 +477,10 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("dataset.path", options.dataset_path);
   js.set("dataset.format", info.format);
   js.set("dataset.scene_id", info.scene_id);
-  js.set("dataset.frames_selected", static_cast<int>(total));
+  js.set("dataset.frames_selected", static_cast<int>(selected));
   js.set("dataset.frames_processed", summary.frames);
   js.set("dataset.frames_skipped", summary.skipped_frames);
-  std::vector<std::string> skipped;
-  for (const auto& [pos, msg] : stream.skipped_frames()) skipped.push_back(msg);
-  skipped.insert(skipped.end(), wrong_size.begin(), wrong_size.end());
-  js.set("dataset.skipped_messages", skipped);
+  js.set("dataset.skipped_messages", loop.skipped);
   js.set("dataset.frames_wrong_size", summary.wrong_size_frames);
   write_camera_and_models(info, js);
   js.set("single_view_estimator",
@@ -480,6 +497,10 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
     js.set(key + ".directory",
            options.ablations.empty() ? std::string(".") : "ablation/" + variant.name);
   }
+}
+
+/// summary.json's counts, tracking events and memory.
+void summarise_counts(const ObjectRpePipeline& pipeline, RunSummary& summary, JsonSummary& js) {
   const PipelineStats& st = summary.stats;
   js.set("counts.frames", st.frames);
   js.set("counts.keyframes", st.keyframes);
@@ -487,20 +508,18 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("counts.tracking_degraded", st.degraded_frames);
   js.set("counts.tracking_lost", st.lost_frames);
   js.set("counts.relocalisations", static_cast<int>(st.relocalised_frames.size()));
-  {
-    std::vector<double> frames, keyframes;  // frame indices (JSON numbers)
-    for (auto [f, k] : st.relocalised_frames) frames.push_back(f), keyframes.push_back(k);
-    js.set("tracking.relocalised_frames", frames);
-    js.set("tracking.relocalised_against_keyframes", keyframes);
-    js.set("tracking.keyframes_stored", static_cast<int>(pipeline.slam().keyframes()));
-  }
+  auto frame_pairs = [&](const std::vector<std::pair<int, int>>& pairs, const std::string& frames,
+                         const std::string& keyframes) {
+    std::vector<double> f, k;  // frame indices (JSON numbers)
+    for (auto [a, b] : pairs) f.push_back(a), k.push_back(b);
+    js.set(frames, f);
+    js.set(keyframes, k);
+  };
+  frame_pairs(st.relocalised_frames, "tracking.relocalised_frames",
+              "tracking.relocalised_against_keyframes");
+  js.set("tracking.keyframes_stored", static_cast<int>(pipeline.slam().keyframes()));
   js.set("counts.loop_closures", static_cast<int>(st.loop_closures.size()));
-  {
-    std::vector<double> frames, keyframes;
-    for (auto [f, k] : st.loop_closures) frames.push_back(f), keyframes.push_back(k);
-    js.set("tracking.loop_closure_frames", frames);
-    js.set("tracking.loop_closure_keyframes", keyframes);
-  }
+  frame_pairs(st.loop_closures, "tracking.loop_closure_frames", "tracking.loop_closure_keyframes");
   js.set("counts.no_depth_frames", summary.no_depth_frames);
   js.set("counts.detections", st.detections);
   js.set("counts.instances", summary.instances);
@@ -509,15 +528,11 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
   js.set("memory.map_bytes", summary.map_bytes);
   summary.peak_rss_mb = peak_rss_mb();
   js.set("memory.peak_rss_mb", summary.peak_rss_mb);
-  const auto gt = reader->ground_truth_trajectory();
-  if (!gt.empty()) {
-    const TrajectoryEvaluation ev =
-        evaluate_trajectory(gt, pipeline.trajectory(), config.eval_trajectory);
-    if (!ev.matches.empty()) {
-      js.set_json("trajectory_eval", ev.to_json());
-      summary.ate_rmse_m = ev.ate.translation_m.rmse;
-    }
-  }
+}
+
+/// summary.json's single-view counts and the time per stage.
+void summarise_timing(const RunSummary& summary, JsonSummary& js) {
+  const PipelineStats& st = summary.stats;
   js.set("counts.single_view_estimates", st.single_view_estimates);
   js.set("counts.single_view_valid", st.single_view_valid);
   js.set("counts.single_view_reused", st.single_view_cache_hits);
@@ -549,10 +564,71 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
          st.evaluated_frames ? st.single_view_ms / st.evaluated_frames : 0.0);
   if (st.single_view_estimates)
     js.set("timing_ms.per_single_view_estimate", st.single_view_ms / st.single_view_estimates);
+}
+
+}  // namespace
+
+RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
+  const auto t_start = Clock::now();
+  check_run_request(config, options);
+  const ObjectRpeParams params = run_params(config, options);
+  const auto reader = open_dataset(options.dataset_path, config.dataset);
+  const DatasetInfo& info = reader->info();
+  // Every output place and name is checked before the first frame; outputs go to a staging folder.
+  check_dataset_and_outputs(*reader, options);
+  StagedDir staged(options.out_dir, options.overwrite, "summary.json");
+
+  ObjectRpePipeline pipeline(params, info);
+  RunSummary summary;
+  summary.out_dir = options.out_dir;
+  summary.mode = options.mode;
+  for (size_t v = 0; v < pipeline.num_variants(); ++v)
+    summary.variants.push_back(pipeline.variant(v).name);
+  const ProgressFn progress = [&](const std::string& line) {
+    if (options.progress)
+      options.progress(line);
+    else
+      spdlog::info("{}", line);
+  };
+  progress(fmt::format("{} ({}, scene {}): {} frames, mode {}{}", options.dataset_path, info.format,
+                       info.scene_id, reader->size(), options.mode,
+                       summary.variants.empty()
+                           ? std::string()
+                           : fmt::format(", poses: {}", fmt::join(summary.variants, ", "))));
+  std::unique_ptr<MaskRecorder> masks;
+  if (options.write_masks) {
+    if (!pipeline.semantic()) throw ConfigError("run: --write-masks needs --mode semantic or full");
+    masks = std::make_unique<MaskRecorder>((std::filesystem::path(staged.dir()) / "masks").string(),
+                                           static_cast<float>(config.segmentation.mask_threshold));
+  }
+  const FrameLoop loop =
+      run_frames(pipeline, *reader, config, options, masks.get(), progress, summary);
+
+  // Outputs, each atomic.
+  const auto t_out = Clock::now();
+  const std::string out = staged.dir();
+  write_run_outputs(pipeline, config, options, info, loop, masks.get(), out, summary);
+  summary.stats = pipeline.stats();
+  summary.output_ms = ms_since(t_out);
+  summary.wall_ms = ms_since(t_start);
+
+  JsonSummary js;
+  summarise_inputs(pipeline, options, info, reader->size(), loop, summary, js);
+  summarise_counts(pipeline, summary, js);
+  const auto gt = reader->ground_truth_trajectory();
+  if (!gt.empty()) {
+    const TrajectoryEvaluation ev =
+        evaluate_trajectory(gt, pipeline.trajectory(), config.eval_trajectory);
+    if (!ev.matches.empty()) {
+      js.set_json("trajectory_eval", ev.to_json());
+      summary.ate_rmse_m = ev.ate.translation_m.rmse;
+    }
+  }
+  summarise_timing(summary, js);
   js.set_json("config", config_to_json(config));
   summary.files.push_back("summary.json");
   js.set("files", summary.files);
-  js.write(path("summary.json"));
+  js.write((std::filesystem::path(out) / "summary.json").string());
   staged.commit();
   return summary;
 }

@@ -114,7 +114,8 @@ void SlamSystem::predict(const SE3& T_world_cam, std::int32_t now, std::int32_t 
   RenderOptions opt;
   opt.min_confidence = static_cast<float>(params_.fusion.stable_confidence);
   // Unstable surfels of the last fused frame (not of the previous frame: after frames that were
-  // not fused -- no depth, LOST -- those would be none, and the young map too sparse to re-acquire).
+  // not fused -- no depth, LOST -- those would be none, and the young map too sparse to
+  // re-acquire).
   opt.also_seen_since =
       (params_.options.track_recent_unstable || fused_frames_ < 15) ? last_fused_time_ : -1;
   opt.active_window_frames = params_.fusion.active_window_frames;
@@ -297,88 +298,20 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
   const auto t_start = std::chrono::steady_clock::now();
   SlamFrameResult res;
   res.frame_index = frame.index;
-  if (frame_count_ == 0) {
-    std::string why;
-    if (!frame.intrinsics.IsValid(&why)) throw ConfigError("frame '" + frame.name + "': " + why);
-    intrinsics_ = frame.intrinsics;
-  } else if (!(frame.intrinsics == intrinsics_)) {
-    throw ConfigError("frame '" + frame.name +
-                      "': intrinsics or image size changed within the sequence");
-  }
+  check_intrinsics(frame);
   const std::int32_t now = frame_count_;
   const SE3 T_world_cam_before = T_world_cam_;
 
-  auto t = std::chrono::steady_clock::now();
+  const auto t = std::chrono::steady_clock::now();
   std::swap(pyramid_, prev_pyramid_);
   preprocessor_.process(frame, &pyramid_);
   res.preprocess_ms = ms_since(t);
 
-  const DepthImage& depth0 = pyramid_.levels[0].depth;
-  for (const float z : depth0) res.valid_depth_px += z > 0.0f;
-  res.no_depth = res.valid_depth_px < params_.options.min_valid_depth_px ||
-                 res.valid_depth_px <
-                     params_.options.min_valid_depth_fraction * static_cast<double>(depth0.size());
   bool accept = true;
-  if (res.no_depth) {
-    // Nothing to align or fuse: hold the pose; the next frame with depth has to re-acquire (or,
-    // before there is a map, starts it).
-    res.reason =
-        fmt::format("too little valid depth: {} of {} px in [{}, {}] m", res.valid_depth_px,
-                    depth0.size(), params_.preprocess.min_depth_m, params_.preprocess.max_depth_m);
-    if (!map_.empty()) status_ = TrackingStatus::kLost;
-    ++bad_frames_;
+  if (too_little_depth(res)) {
     accept = false;
-    last_motion_ = SE3();
-    res.tracked_T_world_cam = T_world_cam_;
   } else if (!map_.empty()) {
-    t = std::chrono::steady_clock::now();
-    predict(T_world_cam_, now);
-    res.predict_ms = ms_since(t);
-
-    t = std::chrono::steady_clock::now();
-    const SE3 init = (params_.tracker.constant_velocity && status_ != TrackingStatus::kLost)
-                         ? last_motion_
-                         : SE3();
-    const AlignmentResult a = align_into(init, res);
-    res.track_ms = ms_since(t);
-    if (a.failed) {
-      ++bad_frames_;
-      status_ = TrackingStatus::kLost;
-      accept = false;
-    } else if (a.weak) {
-      ++bad_frames_;
-      if (status_ == TrackingStatus::kLost) {
-        accept = false;  // re-acquire only on a good alignment
-        res.reason = "still lost: " + a.reason;
-      } else if (bad_frames_ > params_.tracker.max_bad_frames) {
-        status_ = TrackingStatus::kLost;
-        accept = false;
-        res.reason = std::to_string(bad_frames_) + " degraded frames in a row: " + a.reason;
-      } else {
-        status_ = TrackingStatus::kDegraded;
-      }
-    } else {
-      bad_frames_ = 0;
-      status_ = TrackingStatus::kOk;
-    }
-    res.tracked_T_world_cam = T_world_cam_ * a.T_ref_cam;
-    if (!known_T_world_cam && !accept && status_ == TrackingStatus::kLost &&
-        params_.reloc.enabled && try_relocalise(now, res)) {
-      accept = true;
-    } else if (known_T_world_cam) {
-      // Mapping with known poses: the alignment is only reported; the frame is fused at the given
-      // pose.
-      accept = true;
-      if (status_ == TrackingStatus::kLost) status_ = TrackingStatus::kDegraded;
-    }
-    if (res.relocalised) {
-      last_motion_ = SE3();
-    } else if (accept) {
-      T_world_cam_ = T_world_cam_ * a.T_ref_cam;
-      last_motion_ = a.T_ref_cam;
-    } else {
-      last_motion_ = SE3();
-    }
+    accept = track(now, known_T_world_cam != nullptr, res);
   } else {
     status_ = TrackingStatus::kOk;
   }
@@ -396,35 +329,123 @@ SlamFrameResult SlamSystem::process_impl(const RgbdFrame& frame, const SE3* know
   const bool fuse =
       accept && (status_ == TrackingStatus::kOk ||
                  (status_ == TrackingStatus::kDegraded && params_.options.fuse_degraded));
-  if (fuse) {
-    t = std::chrono::steady_clock::now();
-    res.fusion = fusion_.fuse(pyramid_, T_world_cam_, now, &map_, &pixel_surfel_);
-    res.fuse_ms = ms_since(t);
-    res.fused = true;
-    last_fused_time_ = now;
-    ++fused_frames_;
-    if (params_.reloc.enabled && status_ == TrackingStatus::kOk) {
-      t = std::chrono::steady_clock::now();
-      relocaliser_.maybe_add(pyramid_.levels[0], T_world_cam_, frame.index, now);
-      res.reloc_ms += ms_since(t);
-    }
-  } else {
-    pixel_surfel_ = IndexImage();
-    res.fusion.surfels = map_.size();
-  }
+  fuse_frame(frame, now, fuse, res);
   record_frame(now, fuse);
   const LoopClosureParams& lp = params_.loop;
   if (lp.enabled && params_.reloc.enabled && !known_T_world_cam && fuse &&
       status_ == TrackingStatus::kOk && !res.relocalised && now >= lp.min_age_frames &&
       now % lp.detect_every_frames == 0) {
-    t = std::chrono::steady_clock::now();
+    const auto t_loop = std::chrono::steady_clock::now();
     try_close_loop(now, res);
-    res.loop_ms = ms_since(t);
+    res.loop_ms = ms_since(t_loop);
     res.T_world_cam = T_world_cam_;
   }
   ++frame_count_;
   res.total_ms = ms_since(t_start);
   return res;
+}
+
+void SlamSystem::check_intrinsics(const RgbdFrame& frame) {
+  if (frame_count_ == 0) {
+    std::string why;
+    if (!frame.intrinsics.IsValid(&why)) throw ConfigError("frame '" + frame.name + "': " + why);
+    intrinsics_ = frame.intrinsics;
+  } else if (!(frame.intrinsics == intrinsics_)) {
+    throw ConfigError("frame '" + frame.name +
+                      "': intrinsics or image size changed within the sequence");
+  }
+}
+
+bool SlamSystem::too_little_depth(SlamFrameResult& res) {
+  const DepthImage& depth0 = pyramid_.levels[0].depth;
+  for (const float z : depth0) res.valid_depth_px += z > 0.0f;
+  res.no_depth = res.valid_depth_px < params_.options.min_valid_depth_px ||
+                 res.valid_depth_px <
+                     params_.options.min_valid_depth_fraction * static_cast<double>(depth0.size());
+  if (!res.no_depth) return false;
+  // Nothing to align or fuse: hold the pose; the next frame with depth has to re-acquire (or,
+  // before there is a map, starts it).
+  res.reason =
+      fmt::format("too little valid depth: {} of {} px in [{}, {}] m", res.valid_depth_px,
+                  depth0.size(), params_.preprocess.min_depth_m, params_.preprocess.max_depth_m);
+  if (!map_.empty()) status_ = TrackingStatus::kLost;
+  ++bad_frames_;
+  last_motion_ = SE3();
+  res.tracked_T_world_cam = T_world_cam_;
+  return true;
+}
+
+bool SlamSystem::track(std::int32_t now, bool known_pose, SlamFrameResult& res) {
+  auto t = std::chrono::steady_clock::now();
+  predict(T_world_cam_, now);
+  res.predict_ms = ms_since(t);
+
+  t = std::chrono::steady_clock::now();
+  const SE3 init = (params_.tracker.constant_velocity && status_ != TrackingStatus::kLost)
+                       ? last_motion_
+                       : SE3();
+  const AlignmentResult a = align_into(init, res);
+  res.track_ms = ms_since(t);
+  bool accept = true;
+  if (a.failed) {
+    ++bad_frames_;
+    status_ = TrackingStatus::kLost;
+    accept = false;
+  } else if (a.weak) {
+    ++bad_frames_;
+    if (status_ == TrackingStatus::kLost) {
+      accept = false;  // re-acquire only on a good alignment
+      res.reason = "still lost: " + a.reason;
+    } else if (bad_frames_ > params_.tracker.max_bad_frames) {
+      status_ = TrackingStatus::kLost;
+      accept = false;
+      res.reason = std::to_string(bad_frames_) + " degraded frames in a row: " + a.reason;
+    } else {
+      status_ = TrackingStatus::kDegraded;
+    }
+  } else {
+    bad_frames_ = 0;
+    status_ = TrackingStatus::kOk;
+  }
+  res.tracked_T_world_cam = T_world_cam_ * a.T_ref_cam;
+  if (!known_pose && !accept && status_ == TrackingStatus::kLost && params_.reloc.enabled &&
+      try_relocalise(now, res)) {
+    accept = true;
+  } else if (known_pose) {
+    // Mapping with known poses: the alignment is only reported; the frame is fused at the given
+    // pose.
+    accept = true;
+    if (status_ == TrackingStatus::kLost) status_ = TrackingStatus::kDegraded;
+  }
+  if (res.relocalised) {
+    last_motion_ = SE3();
+  } else if (accept) {
+    T_world_cam_ = T_world_cam_ * a.T_ref_cam;
+    last_motion_ = a.T_ref_cam;
+  } else {
+    last_motion_ = SE3();
+  }
+  return accept;
+}
+
+void SlamSystem::fuse_frame(const RgbdFrame& frame, std::int32_t now, bool fuse,
+                            SlamFrameResult& res) {
+  if (!fuse) {
+    pixel_surfel_ = IndexImage();
+    res.fusion.surfels = map_.size();
+    return;
+  }
+  auto t = std::chrono::steady_clock::now();
+  res.fusion = fusion_.fuse(pyramid_, T_world_cam_, now, &map_, &pixel_surfel_);
+  res.fuse_ms = ms_since(t);
+  res.fused = true;
+  last_fused_time_ = now;
+  ++fused_frames_;
+  if (params_.reloc.enabled && status_ == TrackingStatus::kOk) {
+    t = std::chrono::steady_clock::now();
+    relocaliser_.maybe_add(pyramid_.levels[0], T_world_cam_, frame.index, now);
+    res.reloc_ms += ms_since(t);
+  }
 }
 
 }  // namespace orpe::slam

@@ -121,8 +121,8 @@ struct SlamFrameResult {
   /// The camera was LOST and was found again by relocalisation on this frame (RelocaliserParams):
   /// the candidate from keyframe `reloc_keyframe` passed the tracker's gates from there.
   bool relocalised = false;
-  int reloc_keyframe = -1;     ///< RgbdFrame::index of that keyframe
-  int reloc_candidates = 0;    ///< candidate poses tried on this frame (0 = none proposed)
+  int reloc_keyframe = -1;   ///< RgbdFrame::index of that keyframe
+  int reloc_candidates = 0;  ///< candidate poses tried on this frame (0 = none proposed)
   /// Loop closure on this frame (LoopClosureParams): a revisit of keyframe `loop_keyframe` was
   /// verified and the trajectory and map corrected; the current pose moved by
   /// loop_correction_m / loop_correction_deg (T_world_cam is the corrected pose).
@@ -179,6 +179,20 @@ class SlamSystem {
 
  private:
   SlamFrameResult process_impl(const RgbdFrame& frame, const SE3* known_T_world_cam);
+  // The steps of process_impl, in order.
+  /// The first frame's intrinsics are the sequence's; a later frame must have the same (else
+  /// ConfigError naming the frame).
+  void check_intrinsics(const RgbdFrame& frame);
+  /// Counts the preprocessed frame's valid depth; too little: the frame is LOST (with a map),
+  /// the pose held, and true returned.
+  bool too_little_depth(SlamFrameResult& res);
+  /// Predicts the map at the current pose and aligns the frame (relocalising a LOST camera);
+  /// updates the status and the pose. Returns whether the frame may be fused (with a known pose:
+  /// always; the caller then sets the pose).
+  bool track(std::int32_t now, bool known_pose, SlamFrameResult& res);
+  /// Fuses the frame at T_world_cam_ (and offers it to the relocaliser as a keyframe), or clears
+  /// the pixel->surfel image when it is not fused.
+  void fuse_frame(const RgbdFrame& frame, std::int32_t now, bool fuse, SlamFrameResult& res);
   /// Renders the map at T_world_cam into prediction_ / model_ (the tracking reference).
   /// `seen_until` < now renders only the surfels last seen at or before it, all of them active (the
   /// old part of the map, for loop verification).

@@ -38,7 +38,8 @@ bool FusionParams::IsValid(std::string* why) const {
   if (confidence_radius_px < 0) return fail("confidence_radius_px must be >= 0");
   if (!(max_radius_growth >= 1)) return fail("max_radius_growth must be >= 1");
   if (unstable_max_age_frames < 0) return fail("unstable_max_age_frames must be >= 0");
-  if (index_supersample < 1 || index_supersample > 4) return fail("index_supersample must be in 1..4");
+  if (index_supersample < 1 || index_supersample > 4)
+    return fail("index_supersample must be in 1..4");
   if (!(free_space_margin_m > 0)) return fail("free_space_margin_m must be positive");
   if (!(merge_max_distance_factor > 0 && merge_max_distance_factor <= 2))
     return fail("merge_max_distance_factor must be in (0, 2]");
@@ -74,6 +75,54 @@ void downsample_color(const ColorImage& in, int level, ColorImage* out) {
     }
 }
 
+/// A frame at the fusion level, as the fusion steps read it: depth, normals and colour, the camera,
+/// and the observation of a pixel.
+struct SurfelFusion::Frame {
+  const DepthImage& depth;  ///< raw depth at level 0, else the level's filtered depth
+  const NormalImage& normal;
+  const ColorImage& color;
+  const RigidF T_wc;
+  const int W, H, level;
+  const float fx, fy, cx, cy, f_mean, max_z, g_norm, inv_2sig2;
+
+  Frame(const FramePyramid& frame, int lvl, const ColorImage& color_at_level,
+        const SE3& T_world_cam, const FusionParams& p)
+      : depth(lvl == 0 ? frame.raw_depth : frame.levels.at(static_cast<size_t>(lvl)).depth),
+        normal(frame.levels.at(static_cast<size_t>(lvl)).normal),
+        color(color_at_level),
+        T_wc(T_world_cam),
+        W(frame.levels.at(static_cast<size_t>(lvl)).K.width),
+        H(frame.levels.at(static_cast<size_t>(lvl)).K.height),
+        level(lvl),
+        fx(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.fx)),
+        fy(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.fy)),
+        cx(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.cx)),
+        cy(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.cy)),
+        f_mean(0.5f * (fx + fy)),
+        max_z(static_cast<float>(p.max_depth_m)),
+        g_norm(p.confidence_radius_px > 0
+                   ? static_cast<float>(p.confidence_radius_px)
+                   : 0.5f * std::sqrt(static_cast<float>(W) * W + static_cast<float>(H) * H)),
+        inv_2sig2(static_cast<float>(1.0 / (2.0 * p.confidence_sigma * p.confidence_sigma))) {}
+
+  /// Observation of pixel (u, v): world point, world normal, weight, radius. False if unusable.
+  bool observe(int u, int v, Vec3f* p_w, Vec3f* n_w, float* a, float* r) const {
+    const float z = depth.at(u, v);
+    if (z <= 0.0f || z > max_z) return false;
+    const Vec3f& n_c = normal.at(u, v);
+    if (n_c.z() == 0.0f && n_c.x() == 0.0f && n_c.y() == 0.0f) return false;
+    const Vec3f p_c((static_cast<float>(u) - cx) * z / fx, (static_cast<float>(v) - cy) * z / fy,
+                    z);
+    *p_w = T_wc(p_c);
+    *n_w = T_wc.rotate(n_c);
+    const float du = static_cast<float>(u) - cx, dv = static_cast<float>(v) - cy;
+    const float g2 = (du * du + dv * dv) / (g_norm * g_norm);
+    *a = std::exp(-g2 * inv_2sig2);
+    *r = std::sqrt(2.0f) * z / f_mean * std::min(1.0f / std::max(std::fabs(n_c.z()), 1e-6f), 2.0f);
+    return true;
+  }
+};
+
 FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam, std::int32_t now,
                                SurfelMap* map, IndexImage* pixel_surfel) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -84,55 +133,47 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     return ms;
   };
   FusionStats stats;
-  // Source images: full resolution raw depth (ElasticFusion), or the half-resolution filtered level.
+  // Source images: full resolution raw depth (ElasticFusion), or the half-resolution filtered
+  // level.
   const int level = std::min(params_.fusion_level, static_cast<int>(frame.levels.size()) - 1);
-  const FrameLevel& L0 = frame.levels.at(static_cast<size_t>(level));
-  const PinholeIntrinsics& K = L0.K;
-  const DepthImage& depth_in = level == 0 ? frame.raw_depth : L0.depth;
   if (level > 0) downsample_color(frame.color, level, &color_lowres_);
-  const ColorImage& color_in = level == 0 ? frame.color : color_lowres_;
-  const int W = K.width, H = K.height;
-  const int s = params_.index_supersample;
-
+  const Frame f(frame, level, level == 0 ? frame.color : color_lowres_, T_world_cam, params_);
+  const PinholeIntrinsics& K = frame.levels.at(static_cast<size_t>(level)).K;
   RenderOptions opt;
   opt.active_window_frames = params_.active_window_frames;
   opt.now = now;
   opt.far_m = static_cast<float>(params_.max_depth_m + params_.assoc_max_depth_diff_m);
-  renderer_.render_index_map(*map, T_world_cam, K, s, opt, &index_map_, true);
-
-  const RigidF T_wc(T_world_cam);
-  const float fx = static_cast<float>(K.fx), fy = static_cast<float>(K.fy);
-  const float cx = static_cast<float>(K.cx), cy = static_cast<float>(K.cy);
-  const float f_mean = 0.5f * (fx + fy);
-  const float max_z = static_cast<float>(params_.max_depth_m);
-  const float max_dz = static_cast<float>(params_.assoc_max_depth_diff_m);
-  const float min_cos = static_cast<float>(std::cos(params_.assoc_max_normal_angle_rad));
-  const float g_norm = params_.confidence_radius_px > 0
-                           ? static_cast<float>(params_.confidence_radius_px)
-                           : 0.5f * std::sqrt(static_cast<float>(W) * W + static_cast<float>(H) * H);
-  const float inv_2sig2 = static_cast<float>(1.0 / (2.0 * params_.confidence_sigma * params_.confidence_sigma));
-  const float growth = static_cast<float>(params_.max_radius_growth);
-  const float kSqrt2 = std::sqrt(2.0f);
-
-  // Observation of pixel (u, v): world point, world normal, weight, radius. False if unusable.
-  auto observe = [&](int u, int v, Vec3f* p_w, Vec3f* n_w, float* a, float* r) {
-    const float z = depth_in.at(u, v);
-    if (z <= 0.0f || z > max_z) return false;
-    const Vec3f& n_c = L0.normal.at(u, v);
-    if (n_c.z() == 0.0f && n_c.x() == 0.0f && n_c.y() == 0.0f) return false;
-    const Vec3f p_c((static_cast<float>(u) - cx) * z / fx, (static_cast<float>(v) - cy) * z / fy, z);
-    *p_w = T_wc(p_c);
-    *n_w = T_wc.rotate(n_c);
-    const float du = static_cast<float>(u) - cx, dv = static_cast<float>(v) - cy;
-    const float g2 = (du * du + dv * dv) / (g_norm * g_norm);
-    *a = std::exp(-g2 * inv_2sig2);
-    *r = kSqrt2 * z / f_mean * std::min(1.0f / std::max(std::fabs(n_c.z()), 1e-6f), 2.0f);
-    return true;
-  };
-
+  renderer_.render_index_map(*map, T_world_cam, K, params_.index_supersample, opt, &index_map_,
+                             true);
   stats.index_ms = lap();
 
-  // ---- association ----
+  associate(f, now, map);
+  stats.associate_ms = lap();
+
+  stats.updated = update_surfels(f, now, map);
+  if (params_.add_new_surfels) stats.created = add_new_surfels(f, now, map);
+  stats.update_ms = lap();
+
+  std::vector<std::uint8_t> removed(map->size(), 0);
+  stats.removed_unstable = mark_stale_unstable(now, *map, removed);
+  if (params_.remove_free_space_violations)
+    stats.removed_free_space = mark_free_space_violations(f, *map, removed);
+  merges_.clear();
+  if (params_.merge_duplicates) stats.merged = merge_duplicates(map, removed);
+  stats.clean_ms = lap();
+
+  remove_marked(frame, f, map, removed, pixel_surfel);
+  stats.remove_ms = lap();
+  stats.surfels = map->size();
+  stats.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return stats;
+}
+
+void SurfelFusion::associate(const Frame& f, std::int32_t now, SurfelMap* map) {
+  const int W = f.W, H = f.H, s = params_.index_supersample;
+  const float max_dz = static_cast<float>(params_.assoc_max_depth_diff_m);
+  const float min_cos = static_cast<float>(std::cos(params_.assoc_max_normal_angle_rad));
   if (assoc_.width() != W || assoc_.height() != H) {
     assoc_ = IndexImage(W, H, kNoAssoc);
     home_ = Image<std::uint8_t>(W, H, 0);
@@ -142,13 +183,14 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     for (int u = 0; u < W; ++u) {
       std::int32_t& out = assoc_.at(u, v);
       out = kNoAssoc;
-      const float z = depth_in.at(u, v);
-      if (z <= 0.0f || z > max_z) continue;
-      const Vec3f& n_c = L0.normal.at(u, v);
+      const float z = f.depth.at(u, v);
+      if (z <= 0.0f || z > f.max_z) continue;
+      const Vec3f& n_c = f.normal.at(u, v);
       if (n_c.z() == 0.0f && n_c.x() == 0.0f && n_c.y() == 0.0f) continue;
-      const Vec3f n_w = T_wc.rotate(n_c);
-      const Vec3f ray = Vec3f((static_cast<float>(u) - cx) / fx, (static_cast<float>(v) - cy) / fy, 1.0f)
-                            .normalized();
+      const Vec3f n_w = f.T_wc.rotate(n_c);
+      const Vec3f ray =
+          Vec3f((static_cast<float>(u) - f.cx) / f.fx, (static_cast<float>(v) - f.cy) / f.fy, 1.0f)
+              .normalized();
       std::int32_t best = kNewSurfel;
       float best_d2 = 0.0f, best_conf = 0.0f;
       auto consider = [&](int x, int y) {
@@ -184,14 +226,17 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
       // A surfel covering this pixel from a neighbouring cell counts as seen; only the pixel whose
       // cell holds its centre updates it (one writer per surfel).
       if (best >= 0 && !best_home)
-        std::atomic_ref<std::int32_t>(map->last_seen_time[best]).store(now, std::memory_order_relaxed);
+        std::atomic_ref<std::int32_t>(map->last_seen_time[best])
+            .store(now, std::memory_order_relaxed);
       out = best;
     }
   }
+}
 
-  stats.associate_ms = lap();
-
-  // ---- updates (each surfel has at most one associated pixel: no races) ----
+size_t SurfelFusion::update_surfels(const Frame& f, std::int32_t now, SurfelMap* map) {
+  // Each surfel has at most one associated pixel: no races.
+  const int W = f.W, H = f.H;
+  const float growth = static_cast<float>(params_.max_radius_growth);
   size_t updated = 0;
 #pragma omp parallel for schedule(static) reduction(+ : updated)
   for (int v = 0; v < H; ++v) {
@@ -200,7 +245,7 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
       if (i < 0 || !home_.at(u, v)) continue;
       Vec3f p_w, n_w;
       float a, r;
-      if (!observe(u, v, &p_w, &n_w, &a, &r)) continue;
+      if (!f.observe(u, v, &p_w, &n_w, &a, &r)) continue;
       const float c = map->confidence[i];
       if (r < growth * map->radius_m[i]) {
         const float inv = 1.0f / (c + a);
@@ -208,7 +253,7 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
         Vec3f n = c * map->normal_world[i] + a * n_w;
         const float len = n.norm();
         if (len > 1e-6f) map->normal_world[i] = n / len;
-        map->color[i] = blend(map->color[i], c, color_in.at(u, v), a);
+        map->color[i] = blend(map->color[i], c, f.color.at(u, v), a);
         map->radius_m[i] = (c * map->radius_m[i] + a * r) * inv;
       }
       map->confidence[i] = c + a;
@@ -216,151 +261,160 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
       ++updated;
     }
   }
-  stats.updated = updated;
+  return updated;
+}
 
-  // ---- new surfels: row counts, prefix sum, parallel fill (deterministic order) ----
+size_t SurfelFusion::add_new_surfels(const Frame& f, std::int32_t now, SurfelMap* map) {
+  // Row counts, prefix sum, parallel fill (deterministic order).
+  const int W = f.W, H = f.H;
   const size_t old_size = map->size();
-  if (params_.add_new_surfels) {
-    row_counts_.assign(static_cast<size_t>(H) + 1, 0);
+  row_counts_.assign(static_cast<size_t>(H) + 1, 0);
 #pragma omp parallel for schedule(static)
-    for (int v = 0; v < H; ++v) {
-      std::uint32_t n = 0;
-      for (int u = 0; u < W; ++u) n += assoc_.at(u, v) == kNewSurfel;
-      row_counts_[static_cast<size_t>(v) + 1] = n;
-    }
-    for (int v = 0; v < H; ++v) row_counts_[static_cast<size_t>(v) + 1] += row_counts_[static_cast<size_t>(v)];
-    const size_t added = row_counts_[static_cast<size_t>(H)];
-    map->resize(old_size + added);
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < H; ++v) {
-      size_t k = old_size + row_counts_[static_cast<size_t>(v)];
-      for (int u = 0; u < W; ++u) {
-        if (assoc_.at(u, v) != kNewSurfel) continue;
-        Vec3f p_w, n_w;
-        float a, r;
-        observe(u, v, &p_w, &n_w, &a, &r);  // true: checked during association
-        map->position_world[k] = p_w;
-        map->normal_world[k] = n_w;
-        map->color[k] = color_in.at(u, v);
-        map->radius_m[k] = r;
-        map->confidence[k] = a;
-        map->init_time[k] = now;
-        map->last_seen_time[k] = now;
-        assoc_.at(u, v) = static_cast<std::int32_t>(k);
-        ++k;
-      }
-    }
-    stats.created = added;
+  for (int v = 0; v < H; ++v) {
+    std::uint32_t n = 0;
+    for (int u = 0; u < W; ++u) n += assoc_.at(u, v) == kNewSurfel;
+    row_counts_[static_cast<size_t>(v) + 1] = n;
   }
+  for (int v = 0; v < H; ++v)
+    row_counts_[static_cast<size_t>(v) + 1] += row_counts_[static_cast<size_t>(v)];
+  const size_t added = row_counts_[static_cast<size_t>(H)];
+  map->resize(old_size + added);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < H; ++v) {
+    size_t k = old_size + row_counts_[static_cast<size_t>(v)];
+    for (int u = 0; u < W; ++u) {
+      if (assoc_.at(u, v) != kNewSurfel) continue;
+      Vec3f p_w, n_w;
+      float a, r;
+      f.observe(u, v, &p_w, &n_w, &a, &r);  // true: checked during association
+      map->position_world[k] = p_w;
+      map->normal_world[k] = n_w;
+      map->color[k] = f.color.at(u, v);
+      map->radius_m[k] = r;
+      map->confidence[k] = a;
+      map->init_time[k] = now;
+      map->last_seen_time[k] = now;
+      assoc_.at(u, v) = static_cast<std::int32_t>(k);
+      ++k;
+    }
+  }
+  return added;
+}
 
-  stats.update_ms = lap();
-
-  // ---- cleaning ----
-  const size_t n_all = map->size();
-  std::vector<std::uint8_t> removed(n_all, 0);
+size_t SurfelFusion::mark_stale_unstable(std::int32_t now, const SurfelMap& map,
+                                         std::vector<std::uint8_t>& removed) const {
   const float stable = static_cast<float>(params_.stable_confidence);
   const int max_age = params_.unstable_max_age_frames;
   size_t removed_unstable = 0;
 #pragma omp parallel for schedule(static) reduction(+ : removed_unstable)
-  for (long i = 0; i < static_cast<long>(n_all); ++i) {
-    if (map->confidence[i] < stable && now - map->init_time[i] > max_age) {
+  for (long i = 0; i < static_cast<long>(removed.size()); ++i) {
+    if (map.confidence[i] < stable && now - map.init_time[i] > max_age) {
       removed[i] = 1;
       ++removed_unstable;
     }
   }
-  stats.removed_unstable = removed_unstable;
+  return removed_unstable;
+}
 
-  const int IW = W * s, IH = H * s;
-  if (params_.remove_free_space_violations) {
-    const float margin = static_cast<float>(params_.free_space_margin_m);
-    size_t fs = 0;
+size_t SurfelFusion::mark_free_space_violations(const Frame& f, const SurfelMap& map,
+                                                std::vector<std::uint8_t>& removed) const {
+  const int s = params_.index_supersample;
+  const int IW = f.W * s, IH = f.H * s;
+  const float stable = static_cast<float>(params_.stable_confidence);
+  const float margin = static_cast<float>(params_.free_space_margin_m);
+  size_t fs = 0;
 #pragma omp parallel for schedule(static) reduction(+ : fs)
-    for (int y = 0; y < IH; ++y) {
-      for (int x = 0; x < IW; ++x) {
-        const std::int32_t i = index_map_.surfel_index.at(x, y);
-        if (i < 0 || index_map_.confidence.at(x, y) >= stable || removed[i] || map->always_active[i]) continue;
-        const float z_live = depth_in.at(x / s, y / s);
-        if (z_live <= 0.0f || z_live > max_z) continue;
-        if (index_map_.depth.at(x, y) < z_live - margin) {
-          removed[i] = 1;
-          ++fs;
-        }
+  for (int y = 0; y < IH; ++y) {
+    for (int x = 0; x < IW; ++x) {
+      const std::int32_t i = index_map_.surfel_index.at(x, y);
+      if (i < 0 || index_map_.confidence.at(x, y) >= stable || removed[i] || map.always_active[i])
+        continue;
+      const float z_live = f.depth.at(x / s, y / s);
+      if (z_live <= 0.0f || z_live > f.max_z) continue;
+      if (index_map_.depth.at(x, y) < z_live - margin) {
+        removed[i] = 1;
+        ++fs;
       }
     }
-    stats.removed_free_space = fs;
   }
+  return fs;
+}
 
-  if (params_.merge_duplicates) {
-    // Phase 1 (parallel, read-only): each visible surfel looks for a dominating neighbour in the
-    // surrounding index cells (higher confidence, ties to the lower index) close enough to merge into.
-    if (merge_target_.size() < static_cast<size_t>(IW) * IH) merge_target_.resize(static_cast<size_t>(IW) * IH);
-    const float factor = static_cast<float>(params_.merge_max_distance_factor);
-    const float merge_cos = static_cast<float>(std::cos(params_.merge_max_normal_angle_rad));
+size_t SurfelFusion::merge_duplicates(SurfelMap* map, std::vector<std::uint8_t>& removed) {
+  const int IW = index_map_.surfel_index.width(), IH = index_map_.surfel_index.height();
+  const float stable = static_cast<float>(params_.stable_confidence);
+  if (merge_target_.size() < static_cast<size_t>(IW) * IH)
+    merge_target_.resize(static_cast<size_t>(IW) * IH);
+  const float factor = static_cast<float>(params_.merge_max_distance_factor);
+  const float merge_cos = static_cast<float>(std::cos(params_.merge_max_normal_angle_rad));
 #pragma omp parallel for schedule(static)
-    for (int y = 0; y < IH; ++y) {
-      for (int x = 0; x < IW; ++x) {
-        std::int32_t& target = merge_target_[static_cast<size_t>(y) * IW + x];
-        target = -1;
-        const std::int32_t i = index_map_.surfel_index.at(x, y);
-        if (i < 0) continue;
-        // Decisions use the index map's copies (values before this frame's updates): contiguous
-        // reads, and consistent for both sides of a pair.
-        const float ci = index_map_.confidence.at(x, y);
-        if (ci >= stable || removed[i]) continue;  // only unstable surfels are merged away
-        const Vec3f& pi = index_map_.position_cam.at(x, y);
-        const float ri = index_map_.radius_m.at(x, y);
-        const Vec3f& ni = index_map_.normal_world.at(x, y);
-        float best_d2 = 0.0f;
-        for (int dy = -1; dy <= 1; ++dy) {
-          for (int dx = -1; dx <= 1; ++dx) {
-            if ((dx == 0 && dy == 0) || x + dx < 0 || y + dy < 0 || x + dx >= IW || y + dy >= IH) continue;
-            const std::int32_t j = index_map_.surfel_index.at(x + dx, y + dy);
-            if (j < 0) continue;
-            const float cj = index_map_.confidence.at(x + dx, y + dy);
-            if (!(cj > ci || (cj == ci && j < i))) continue;
-            const float lim = factor * std::min(ri, index_map_.radius_m.at(x + dx, y + dy));
-            const float d2 = (index_map_.position_cam.at(x + dx, y + dy) - pi).squaredNorm();
-            if (d2 >= lim * lim) continue;
-            if (index_map_.normal_world.at(x + dx, y + dy).dot(ni) < merge_cos) continue;
-            if (removed[j]) continue;
-            if (target < 0 || d2 < best_d2) {
-              target = j;
-              best_d2 = d2;
-            }
+  for (int y = 0; y < IH; ++y) {
+    for (int x = 0; x < IW; ++x) {
+      std::int32_t& target = merge_target_[static_cast<size_t>(y) * IW + x];
+      target = -1;
+      const std::int32_t i = index_map_.surfel_index.at(x, y);
+      if (i < 0) continue;
+      // Decisions use the index map's copies (values before this frame's updates): contiguous
+      // reads, and consistent for both sides of a pair.
+      const float ci = index_map_.confidence.at(x, y);
+      if (ci >= stable || removed[i]) continue;  // only unstable surfels are merged away
+      const Vec3f& pi = index_map_.position_cam.at(x, y);
+      const float ri = index_map_.radius_m.at(x, y);
+      const Vec3f& ni = index_map_.normal_world.at(x, y);
+      float best_d2 = 0.0f;
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          if ((dx == 0 && dy == 0) || x + dx < 0 || y + dy < 0 || x + dx >= IW || y + dy >= IH)
+            continue;
+          const std::int32_t j = index_map_.surfel_index.at(x + dx, y + dy);
+          if (j < 0) continue;
+          const float cj = index_map_.confidence.at(x + dx, y + dy);
+          if (!(cj > ci || (cj == ci && j < i))) continue;
+          const float lim = factor * std::min(ri, index_map_.radius_m.at(x + dx, y + dy));
+          const float d2 = (index_map_.position_cam.at(x + dx, y + dy) - pi).squaredNorm();
+          if (d2 >= lim * lim) continue;
+          if (index_map_.normal_world.at(x + dx, y + dy).dot(ni) < merge_cos) continue;
+          if (removed[j]) continue;
+          if (target < 0 || d2 < best_d2) {
+            target = j;
+            best_d2 = d2;
           }
         }
       }
     }
-    // Phase 2 (sequential, in cell order): merge unless either side was removed meanwhile.
-    size_t merged = 0;
-    merges_.clear();
-    for (size_t k = 0; k < static_cast<size_t>(IW) * IH; ++k) {
-      const std::int32_t j = merge_target_[k];
-      if (j < 0) continue;
-      const std::int32_t i = index_map_.surfel_index[k];
-      if (removed[i] || removed[j]) continue;
-      const float ci = map->confidence[i], cj = map->confidence[j];
-      const float inv = 1.0f / (ci + cj);
-      map->position_world[j] = (cj * map->position_world[j] + ci * map->position_world[i]) * inv;
-      const Vec3f n = cj * map->normal_world[j] + ci * map->normal_world[i];
-      if (n.norm() > 1e-6f) map->normal_world[j] = n.normalized();
-      map->color[j] = blend(map->color[j], cj, map->color[i], ci);
-      map->radius_m[j] = (cj * map->radius_m[j] + ci * map->radius_m[i]) * inv;
-      map->confidence[j] = ci + cj;
-      map->init_time[j] = std::min(map->init_time[j], map->init_time[i]);
-      map->last_seen_time[j] = std::max(map->last_seen_time[j], map->last_seen_time[i]);
-      map->always_active[j] = static_cast<std::uint8_t>(map->always_active[j] | map->always_active[i]);
-      removed[i] = 1;
-      merges_.emplace_back(i, j);  // a pixel that updated i now points at j
-      ++merged;
-    }
-    stats.merged = merged;
   }
+  // Phase 2 (sequential, in cell order): merge unless either side was removed meanwhile.
+  size_t merged = 0;
+  merges_.clear();
+  for (size_t k = 0; k < static_cast<size_t>(IW) * IH; ++k) {
+    const std::int32_t j = merge_target_[k];
+    if (j < 0) continue;
+    const std::int32_t i = index_map_.surfel_index[k];
+    if (removed[i] || removed[j]) continue;
+    const float ci = map->confidence[i], cj = map->confidence[j];
+    const float inv = 1.0f / (ci + cj);
+    map->position_world[j] = (cj * map->position_world[j] + ci * map->position_world[i]) * inv;
+    const Vec3f n = cj * map->normal_world[j] + ci * map->normal_world[i];
+    if (n.norm() > 1e-6f) map->normal_world[j] = n.normalized();
+    map->color[j] = blend(map->color[j], cj, map->color[i], ci);
+    map->radius_m[j] = (cj * map->radius_m[j] + ci * map->radius_m[i]) * inv;
+    map->confidence[j] = ci + cj;
+    map->init_time[j] = std::min(map->init_time[j], map->init_time[i]);
+    map->last_seen_time[j] = std::max(map->last_seen_time[j], map->last_seen_time[i]);
+    map->always_active[j] =
+        static_cast<std::uint8_t>(map->always_active[j] | map->always_active[i]);
+    removed[i] = 1;
+    merges_.emplace_back(i, j);  // a pixel that updated i now points at j
+    ++merged;
+  }
+  return merged;
+}
 
-  stats.clean_ms = lap();
-
-  // ---- removal ----
-  if (!params_.merge_duplicates) merges_.clear();
+void SurfelFusion::remove_marked(const FramePyramid& frame, const Frame& f, SurfelMap* map,
+                                 const std::vector<std::uint8_t>& removed,
+                                 IndexImage* pixel_surfel) {
+  const int W = f.W, H = f.H, level = f.level;
+  const size_t n_all = removed.size();
   std::vector<std::uint32_t> removal_list;
   for (size_t i = 0; i < n_all; ++i)
     if (removed[i]) removal_list.push_back(static_cast<std::uint32_t>(i));
@@ -376,7 +430,8 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
     };
     map->remove(removal_list, &moved_from);
     std::vector<std::int32_t> old_to_new(n_all, -1);
-    for (size_t i = 0; i < moved_from.size(); ++i) old_to_new[moved_from[i]] = static_cast<std::int32_t>(i);
+    for (size_t i = 0; i < moved_from.size(); ++i)
+      old_to_new[moved_from[i]] = static_cast<std::int32_t>(i);
 #pragma omp parallel for schedule(static)
     for (long k = 0; k < static_cast<long>(W) * H; ++k) {
       const std::int32_t i = assoc_[k];
@@ -389,7 +444,8 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
   if (pixel_surfel) {
     // Per full-resolution pixel (each pixel of a coarser fusion level covers a block).
     const int FW = frame.raw_depth.width(), FH = frame.raw_depth.height();
-    if (pixel_surfel->width() != FW || pixel_surfel->height() != FH) *pixel_surfel = IndexImage(FW, FH, -1);
+    if (pixel_surfel->width() != FW || pixel_surfel->height() != FH)
+      *pixel_surfel = IndexImage(FW, FH, -1);
 #pragma omp parallel for schedule(static)
     for (int v = 0; v < FH; ++v)
       for (int u = 0; u < FW; ++u) {
@@ -397,10 +453,6 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
         pixel_surfel->at(u, v) = std::max(assoc_.at(fu, fv), -1);
       }
   }
-  stats.remove_ms = lap();
-  stats.surfels = map->size();
-  stats.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  return stats;
 }
 
 }  // namespace orpe::slam

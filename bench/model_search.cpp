@@ -59,36 +59,36 @@ Fixture& fixture() {
 
 constexpr float kBoundSq = 0.01f * 0.01f;  // the refinement's final association distance, 1 cm
 
-void BM_NearestWithinTree(benchmark::State& state) {
+/// Times `search(query, hint, &d2)` over the fixture's queries, round robin.
+template <class Search>
+void time_queries(benchmark::State& state, Search search) {
   Fixture& f = fixture();
   size_t k = 0;
   for (auto _ : state) {
     float d2 = 0;
-    benchmark::DoNotOptimize(f.index.nearest_within(f.queries[k], kBoundSq, &d2));
+    benchmark::DoNotOptimize(search(f.index, f.queries[k], f.hints[k], &d2));
     k = (k + 1) % f.queries.size();
   }
+}
+
+void BM_NearestWithinTree(benchmark::State& state) {
+  time_queries(state,
+               [](const orpe::ModelSearchIndex& index, const Eigen::Vector3f& q, std::uint32_t,
+                  float* d2) { return index.nearest_within(q, kBoundSq, d2); });
 }
 BENCHMARK(BM_NearestWithinTree);
 
 void BM_NearestNearHinted(benchmark::State& state) {
-  Fixture& f = fixture();
-  size_t k = 0;
-  for (auto _ : state) {
-    float d2 = 0;
-    benchmark::DoNotOptimize(f.index.nearest_near(f.queries[k], f.hints[k], kBoundSq, &d2));
-    k = (k + 1) % f.queries.size();
-  }
+  time_queries(state,
+               [](const orpe::ModelSearchIndex& index, const Eigen::Vector3f& q, std::uint32_t hint,
+                  float* d2) { return index.nearest_near(q, hint, kBoundSq, d2); });
 }
 BENCHMARK(BM_NearestNearHinted);
 
 void BM_NearestApproxGrid(benchmark::State& state) {
-  Fixture& f = fixture();
-  size_t k = 0;
-  for (auto _ : state) {
-    float d2 = 0;
-    benchmark::DoNotOptimize(f.index.nearest_approx(f.queries[k], &d2, 0.005f, 0.05f));
-    k = (k + 1) % f.queries.size();
-  }
+  time_queries(state,
+               [](const orpe::ModelSearchIndex& index, const Eigen::Vector3f& q, std::uint32_t,
+                  float* d2) { return index.nearest_approx(q, d2, 0.005f, 0.05f); });
 }
 BENCHMARK(BM_NearestApproxGrid);
 

@@ -46,6 +46,106 @@ void clip_polygon(const std::vector<Eigen::Vector3d>& in, const Plane& pl,
   }
 }
 
+/// A triangle as the resolve pass needs it at each of its pixels: the constants of the ray
+/// intersection and the attributes to interpolate. With ray d = (x, y, 1), vertices P0..P2,
+/// e1 = P1 - P0, e2 = P2 - P0, s = -P0 (Moeller-Trumbore):
+///   det = -d . n, b1 = d . m / det, b2 = d . q / det, z = c / det,
+/// where n = e1 x e2, m = e2 x s, q = s x e1, c = e2 . q are constant per triangle.
+struct TriangleSurface {
+  Eigen::Vector3d n = Eigen::Vector3d::Zero(), m = n, q = n;
+  double c = 0, zlo = 0, zhi = 0;
+  Eigen::Vector3f n0 = Eigen::Vector3f::Zero(), n1 = n0, n2 = n0, face_n = n0;
+  // Albedo terms: base colour x vertex colours, and uvs when textured.
+  Eigen::Vector3f c0 = n0, c1 = n0, c2 = n0;
+  Eigen::Vector2f t0 = Eigen::Vector2f::Zero(), t1 = t0, t2 = t0;
+  bool textured = false;
+  const TriangleMesh* mesh = nullptr;
+
+  void load(const TriangleMesh& mesh_, int triangle, const std::vector<Eigen::Vector3f>& cv,
+            const Eigen::Matrix3f& R, double near, bool want_color) {
+    mesh = &mesh_;
+    const Eigen::Vector3i& tri = mesh->triangles[triangle];
+    const Eigen::Vector3d P0 = cv[tri[0]].cast<double>(), P1 = cv[tri[1]].cast<double>(),
+                          P2 = cv[tri[2]].cast<double>();
+    const Eigen::Vector3d e1 = P1 - P0, e2 = P2 - P0, s0 = -P0;
+    n = e1.cross(e2);
+    m = e2.cross(s0);
+    q = s0.cross(e1);
+    c = e2.dot(q);
+    zlo = std::max(std::min({P0.z(), P1.z(), P2.z()}), near);
+    zhi = std::max(std::max({P0.z(), P1.z(), P2.z()}), zlo);
+    face_n = n.cast<float>();
+    if (!mesh->normals.empty())
+      n0 = R * mesh->normals[tri[0]], n1 = R * mesh->normals[tri[1]],
+      n2 = R * mesh->normals[tri[2]];
+    if (!want_color) return;
+    const Eigen::Vector3f base =
+        Eigen::Vector3f(mesh->base_color.r, mesh->base_color.g, mesh->base_color.b) / 255.0f;
+    Eigen::Vector3f* cs[3] = {&c0, &c1, &c2};
+    for (int k = 0; k < 3; ++k) {
+      *cs[k] = base;
+      if (!mesh->colors.empty()) {
+        const Rgb8 vc = mesh->colors[tri[k]];
+        *cs[k] = cs[k]->cwiseProduct(Eigen::Vector3f(vc.r, vc.g, vc.b) / 255.0f);
+      }
+    }
+    textured = mesh->has_texture();
+    if (textured) t0 = mesh->uvs[tri[0]], t1 = mesh->uvs[tri[1]], t2 = mesh->uvs[tri[2]];
+  }
+
+  /// Depth of the ray `d` on the triangle (`z_fallback` for a ray along its plane) and the
+  /// barycentric coordinates, clamped into the triangle.
+  double intersect(const Eigen::Vector3d& d, double z_fallback, Eigen::Vector3f* bary) const {
+    const double det = -d.dot(n);
+    double z, b1, b2;
+    if (std::abs(det) > 1e-18) {
+      const double inv = 1.0 / det;
+      b1 = d.dot(m) * inv;
+      b2 = d.dot(q) * inv;
+      z = c * inv;
+    } else {
+      z = z_fallback;
+      b1 = b2 = 1.0 / 3.0;
+    }
+    // Pixel centres on a snapped edge can sit a hair outside the exact triangle: clamp.
+    z = std::clamp(z, zlo, zhi);
+    b1 = std::clamp(b1, 0.0, 1.0), b2 = std::clamp(b2, 0.0, 1.0);
+    if (b1 + b2 > 1.0) {
+      const double sum = b1 + b2;
+      b1 /= sum, b2 /= sum;
+    }
+    *bary = Eigen::Vector3f(static_cast<float>(1.0 - b1 - b2), static_cast<float>(b1),
+                            static_cast<float>(b2));
+    return z;
+  }
+
+  /// The interpolated (else the face's) unit normal, turned to face the camera (ray `d`).
+  Eigen::Vector3f normal(const Eigen::Vector3f& bary, const Eigen::Vector3f& d) const {
+    Eigen::Vector3f nrm = mesh->normals.empty()
+                              ? face_n
+                              : Eigen::Vector3f(bary[0] * n0 + bary[1] * n1 + bary[2] * n2);
+    const float len = nrm.norm();
+    nrm = len > 0 ? Eigen::Vector3f(nrm / len) : Eigen::Vector3f(0, 0, -1);
+    if (nrm.dot(d) > 0) nrm = -nrm;  // face the camera
+    return nrm;
+  }
+
+  /// Lambertian colour: albedo x (ambient + diffuse x max(0, n . l)).
+  Rgb8 shade(const Eigen::Vector3f& bary, const Eigen::Vector3f& nrm, const Light& light,
+             const Eigen::Vector3f& ldir) const {
+    Eigen::Vector3f albedo = bary[0] * c0 + bary[1] * c1 + bary[2] * c2;
+    if (textured) {
+      const Eigen::Vector2f uv = bary[0] * t0 + bary[1] * t1 + bary[2] * t2;
+      albedo = albedo.cwiseProduct(sample_texture_bilinear(*mesh->texture, uv.x(), uv.y()) *
+                                   (1.0f / 255.0f));
+    }
+    const float shade = light.ambient + light.diffuse * std::max(0.0f, nrm.dot(ldir));
+    const Eigen::Vector3f col = (albedo * (shade * 255.0f)).cwiseMin(255.0f).cwiseMax(0.0f);
+    return {static_cast<std::uint8_t>(col.x() + 0.5f), static_cast<std::uint8_t>(col.y() + 0.5f),
+            static_cast<std::uint8_t>(col.z() + 0.5f)};
+  }
+};
+
 }  // namespace
 
 bool RasterizerParams::IsValid(std::string* why) const {
@@ -99,22 +199,24 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
       throw std::invalid_argument("Rasterizer: item " + std::to_string(i) + " (" +
                                   items[i].mesh->name + "): " + why);
   }
-  const int W = K.width, H = K.height;
-  const size_t npix = static_cast<size_t>(W) * H;
   const int threads = params_.threads > 0 ? params_.threads : omp_get_max_threads();
   RenderStats stats;
+  project_vertices(K, items, threads, stats);
+  setup_triangles(K, items, threads, stats);
+  bin_triangles(K.height);
+  rasterise(K, items.size(), (outputs & kRenderSilhouettes) != 0, threads, out);
+  const Light light = light_override ? *light_override : default_light();
+  stats.pixels_covered = resolve(K, items, outputs, light, threads, out);
+  out.stats = stats;
+}
 
-  const double near = params_.near_m, far = params_.far_m;
-  const bool cull = params_.cull_back_faces;
+void Rasterizer::project_vertices(const PinholeIntrinsics& K, std::span<const RenderItem> items,
+                                  int threads, RenderStats& stats) {
+  // Vertices to the camera frame, projected once (triangles share them).
+  const int W = K.width, H = K.height;
+  const double near = params_.near_m;
   const double gx0 = -kGuardBandPx, gx1 = W - 1 + kGuardBandPx, gy0 = -kGuardBandPx,
                gy1 = H - 1 + kGuardBandPx;
-  const Plane near_plane{{0, 0, 1}, -near};
-  const Plane guard[4] = {{{K.fx, 0, K.cx - gx0}, 0},
-                          {{-K.fx, 0, gx1 - K.cx}, 0},
-                          {{0, K.fy, K.cy - gy0}, 0},
-                          {{0, -K.fy, gy1 - K.cy}, 0}};
-
-  // --- Vertices to the camera frame, projected once (triangles share them).
   cam_vertices_.resize(items.size());
   proj_vertices_.resize(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
@@ -142,8 +244,11 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
     }
     stats.triangles_in += items[i].mesh->triangles.size();
   }
+}
 
-  // --- Triangle setup in fixed-size chunks of the global triangle sequence.
+void Rasterizer::setup_triangles(const PinholeIntrinsics& K, std::span<const RenderItem> items,
+                                 int threads, RenderStats& stats) {
+  // In fixed-size chunks of the global triangle sequence (deterministic whatever the threads).
   std::vector<size_t> item_first(items.size() + 1, 0);
   for (size_t i = 0; i < items.size(); ++i)
     item_first[i + 1] = item_first[i] + items[i].mesh->triangles.size();
@@ -151,107 +256,9 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
   const size_t nchunks = (total + kSetupChunk - 1) / kSetupChunk;
   if (chunk_tris_.size() < nchunks) chunk_tris_.resize(nchunks);
   std::vector<size_t> chunk_culled(nchunks, 0), chunk_clipped(nchunks, 0);
-
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
-  for (long c = 0; c < static_cast<long>(nchunks); ++c) {
-    auto& outv = chunk_tris_[c];
-    outv.clear();
-    std::vector<Eigen::Vector3d> poly, tmp;
-    poly.reserve(12), tmp.reserve(12);
-    const size_t g0 = c * kSetupChunk, g1 = std::min(total, g0 + kSetupChunk);
-    size_t item = static_cast<size_t>(std::upper_bound(item_first.begin(), item_first.end(), g0) -
-                                      item_first.begin()) -
-                  1;
-    for (size_t g = g0; g < g1; ++g) {
-      while (g >= item_first[item + 1]) ++item;
-      const int tri = static_cast<int>(g - item_first[item]);
-      const Eigen::Vector3i& t = items[item].mesh->triangles[tri];
-      const auto& cv = cam_vertices_[item];
-      const Eigen::Vector3d P0 = cv[t[0]].cast<double>(), P1 = cv[t[1]].cast<double>(),
-                            P2 = cv[t[2]].cast<double>();
-      if ((P0.z() < near && P1.z() < near && P2.z() < near) ||
-          (P0.z() > far && P1.z() > far && P2.z() > far)) {
-        ++chunk_culled[c];
-        continue;
-      }
-      if (cull && (P1 - P0).cross(P2 - P0).dot(P0) >= 0) {
-        ++chunk_culled[c];
-        continue;
-      }
-      // Emits the screen triangle (a, b, d) of vertices in 1/256-pixel fixed point with their 1/z.
-      auto emit = [&](const std::int64_t* X, const std::int64_t* Y, const double* iz, int a, int b,
-                      int d) {
-        std::int64_t area2 = (X[b] - X[a]) * (Y[d] - Y[a]) - (Y[b] - Y[a]) * (X[d] - X[a]);
-        if (area2 == 0) return;
-        if (area2 < 0) std::swap(b, d);
-        ScreenTriangle st;
-        const int idx[3] = {a, b, d};
-        std::int64_t xmin = X[a], xmax = X[a], ymin = Y[a], ymax = Y[a];
-        for (int m = 0; m < 3; ++m) {
-          st.x[m] = static_cast<std::int32_t>(X[idx[m]]);
-          st.y[m] = static_cast<std::int32_t>(Y[idx[m]]);
-          xmin = std::min(xmin, X[idx[m]]), xmax = std::max(xmax, X[idx[m]]);
-          ymin = std::min(ymin, Y[idx[m]]), ymax = std::max(ymax, Y[idx[m]]);
-        }
-        st.u_min = static_cast<std::int32_t>(std::max<std::int64_t>(0, ceil_div(xmin, kOne)));
-        st.u_max = static_cast<std::int32_t>(std::min<std::int64_t>(W - 1, floor_div(xmax, kOne)));
-        st.v_min = static_cast<std::int32_t>(std::max<std::int64_t>(0, ceil_div(ymin, kOne)));
-        st.v_max = static_cast<std::int32_t>(std::min<std::int64_t>(H - 1, floor_div(ymax, kOne)));
-        if (st.u_min > st.u_max || st.v_min > st.v_max) return;
-        // 1/z plane through the snapped vertices: iz = A u + B v + C.
-        const double ux0 = X[a] / double(kOne), uy0 = Y[a] / double(kOne);
-        const double ux1 = X[b] / double(kOne) - ux0, uy1 = Y[b] / double(kOne) - uy0;
-        const double ux2 = X[d] / double(kOne) - ux0, uy2 = Y[d] / double(kOne) - uy0;
-        const double dz1 = iz[b] - iz[a], dz2 = iz[d] - iz[a];
-        const double det = ux1 * uy2 - ux2 * uy1;
-        const double A = (dz1 * uy2 - dz2 * uy1) / det;
-        const double B = (ux1 * dz2 - ux2 * dz1) / det;
-        st.inv_z_du = static_cast<float>(A);
-        st.inv_z_dv = static_cast<float>(B);
-        st.inv_z_0 = static_cast<float>(iz[a] - A * ux0 - B * uy0);
-        st.item = static_cast<std::int32_t>(item);
-        st.triangle = tri;
-        outv.push_back(st);
-      };
-      // Fast path: all three vertices in front of the near plane and inside the guard band.
-      const auto& pv = proj_vertices_[item];
-      const ProjectedVertex &v0 = pv[t[0]], &v1 = pv[t[1]], &v2 = pv[t[2]];
-      if (!v0.needs_clip && !v1.needs_clip && !v2.needs_clip) {
-        const std::int64_t X[3] = {v0.x, v1.x, v2.x}, Y[3] = {v0.y, v1.y, v2.y};
-        const double iz[3] = {v0.inv_z, v1.inv_z, v2.inv_z};
-        emit(X, Y, iz, 0, 1, 2);
-        continue;
-      }
-      poly.assign({P0, P1, P2});
-      if (P0.z() < near || P1.z() < near || P2.z() < near) {
-        clip_polygon(poly, near_plane, tmp);
-        poly.swap(tmp);
-      }
-      for (const Plane& pl : guard) {
-        bool outside = false;
-        for (const auto& p : poly) outside |= pl.eval(p) < 0;
-        if (!outside) continue;
-        clip_polygon(poly, pl, tmp);
-        poly.swap(tmp);
-      }
-      if (poly.size() < 3) {
-        ++chunk_culled[c];
-        continue;
-      }
-      ++chunk_clipped[c];
-      double iz[12];
-      std::int64_t X[12], Y[12];
-      const size_t n = std::min<size_t>(poly.size(), 12);
-      for (size_t k = 0; k < n; ++k) {
-        const double z = std::max(poly[k].z(), near * 0.999999);
-        X[k] = static_cast<std::int64_t>(std::nearbyint((K.fx * poly[k].x() / z + K.cx) * kOne));
-        Y[k] = static_cast<std::int64_t>(std::nearbyint((K.fy * poly[k].y() / z + K.cy) * kOne));
-        iz[k] = 1.0 / z;
-      }
-      for (size_t k = 1; k + 1 < n; ++k)
-        emit(X, Y, iz, 0, static_cast<int>(k), static_cast<int>(k + 1));
-    }
-  }
+  for (long c = 0; c < static_cast<long>(nchunks); ++c)
+    setup_chunk(K, items, item_first, static_cast<size_t>(c), &chunk_culled[c], &chunk_clipped[c]);
   tris_.clear();
   for (size_t c = 0; c < nchunks; ++c) {
     tris_.insert(tris_.end(), chunk_tris_[c].begin(), chunk_tris_[c].end());
@@ -259,8 +266,124 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
     stats.triangles_clipped += chunk_clipped[c];
   }
   stats.triangles_drawn = tris_.size();
+}
 
-  // --- Binning into row bands.
+void Rasterizer::setup_chunk(const PinholeIntrinsics& K, std::span<const RenderItem> items,
+                             const std::vector<size_t>& item_first, size_t c, size_t* culled,
+                             size_t* clipped) {
+  const int W = K.width, H = K.height;
+  const double near = params_.near_m, far = params_.far_m;
+  const bool cull = params_.cull_back_faces;
+  const double gx0 = -kGuardBandPx, gx1 = W - 1 + kGuardBandPx, gy0 = -kGuardBandPx,
+               gy1 = H - 1 + kGuardBandPx;
+  const Plane near_plane{{0, 0, 1}, -near};
+  const Plane guard[4] = {{{K.fx, 0, K.cx - gx0}, 0},
+                          {{-K.fx, 0, gx1 - K.cx}, 0},
+                          {{0, K.fy, K.cy - gy0}, 0},
+                          {{0, -K.fy, gy1 - K.cy}, 0}};
+  const size_t total = item_first.back();
+  auto& outv = chunk_tris_[c];
+  outv.clear();
+  std::vector<Eigen::Vector3d> poly, tmp;
+  poly.reserve(12), tmp.reserve(12);
+  const size_t g0 = c * kSetupChunk, g1 = std::min(total, g0 + kSetupChunk);
+  size_t item = static_cast<size_t>(std::upper_bound(item_first.begin(), item_first.end(), g0) -
+                                    item_first.begin()) -
+                1;
+  for (size_t g = g0; g < g1; ++g) {
+    while (g >= item_first[item + 1]) ++item;
+    const int tri = static_cast<int>(g - item_first[item]);
+    const Eigen::Vector3i& t = items[item].mesh->triangles[tri];
+    const auto& cv = cam_vertices_[item];
+    const Eigen::Vector3d P0 = cv[t[0]].cast<double>(), P1 = cv[t[1]].cast<double>(),
+                          P2 = cv[t[2]].cast<double>();
+    if ((P0.z() < near && P1.z() < near && P2.z() < near) ||
+        (P0.z() > far && P1.z() > far && P2.z() > far)) {
+      ++*culled;
+      continue;
+    }
+    if (cull && (P1 - P0).cross(P2 - P0).dot(P0) >= 0) {
+      ++*culled;
+      continue;
+    }
+    // Fast path: all three vertices in front of the near plane and inside the guard band.
+    const auto& pv = proj_vertices_[item];
+    const ProjectedVertex &v0 = pv[t[0]], &v1 = pv[t[1]], &v2 = pv[t[2]];
+    if (!v0.needs_clip && !v1.needs_clip && !v2.needs_clip) {
+      const std::int64_t X[3] = {v0.x, v1.x, v2.x}, Y[3] = {v0.y, v1.y, v2.y};
+      const double iz[3] = {v0.inv_z, v1.inv_z, v2.inv_z};
+      emit(W, H, X, Y, iz, 0, 1, 2, static_cast<int>(item), tri, outv);
+      continue;
+    }
+    poly.assign({P0, P1, P2});
+    if (P0.z() < near || P1.z() < near || P2.z() < near) {
+      clip_polygon(poly, near_plane, tmp);
+      poly.swap(tmp);
+    }
+    for (const Plane& pl : guard) {
+      bool outside = false;
+      for (const auto& p : poly) outside |= pl.eval(p) < 0;
+      if (!outside) continue;
+      clip_polygon(poly, pl, tmp);
+      poly.swap(tmp);
+    }
+    if (poly.size() < 3) {
+      ++*culled;
+      continue;
+    }
+    ++*clipped;
+    double iz[12];
+    std::int64_t X[12], Y[12];
+    const size_t n = std::min<size_t>(poly.size(), 12);
+    for (size_t k = 0; k < n; ++k) {
+      const double z = std::max(poly[k].z(), near * 0.999999);
+      X[k] = static_cast<std::int64_t>(std::nearbyint((K.fx * poly[k].x() / z + K.cx) * kOne));
+      Y[k] = static_cast<std::int64_t>(std::nearbyint((K.fy * poly[k].y() / z + K.cy) * kOne));
+      iz[k] = 1.0 / z;
+    }
+    for (size_t k = 1; k + 1 < n; ++k)
+      emit(W, H, X, Y, iz, 0, static_cast<int>(k), static_cast<int>(k + 1), static_cast<int>(item),
+           tri, outv);
+  }
+}
+
+void Rasterizer::emit(int W, int H, const std::int64_t* X, const std::int64_t* Y, const double* iz,
+                      int a, int b, int d, int item, int tri, std::vector<ScreenTriangle>& outv) {
+  std::int64_t area2 = (X[b] - X[a]) * (Y[d] - Y[a]) - (Y[b] - Y[a]) * (X[d] - X[a]);
+  if (area2 == 0) return;
+  if (area2 < 0) std::swap(b, d);
+  ScreenTriangle st;
+  const int idx[3] = {a, b, d};
+  std::int64_t xmin = X[a], xmax = X[a], ymin = Y[a], ymax = Y[a];
+  for (int m = 0; m < 3; ++m) {
+    st.x[m] = static_cast<std::int32_t>(X[idx[m]]);
+    st.y[m] = static_cast<std::int32_t>(Y[idx[m]]);
+    xmin = std::min(xmin, X[idx[m]]), xmax = std::max(xmax, X[idx[m]]);
+    ymin = std::min(ymin, Y[idx[m]]), ymax = std::max(ymax, Y[idx[m]]);
+  }
+  st.u_min = static_cast<std::int32_t>(std::max<std::int64_t>(0, ceil_div(xmin, kOne)));
+  st.u_max = static_cast<std::int32_t>(std::min<std::int64_t>(W - 1, floor_div(xmax, kOne)));
+  st.v_min = static_cast<std::int32_t>(std::max<std::int64_t>(0, ceil_div(ymin, kOne)));
+  st.v_max = static_cast<std::int32_t>(std::min<std::int64_t>(H - 1, floor_div(ymax, kOne)));
+  if (st.u_min > st.u_max || st.v_min > st.v_max) return;
+  // 1/z plane through the snapped vertices: iz = A u + B v + C.
+  const double ux0 = X[a] / double(kOne), uy0 = Y[a] / double(kOne);
+  const double ux1 = X[b] / double(kOne) - ux0, uy1 = Y[b] / double(kOne) - uy0;
+  const double ux2 = X[d] / double(kOne) - ux0, uy2 = Y[d] / double(kOne) - uy0;
+  const double dz1 = iz[b] - iz[a], dz2 = iz[d] - iz[a];
+  const double det = ux1 * uy2 - ux2 * uy1;
+  const double A = (dz1 * uy2 - dz2 * uy1) / det;
+  const double B = (ux1 * dz2 - ux2 * dz1) / det;
+  st.inv_z_du = static_cast<float>(A);
+  st.inv_z_dv = static_cast<float>(B);
+  st.inv_z_0 = static_cast<float>(iz[a] - A * ux0 - B * uy0);
+  st.item = item;
+  st.triangle = tri;
+  outv.push_back(st);
+}
+
+void Rasterizer::bin_triangles(int H) {
+  // Each screen triangle listed in the row bands it covers.
   const int band_rows = params_.band_rows;
   const int nbands = (H + band_rows - 1) / band_rows;
   band_offsets_.assign(nbands + 1, 0);
@@ -274,16 +397,23 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
       for (int b = tris_[i].v_min / band_rows; b <= tris_[i].v_max / band_rows; ++b)
         band_tris_[fill[b]++] = static_cast<std::uint32_t>(i);
   }
+}
 
-  // --- Visibility pass.
+void Rasterizer::rasterise(const PinholeIntrinsics& K, size_t n_items, bool want_sil, int threads,
+                           RenderBuffers& out) {
+  // Visibility: per pixel, the nearest triangle (1/z buffer), band by band.
+  const int W = K.width, H = K.height;
+  const size_t npix = static_cast<size_t>(W) * H;
+  const double far = params_.far_m;
+  const int band_rows = params_.band_rows;
+  const int nbands = (H + band_rows - 1) / band_rows;
   inv_z_.assign(npix, static_cast<float>(1.0 / far));
   visible_.assign(npix, -1);
-  const bool want_sil = outputs & kRenderSilhouettes;
   out.silhouettes.clear();
-  if (want_sil) out.silhouettes.assign(items.size(), MaskImage(W, H, 0));
-  std::vector<std::uint8_t*> sil_ptr(items.size(), nullptr);
+  if (want_sil) out.silhouettes.assign(n_items, MaskImage(W, H, 0));
+  std::vector<std::uint8_t*> sil_ptr(n_items, nullptr);
   if (want_sil)
-    for (size_t i = 0; i < items.size(); ++i) sil_ptr[i] = out.silhouettes[i].data();
+    for (size_t i = 0; i < n_items; ++i) sil_ptr[i] = out.silhouettes[i].data();
 
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (int b = 0; b < nbands; ++b) {
@@ -334,8 +464,12 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
       }
     }
   }
+}
 
-  // --- Resolve pass.
+size_t Rasterizer::resolve(const PinholeIntrinsics& K, std::span<const RenderItem> items,
+                           unsigned outputs, const Light& light, int threads, RenderBuffers& out) {
+  // Per visible pixel: the ray's intersection with its triangle gives depth, normal and colour.
+  const int W = K.width, H = K.height;
   const bool want_depth = outputs & kRenderDepth, want_ids = outputs & kRenderIds,
              want_color = outputs & kRenderColor, want_normals = outputs & kRenderNormals,
              want_tris = outputs & kRenderTriangles;
@@ -355,7 +489,6 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
   prepare(out.triangles, want_tris, -1);
   prepare(out.items, want_tris || want_ids, -1);
 
-  const Light light = light_override ? *light_override : default_light();
   const Eigen::Vector3f ldir = light.direction_cam.normalized();
   std::vector<Eigen::Matrix3f> item_R(items.size());
   for (size_t i = 0; i < items.size(); ++i) item_R[i] = items[i].T_cam_obj.rotation().cast<float>();
@@ -364,21 +497,8 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
 
 #pragma omp parallel for schedule(dynamic, 4) num_threads(threads) reduction(+ : covered)
   for (int v = 0; v < H; ++v) {
-    // Per-triangle constants of the ray intersection, cached while consecutive pixels share a
-    // triangle. With ray d = (x, y, 1), vertices P0..P2, e1 = P1 - P0, e2 = P2 - P0, s = -P0
-    // (Moeller-Trumbore):
-    //   det = -d . n, b1 = d . m / det, b2 = d . q / det, z = c / det,
-    // where n = e1 x e2, m = e2 x s, q = s x e1, c = e2 . q are constant per triangle.
+    TriangleSurface surface;  // cached while consecutive pixels share a triangle
     std::int32_t cached = -1;
-    Eigen::Vector3d n = Eigen::Vector3d::Zero(), m = n, q = n;
-    double c = 0, zlo = 0, zhi = 0;
-    Eigen::Vector3f n0 = Eigen::Vector3f::Zero(), n1 = n0, n2 = n0, face_n = n0;
-    // Albedo terms of the cached triangle: base colour x vertex colours, and uvs when textured.
-    Eigen::Vector3f c0 = n0, c1 = n0, c2 = n0;
-    Eigen::Vector2f t0 = Eigen::Vector2f::Zero(), t1 = t0, t2 = t0;
-    bool textured = false;
-    const TriangleMesh* mesh = nullptr;
-    const Eigen::Vector3i* tri = nullptr;
     for (int u = 0; u < W; ++u) {
       const size_t p = static_cast<size_t>(v) * W + u;
       const std::int32_t vi = visible_[p];
@@ -392,88 +512,21 @@ void Rasterizer::render(const PinholeIntrinsics& K, std::span<const RenderItem> 
       if (!need_surface) continue;
       if (vi != cached) {
         cached = vi;
-        mesh = it.mesh;
-        tri = &mesh->triangles[st.triangle];
-        const auto& cv = cam_vertices_[st.item];
-        const Eigen::Vector3d P0 = cv[(*tri)[0]].cast<double>(), P1 = cv[(*tri)[1]].cast<double>(),
-                              P2 = cv[(*tri)[2]].cast<double>();
-        const Eigen::Vector3d e1 = P1 - P0, e2 = P2 - P0, s0 = -P0;
-        n = e1.cross(e2);
-        m = e2.cross(s0);
-        q = s0.cross(e1);
-        c = e2.dot(q);
-        zlo = std::max(std::min({P0.z(), P1.z(), P2.z()}), near);
-        zhi = std::max(std::max({P0.z(), P1.z(), P2.z()}), zlo);
-        face_n = n.cast<float>();
-        if (!mesh->normals.empty()) {
-          const Eigen::Matrix3f& R = item_R[st.item];
-          n0 = R * mesh->normals[(*tri)[0]], n1 = R * mesh->normals[(*tri)[1]],
-          n2 = R * mesh->normals[(*tri)[2]];
-        }
-        if (want_color) {
-          const Eigen::Vector3f base =
-              Eigen::Vector3f(mesh->base_color.r, mesh->base_color.g, mesh->base_color.b) / 255.0f;
-          Eigen::Vector3f* cs[3] = {&c0, &c1, &c2};
-          for (int k = 0; k < 3; ++k) {
-            *cs[k] = base;
-            if (!mesh->colors.empty()) {
-              const Rgb8 vc = mesh->colors[(*tri)[k]];
-              *cs[k] = cs[k]->cwiseProduct(Eigen::Vector3f(vc.r, vc.g, vc.b) / 255.0f);
-            }
-          }
-          textured = mesh->has_texture();
-          if (textured)
-            t0 = mesh->uvs[(*tri)[0]], t1 = mesh->uvs[(*tri)[1]], t2 = mesh->uvs[(*tri)[2]];
-        }
+        surface.load(*it.mesh, st.triangle, cam_vertices_[st.item], item_R[st.item], params_.near_m,
+                     want_color);
       }
       const Eigen::Vector3d d((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
-      const double det = -d.dot(n);
-      double z, b1, b2;
-      if (std::abs(det) > 1e-18) {
-        const double inv = 1.0 / det;
-        b1 = d.dot(m) * inv;
-        b2 = d.dot(q) * inv;
-        z = c * inv;
-      } else {
-        z = 1.0 / inv_z_[p];
-        b1 = b2 = 1.0 / 3.0;
-      }
-      // Pixel centres on a snapped edge can sit a hair outside the exact triangle: clamp.
-      z = std::clamp(z, zlo, zhi);
-      b1 = std::clamp(b1, 0.0, 1.0), b2 = std::clamp(b2, 0.0, 1.0);
-      if (b1 + b2 > 1.0) {
-        const double sum = b1 + b2;
-        b1 /= sum, b2 /= sum;
-      }
-      const Eigen::Vector3f bary(static_cast<float>(1.0 - b1 - b2), static_cast<float>(b1),
-                                 static_cast<float>(b2));
+      Eigen::Vector3f bary;
+      const double z = surface.intersect(d, 1.0 / inv_z_[p], &bary);
       if (want_depth) out.depth[p] = static_cast<float>(z);
       if (!want_color && !want_normals) continue;
-      Eigen::Vector3f nrm = mesh->normals.empty()
-                                ? face_n
-                                : Eigen::Vector3f(bary[0] * n0 + bary[1] * n1 + bary[2] * n2);
-      const float len = nrm.norm();
-      nrm = len > 0 ? Eigen::Vector3f(nrm / len) : Eigen::Vector3f(0, 0, -1);
-      if (nrm.dot(d.cast<float>()) > 0) nrm = -nrm;  // face the camera
+      const Eigen::Vector3f nrm = surface.normal(bary, d.cast<float>());
       if (want_normals) out.normals[p] = nrm;
-      if (want_color) {
-        Eigen::Vector3f albedo = bary[0] * c0 + bary[1] * c1 + bary[2] * c2;
-        if (textured) {
-          const Eigen::Vector2f uv = bary[0] * t0 + bary[1] * t1 + bary[2] * t2;
-          albedo = albedo.cwiseProduct(sample_texture_bilinear(*mesh->texture, uv.x(), uv.y()) *
-                                       (1.0f / 255.0f));
-        }
-        const float shade = light.ambient + light.diffuse * std::max(0.0f, nrm.dot(ldir));
-        const Eigen::Vector3f col = (albedo * (shade * 255.0f)).cwiseMin(255.0f).cwiseMax(0.0f);
-        out.color[p] = {static_cast<std::uint8_t>(col.x() + 0.5f),
-                        static_cast<std::uint8_t>(col.y() + 0.5f),
-                        static_cast<std::uint8_t>(col.z() + 0.5f)};
-      }
+      if (want_color) out.color[p] = surface.shade(bary, nrm, light, ldir);
     }
   }
   if (!(want_tris || want_ids)) out.items = Image<std::int32_t>();
-  stats.pixels_covered = covered;
-  out.stats = stats;
+  return covered;
 }
 
 }  // namespace orpe

@@ -16,8 +16,9 @@
 // Results do not depend on the number of threads (each band draws its triangles in input order).
 //
 // A Rasterizer keeps scratch buffers between calls: use one instance per thread.
-// Region of interest: render a crop by passing intrinsics with the crop's size and the principal point
-// shifted by the crop's top-left corner (cx - u0, cy - v0): the cost scales with the crop's pixels.
+// Region of interest: render a crop by passing intrinsics with the crop's size and the principal
+// point shifted by the crop's top-left corner (cx - u0, cy - v0): the cost scales with the crop's
+// pixels.
 #pragma once
 
 #include <cstdint>
@@ -143,6 +144,29 @@ class Rasterizer {
     double inv_z = 0;
     bool needs_clip = true;  ///< behind the near plane or outside the guard band
   };
+  // The steps of render(), in order.
+  /// cam_vertices_ and proj_vertices_: every item's vertices in the camera frame, projected.
+  void project_vertices(const PinholeIntrinsics& K, std::span<const RenderItem> items, int threads,
+                        RenderStats& stats);
+  /// tris_: the screen triangles (culled, clipped to the near plane and the guard band).
+  void setup_triangles(const PinholeIntrinsics& K, std::span<const RenderItem> items, int threads,
+                       RenderStats& stats);
+  /// One fixed-size chunk of the global triangle sequence into chunk_tris_[c].
+  void setup_chunk(const PinholeIntrinsics& K, std::span<const RenderItem> items,
+                   const std::vector<size_t>& item_first, size_t c, size_t* culled,
+                   size_t* clipped);
+  /// The screen triangle (a, b, d) of fixed-point vertices X, Y with their 1/z, unless empty.
+  static void emit(int W, int H, const std::int64_t* X, const std::int64_t* Y, const double* iz,
+                   int a, int b, int d, int item, int tri, std::vector<ScreenTriangle>& outv);
+  /// band_offsets_ / band_tris_: the triangles of each band of params_.band_rows rows.
+  void bin_triangles(int H);
+  /// inv_z_ / visible_: the nearest triangle per pixel; the silhouettes when wanted.
+  void rasterise(const PinholeIntrinsics& K, size_t n_items, bool want_sil, int threads,
+                 RenderBuffers& out);
+  /// The requested images of the visible surfaces; returns the pixels covered.
+  size_t resolve(const PinholeIntrinsics& K, std::span<const RenderItem> items, unsigned outputs,
+                 const Light& light, int threads, RenderBuffers& out);
+
   RasterizerParams params_;
   // Scratch, reused between calls.
   std::vector<std::vector<Eigen::Vector3f>> cam_vertices_;

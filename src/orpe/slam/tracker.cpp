@@ -398,20 +398,46 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
 AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& model,
                                const SE3& T_ref_cam_init) const {
   AlignmentResult res;
-  SE3 T = T_ref_cam_init;
+  LastTerms last;
+  bool numerically_failed = false;
+  res.T_ref_cam = iterate(live, model, T_ref_cam_init, res, last, &numerically_failed);
+  const SE3& T = res.T_ref_cam;
+  if (params_.use_icp) {
+    res.icp_inliers = last.icp.count;
+    res.icp_overlap = last.icp.overlap;
+    res.icp_rms_m = last.icp.count > 0 ? std::sqrt(last.icp.sum_sq / last.icp.count) : 0.0;
+    if (last.icp.count > 0) {
+      const Eigen::SelfAdjointEigenSolver<Mat6> es(last.icp.A / last.icp.count,
+                                                   Eigen::EigenvaluesOnly);
+      res.min_eigenvalue = es.eigenvalues()(0);
+    }
+  }
+  if (params_.use_rgb) {
+    res.rgb_count = last.rgb.count;
+    res.rgb_rms = last.rgb.count > 0 ? std::sqrt(last.rgb.sum_sq / last.rgb.count) : 0.0;
+  }
+  const int step = std::max(2, params_.level0_pixel_step);
+  const DepthConsistency dc = depth_consistency(
+      live.levels[0], model.levels[0], T, params_.consistency_tolerance_m,
+      params_.consistency_tolerance_per_m, step, params_.consistency_noise_sigmas);
+  res.overlap_fraction = dc.live > 0 ? double(dc.overlap) / dc.live : 0.0;
+  res.consistent_fraction = dc.overlap > 0 ? double(dc.consistent) / dc.overlap : 0.0;
+  res.in_front_fraction = dc.overlap > 0 ? double(dc.in_front) / dc.overlap : 0.0;
+  res.behind_fraction = dc.overlap > 0 ? double(dc.behind) / dc.overlap : 0.0;
+  apply_quality_gates(live.levels[0].K, T_ref_cam_init.inverse() * T, numerically_failed, res);
+  return res;
+}
+
+SE3 Tracker::iterate(const FramePyramid& live, const ModelPyramid& model, const SE3& T_init,
+                     AlignmentResult& res, LastTerms& last, bool* numerically_failed) const {
+  SE3 T = T_init;
   const int levels = static_cast<int>(
       std::min(live.levels.size(), model.levels.size() + static_cast<size_t>(model.first_level)));
-  const double w2 = params_.icp_weight * params_.icp_weight;
-  bool numerically_failed = false;
-  NormalEquations last_icp, last_rgb;
   float rgb_sigma = 0.0f;  // RMS photometric residual of the previous iteration (0: none yet)
-  for (int level = levels - 1; level >= 0 && !numerically_failed; --level) {
+  for (int level = levels - 1; level >= 0 && !*numerically_failed; --level) {
     const FrameLevel& L = live.levels[static_cast<size_t>(level)];
     const int model_level = std::max(0, level - model.first_level);
     const ModelLevel& M = model.levels[static_cast<size_t>(model_level)];
-    const int step = level == 0 ? params_.level0_pixel_step : 1;
-    // The photometric loop runs over model pixels: sparser already when the model is coarser.
-    const int rgb_step_px = (level == 0 && model.first_level == 0) ? params_.level0_pixel_step : 1;
     // Reference pixels near depth discontinuities are left out of the photometric term at full
     // resolution, where the estimate is settled (coarser levels only bring it into the basin, and
     // at their coarse pixels the margin would take too much of a cluttered view away).
@@ -422,45 +448,14 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
                             static_cast<float>(params_.rgb_edge_jump_m),
                             static_cast<float>(params_.rgb_edge_jump_per_m),
                             static_cast<float>(1 << (model_level + model.first_level)), &usable);
+    const LevelInputs in{L, M, level, model.first_level, edge_mask ? &usable : nullptr};
     const int iters = iterations_for_level(params_, level);
     Vec6 prev_xi = Vec6::Zero();
     for (int it = 0; it < iters; ++it) {
       ++res.iterations;
-      Mat6 A = Mat6::Zero();
-      Vec6 b = Vec6::Zero();
-      if (params_.use_icp) {
-        last_icp = icp_step(L, M, T, step);
-        A += w2 * last_icp.A;
-        b += w2 * last_icp.b;
-      }
-      if (params_.use_rgb) {
-        const float delta = static_cast<float>(params_.rgb_huber_sigmas) * rgb_sigma;
-        last_rgb = rgb_step(L, M, T, gradient_for_level(params_, level), rgb_step_px, delta,
-                            edge_mask ? &usable : nullptr);
-        if (last_rgb.count > 0) {
-          const double sigma2 = std::max(last_rgb.sum_sq / last_rgb.count, 1.0);
-          rgb_sigma = static_cast<float>(std::sqrt(sigma2));
-          A += last_rgb.A / sigma2;
-          b += last_rgb.b / sigma2;
-        }
-      }
-      if ((params_.use_icp ? last_icp.count : 0) + (params_.use_rgb ? last_rgb.count : 0) < 6) {
-        numerically_failed = true;
-        res.reason = "no correspondences at level " + std::to_string(level);
-        break;
-      }
-      // Levenberg-style tiny damping keeps a degenerate direction from exploding.
-      A.diagonal().array() += 1e-9 * A.diagonal().maxCoeff() + 1e-12;
-      const Eigen::LDLT<Mat6> ldlt(A);
-      if (ldlt.info() != Eigen::Success) {
-        numerically_failed = true;
-        res.reason = "singular normal equations";
-        break;
-      }
-      Vec6 xi = ldlt.solve(-b);
-      if (!xi.allFinite()) {
-        numerically_failed = true;
-        res.reason = "non-finite update";
+      Vec6 xi;
+      if (!gauss_newton_step(in, T, last, rgb_sigma, &xi, &res.reason)) {
+        *numerically_failed = true;
         break;
       }
       // A step that mostly undoes the previous one is a limit cycle of the data association (the
@@ -476,36 +471,55 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
       }
     }
   }
-  res.T_ref_cam = T;
+  return T;
+}
+
+bool Tracker::gauss_newton_step(const LevelInputs& in, const SE3& T, LastTerms& last,
+                                float& rgb_sigma, Vec6* xi, std::string* why) const {
+  const int step = in.level == 0 ? params_.level0_pixel_step : 1;
+  // The photometric loop runs over model pixels: sparser already when the model is coarser.
+  const int rgb_step_px =
+      (in.level == 0 && in.model_first_level == 0) ? params_.level0_pixel_step : 1;
+  const double w2 = params_.icp_weight * params_.icp_weight;
+  Mat6 A = Mat6::Zero();
+  Vec6 b = Vec6::Zero();
   if (params_.use_icp) {
-    res.icp_inliers = last_icp.count;
-    res.icp_overlap = last_icp.overlap;
-    res.icp_rms_m = last_icp.count > 0 ? std::sqrt(last_icp.sum_sq / last_icp.count) : 0.0;
-    if (last_icp.count > 0) {
-      const Eigen::SelfAdjointEigenSolver<Mat6> es(last_icp.A / last_icp.count,
-                                                   Eigen::EigenvaluesOnly);
-      res.min_eigenvalue = es.eigenvalues()(0);
-    }
+    last.icp = icp_step(in.live, in.model, T, step);
+    A += w2 * last.icp.A;
+    b += w2 * last.icp.b;
   }
   if (params_.use_rgb) {
-    res.rgb_count = last_rgb.count;
-    res.rgb_rms = last_rgb.count > 0 ? std::sqrt(last_rgb.sum_sq / last_rgb.count) : 0.0;
+    const float delta = static_cast<float>(params_.rgb_huber_sigmas) * rgb_sigma;
+    last.rgb = rgb_step(in.live, in.model, T, gradient_for_level(params_, in.level), rgb_step_px,
+                        delta, in.usable);
+    if (last.rgb.count > 0) {
+      const double sigma2 = std::max(last.rgb.sum_sq / last.rgb.count, 1.0);
+      rgb_sigma = static_cast<float>(std::sqrt(sigma2));
+      A += last.rgb.A / sigma2;
+      b += last.rgb.b / sigma2;
+    }
   }
-
-  {
-    const int step = std::max(2, params_.level0_pixel_step);
-    const DepthConsistency dc = depth_consistency(
-        live.levels[0], model.levels[0], T, params_.consistency_tolerance_m,
-        params_.consistency_tolerance_per_m, step, params_.consistency_noise_sigmas);
-    res.overlap_fraction = dc.live > 0 ? double(dc.overlap) / dc.live : 0.0;
-    res.consistent_fraction = dc.overlap > 0 ? double(dc.consistent) / dc.overlap : 0.0;
-    res.in_front_fraction = dc.overlap > 0 ? double(dc.in_front) / dc.overlap : 0.0;
-    res.behind_fraction = dc.overlap > 0 ? double(dc.behind) / dc.overlap : 0.0;
+  if ((params_.use_icp ? last.icp.count : 0) + (params_.use_rgb ? last.rgb.count : 0) < 6) {
+    *why = "no correspondences at level " + std::to_string(in.level);
+    return false;
   }
+  // Levenberg-style tiny damping keeps a degenerate direction from exploding.
+  A.diagonal().array() += 1e-9 * A.diagonal().maxCoeff() + 1e-12;
+  const Eigen::LDLT<Mat6> ldlt(A);
+  if (ldlt.info() != Eigen::Success) {
+    *why = "singular normal equations";
+    return false;
+  }
+  *xi = ldlt.solve(-b);
+  if (!xi->allFinite()) {
+    *why = "non-finite update";
+    return false;
+  }
+  return true;
+}
 
-  // Quality gates.
-  const SE3 motion = T_ref_cam_init.inverse() * T;
-  const PinholeIntrinsics& K0 = live.levels[0].K;
+void Tracker::apply_quality_gates(const PinholeIntrinsics& K0, const SE3& motion,
+                                  bool numerically_failed, AlignmentResult& res) const {
   const int step0 = params_.level0_pixel_step;
   const double area = static_cast<double>(K0.width) * K0.height / (640.0 * 480.0) / (step0 * step0);
   const double inlier_fraction =
@@ -565,7 +579,6 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
     res.weak = true;
     res.reason = fmt::format("not converged (last step {:.2g})", res.final_step);
   }
-  return res;
 }
 
 }  // namespace orpe::slam

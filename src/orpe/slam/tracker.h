@@ -280,6 +280,31 @@ class Tracker {
                            const MaskImage* usable = nullptr) const;
 
  private:
+  // The steps of align().
+  /// The last linearisation of each term (the figures and gates of the result come from them).
+  struct LastTerms {
+    NormalEquations icp, rgb;
+  };
+  /// One pyramid level's images and the photometric term's usable reference pixels (or null).
+  struct LevelInputs {
+    const FrameLevel& live;
+    const ModelLevel& model;
+    int level, model_first_level;
+    const MaskImage* usable;
+  };
+  /// Gauss-Newton over the pyramid, coarse to fine; returns the estimate. Sets
+  /// *numerically_failed (and res.reason) when a level has too few correspondences or the normal
+  /// equations cannot be solved.
+  SE3 iterate(const FramePyramid& live, const ModelPyramid& model, const SE3& T_init,
+              AlignmentResult& res, LastTerms& last, bool* numerically_failed) const;
+  /// The update xi of one iteration at T (both terms weighted, damped); false with `why`.
+  bool gauss_newton_step(const LevelInputs& in, const SE3& T, LastTerms& last, float& rgb_sigma,
+                         Vec6* xi, std::string* why) const;
+  /// res.failed / res.weak and their reason from the result's figures and the `motion` from the
+  /// initial estimate.
+  void apply_quality_gates(const PinholeIntrinsics& K0, const SE3& motion, bool numerically_failed,
+                           AlignmentResult& res) const;
+
   TrackerParams params_;
 };
 

@@ -695,6 +695,47 @@ SingleViewPose ModelRegistrationEstimator::evaluate(const SingleViewInput& input
   return run(input, &T_cam_obj);
 }
 
+namespace {
+
+/// What the scores of one object's view need besides the model: the free-space test's window
+/// minimum around the mask, the model subsets, the depth, and an index over the segmented points.
+ScoringContext scoring_context(const ModelRegistrationParams& params, const SingleViewInput& input,
+                               const SegmentedCloud& cloud, const ObjectModel& model) {
+  ScoringContext ctx;
+  {
+    // The free-space test's window minimum, precomputed around the mask (the segmented points'
+    // box grown by half its size: where model points of plausible hypotheses project).
+    int u0 = input.depth->width(), v0 = input.depth->height(), u1 = -1, v1 = -1;
+    for (const auto& p : cloud.points) {
+      const Eigen::Vector2d uv = input.intrinsics.project(p.cast<double>());
+      u0 = std::min(u0, static_cast<int>(uv.x())), u1 = std::max(u1, static_cast<int>(uv.x()));
+      v0 = std::min(v0, static_cast<int>(uv.y())), v1 = std::max(v1, static_cast<int>(uv.y()));
+    }
+    const int grow = std::max(u1 - u0, v1 - v0) / 2 + 2;
+    u0 = std::max(0, u0 - grow), v0 = std::max(0, v0 - grow);
+    u1 = std::min(input.depth->width() - 1, u1 + grow);
+    v1 = std::min(input.depth->height() - 1, v1 + grow);
+    ctx.window_px = params.free_space_window_px;
+    ctx.roi_u0 = u0, ctx.roi_v0 = v0;
+    ctx.depth_min = min_filter(*input.depth, ctx.window_px, u0, v0, u1, v1);
+  }
+  ctx.K = input.intrinsics;
+  const size_t n = model.points.size();
+  const size_t want = static_cast<size_t>(params.free_space_model_points);
+  const double step = n > want ? static_cast<double>(n) / want : 1.0;
+  for (double k = 0; k < n; k += step) {
+    ctx.model_subset.push_back(model.points[static_cast<size_t>(k)]);
+    ctx.normal_subset.push_back(model.normals[static_cast<size_t>(k)]);
+  }
+  ctx.coarse_model_subset = strided_subset(ctx.model_subset, params.coarse_points);
+  ctx.coarse_normal_subset = strided_subset(ctx.normal_subset, params.coarse_points);
+  ctx.depth = input.depth;
+  ctx.observed_index = std::make_unique<ModelSearchIndex>(cloud.points);
+  return ctx;
+}
+
+}  // namespace
+
 SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
                                                const SE3* fixed_pose) const {
   const ModelRegistrationParams& params = params_;
@@ -734,38 +775,7 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
     return finish();
   }
 
-  ScoringContext ctx;
-  {
-    // The free-space test's window minimum, precomputed around the mask (the segmented points'
-    // box grown by half its size: where model points of plausible hypotheses project).
-    int u0 = input.depth->width(), v0 = input.depth->height(), u1 = -1, v1 = -1;
-    for (const auto& p : cloud.points) {
-      const Eigen::Vector2d uv = input.intrinsics.project(p.cast<double>());
-      u0 = std::min(u0, static_cast<int>(uv.x())), u1 = std::max(u1, static_cast<int>(uv.x()));
-      v0 = std::min(v0, static_cast<int>(uv.y())), v1 = std::max(v1, static_cast<int>(uv.y()));
-    }
-    const int grow = std::max(u1 - u0, v1 - v0) / 2 + 2;
-    u0 = std::max(0, u0 - grow), v0 = std::max(0, v0 - grow);
-    u1 = std::min(input.depth->width() - 1, u1 + grow);
-    v1 = std::min(input.depth->height() - 1, v1 + grow);
-    ctx.window_px = params.free_space_window_px;
-    ctx.roi_u0 = u0, ctx.roi_v0 = v0;
-    ctx.depth_min = min_filter(*input.depth, ctx.window_px, u0, v0, u1, v1);
-  }
-  ctx.K = input.intrinsics;
-  {
-    const size_t n = model->points.size();
-    const size_t want = static_cast<size_t>(params.free_space_model_points);
-    const double step = n > want ? static_cast<double>(n) / want : 1.0;
-    for (double k = 0; k < n; k += step) {
-      ctx.model_subset.push_back(model->points[static_cast<size_t>(k)]);
-      ctx.normal_subset.push_back(model->normals[static_cast<size_t>(k)]);
-    }
-    ctx.coarse_model_subset = strided_subset(ctx.model_subset, params.coarse_points);
-    ctx.coarse_normal_subset = strided_subset(ctx.normal_subset, params.coarse_points);
-    ctx.depth = input.depth;
-  }
-  ctx.observed_index = std::make_unique<ModelSearchIndex>(cloud.points);
+  const ScoringContext ctx = scoring_context(params, input, cloud, *model);
   const Registration reg(params_, *model, ctx);
   const double diameter = model->diameter_m;
   std::vector<Hypothesis> refine;

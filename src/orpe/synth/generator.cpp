@@ -174,6 +174,26 @@ SyntheticSceneGenerator::~SyntheticSceneGenerator() = default;
 SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : params_(params) {
   std::string why;
   if (!params_.IsValid(&why)) throw ConfigError("synth: " + why);
+  set_up_camera();
+  // One random stream, drawn in this order: object types, scene layout, camera path.
+  std::mt19937_64 rng(static_cast<std::uint64_t>(params_.seed) * 0x9E3779B97F4A7C15ull + 1);
+  std::vector<ObjectModel> types;
+  std::vector<int> instance_types;
+  choose_object_types(rng, &types, &instance_types);
+  SceneLayoutParams layout;
+  layout.kind = params_.scene;
+  layout.stack_probability = params_.stack_probability;
+  lay_out_scene(std::move(types), instance_types, layout, rng);
+  make_camera_path(rng);
+  add_distractors(layout);
+  for (const auto& T : T_world_cam_) {
+    const Vec3 d = T.translation() - scene_.centre_world;
+    arc_azimuths_.push_back(std::atan2(d.y(), d.x()));
+  }
+}
+
+void SyntheticSceneGenerator::set_up_camera() {
+  std::string why;
   K_.width = params_.width;
   K_.height = params_.height;
   K_.fx = params_.fx > 0 ? params_.fx : 580.0 * params_.width / 640.0;
@@ -186,14 +206,15 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
   sensor_.min_depth_m = params_.depth_min_m;
   sensor_.max_depth_m = params_.depth_max_m;
   sensor_.noise_scale = params_.depth_noise_scale;
+}
 
-  std::mt19937_64 rng(static_cast<std::uint64_t>(params_.seed) * 0x9E3779B97F4A7C15ull + 1);
+void SyntheticSceneGenerator::choose_object_types(std::mt19937_64& rng,
+                                                  std::vector<ObjectModel>* types_out,
+                                                  std::vector<int>* instance_types_out) {
   std::uniform_real_distribution<double> U(0, 1);
   const int K = params_.objects;
-
-  // --- Object types and the type of each instance.
-  std::vector<ObjectModel> types;
-  std::vector<int> instance_types;
+  std::vector<ObjectModel>& types = *types_out;
+  std::vector<int>& instance_types = *instance_types_out;
   if (params_.models.empty()) {
     std::vector<std::string> classes, pallets;
     for (const auto& n : builtin_class_names())
@@ -250,11 +271,11 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
       instance_types = idx;
     }
   }
+}
 
-  // --- Scene.
-  SceneLayoutParams layout;
-  layout.kind = params_.scene;
-  layout.stack_probability = params_.stack_probability;
+void SyntheticSceneGenerator::lay_out_scene(std::vector<ObjectModel> types,
+                                            const std::vector<int>& instance_types,
+                                            const SceneLayoutParams& layout, std::mt19937_64& rng) {
   scene_ = build_scene(std::move(types), instance_types, layout, rng);
   for (const auto& w : scene_.warnings) spdlog::warn("synth: {}", w);
   if (scene_.objects.empty()) throw ConfigError("synth: no object could be placed in the scene");
@@ -272,8 +293,10 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
     scene_.types = std::move(used);
   }
   if (params_.symmetries == "appearance") use_appearance_symmetries(scene_.types);
+}
 
-  // --- Camera path.
+void SyntheticSceneGenerator::make_camera_path(std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> U(0, 1);
   TrajectoryParams tp;
   tp.frames = params_.frames;
   tp.fps = params_.fps;
@@ -305,11 +328,6 @@ SyntheticSceneGenerator::SyntheticSceneGenerator(const SynthParams& params) : pa
     T_world_cam_ = make_loop_trajectory(lp, centre, rng);
   } else {
     T_world_cam_ = make_handheld_trajectory(tp, scene_.centre_world, rng);
-  }
-  add_distractors(layout);
-  for (const auto& T : T_world_cam_) {
-    const Vec3 d = T.translation() - scene_.centre_world;
-    arc_azimuths_.push_back(std::atan2(d.y(), d.x()));
   }
 }
 

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,17 @@ class SyntheticSceneGenerator {
   SynthReport write_bop(const std::string& dir) const;
 
  private:
+  // The steps of the constructor, in order (they draw from one random stream in this order).
+  /// K_ from the params (or 580 px focal length at 640 px wide), and the sensor model.
+  void set_up_camera();
+  /// The object types (built-in classes or the given models) and the type of each instance.
+  void choose_object_types(std::mt19937_64& rng, std::vector<ObjectModel>* types,
+                           std::vector<int>* instance_types);
+  /// scene_: the objects placed; only the types in use kept, numbered by first appearance.
+  void lay_out_scene(std::vector<ObjectModel> types, const std::vector<int>& instance_types,
+                     const SceneLayoutParams& layout, std::mt19937_64& rng);
+  /// T_world_cam_: the hand-held arc or the loop.
+  void make_camera_path(std::mt19937_64& rng);
   void add_distractors(const SceneLayoutParams& layout);
 
   SynthParams params_;

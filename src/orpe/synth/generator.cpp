@@ -437,24 +437,21 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   std::error_code ec;
   fs::create_directories(scene, ec);
   if (ec) throw IoError(dir, "cannot create output folder: " + ec.message());
-  const int n = static_cast<int>(scene_.objects.size());
+  const int nd = static_cast<int>(scene_.distractors.size());
   write_bop_models(dir + "/models", scene_.types, params_.model_points,
                    static_cast<std::uint64_t>(params_.seed));
-  const int nd = static_cast<int>(scene_.distractors.size());
   if (nd > 0)
     write_bop_models(dir + "/models_distractors", scene_.distractor_types, params_.model_points,
                      static_cast<std::uint64_t>(params_.seed));
 
   std::vector<BopFrameRecord> records(num_frames());
-  std::vector<double> visib_sum(num_frames(), 0.0), valid_frac(num_frames(), 0.0);
-  std::vector<int> visib_count(num_frames(), 0);
+  std::vector<FrameSummary> stats(num_frames());
   const int threads = params_.threads > 0 ? params_.threads : omp_get_max_threads();
   std::string first_error;
   bool failed = false;
   const double max_preview_depth =
       std::min(params_.noise ? params_.depth_max_m : kMaxStorableDepthM,
                3.0 * (T_world_cam_[0].translation() - scene_.centre_world).norm());
-
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
   for (int i = 0; i < num_frames(); ++i) {
     bool skip;
@@ -462,33 +459,7 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
     skip = failed;
     if (skip) continue;
     try {
-      const SynthFrame f = render_frame(i, 1);
-      const std::string name = bop_image_name(i);
-      write_color_png(scene + "/rgb/" + name + ".png", f.rgb);
-      write_depth_png(scene + "/depth/" + name + ".png", f.depth, kDepthUnitsPerM);
-      write_label_png(scene + "/instance/" + name + ".png", f.instances, n < 255);
-      if (nd > 0)
-        write_label_png(scene + "/distractor/" + name + ".png", f.distractor_labels, nd < 255);
-      if (params_.write_masks)
-        for (int k = 0; k < n; ++k) {
-          write_mask_png(scene + "/mask/" + bop_mask_name(i, k) + ".png", f.masks[k]);
-          write_mask_png(scene + "/mask_visib/" + bop_mask_name(i, k) + ".png", f.masks_visib[k]);
-        }
-      if (params_.preview_stride > 0 && i % params_.preview_stride == 0)
-        write_color_png(scene + "/preview/" + name + ".png", make_preview(f, max_preview_depth));
-      BopFrameRecord& r = records[i];
-      r.timestamp_s = f.timestamp_s;
-      r.T_world_cam = f.T_world_cam;
-      r.T_cam_obj = f.T_cam_obj;
-      for (const auto& o : scene_.objects) r.obj_ids.push_back(o.type + 1);
-      r.info = f.info;
-      r.T_cam_distractor = f.T_cam_distractor;
-      r.distractor_info = f.distractor_info;
-      size_t valid = 0;
-      for (float z : f.depth) valid += z > 0;
-      valid_frac[i] = static_cast<double>(valid) / f.depth.size();
-      for (const auto& inf : f.info)
-        if (inf.px_count_all > 0) visib_sum[i] += inf.visib_fract, ++visib_count[i];
+      write_frame_files(i, scene, max_preview_depth, records[i], stats[i]);
     } catch (const std::exception& e) {
 #pragma omp critical(synth_error)
       {
@@ -509,6 +480,48 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
                                 {"fx", K_.fx},      {"fy", K_.fy}, {"height", K_.height},
                                 {"width", K_.width}};
   write_file_atomic(dir + "/camera.json", [&](std::ostream& os) { os << cam.dump(1) << "\n"; });
+  write_synth_info(dir);
+  SynthReport rep = report(dir, scene, stats);
+  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return rep;
+}
+
+void SyntheticSceneGenerator::write_frame_files(int i, const std::string& scene,
+                                                double max_preview_depth, BopFrameRecord& r,
+                                                FrameSummary& st) const {
+  const int n = static_cast<int>(scene_.objects.size());
+  const int nd = static_cast<int>(scene_.distractors.size());
+  const SynthFrame f = render_frame(i, 1);
+  const std::string name = bop_image_name(i);
+  write_color_png(scene + "/rgb/" + name + ".png", f.rgb);
+  write_depth_png(scene + "/depth/" + name + ".png", f.depth, kDepthUnitsPerM);
+  write_label_png(scene + "/instance/" + name + ".png", f.instances, n < 255);
+  if (nd > 0)
+    write_label_png(scene + "/distractor/" + name + ".png", f.distractor_labels, nd < 255);
+  if (params_.write_masks)
+    for (int k = 0; k < n; ++k) {
+      write_mask_png(scene + "/mask/" + bop_mask_name(i, k) + ".png", f.masks[k]);
+      write_mask_png(scene + "/mask_visib/" + bop_mask_name(i, k) + ".png", f.masks_visib[k]);
+    }
+  if (params_.preview_stride > 0 && i % params_.preview_stride == 0)
+    write_color_png(scene + "/preview/" + name + ".png", make_preview(f, max_preview_depth));
+  r.timestamp_s = f.timestamp_s;
+  r.T_world_cam = f.T_world_cam;
+  r.T_cam_obj = f.T_cam_obj;
+  for (const auto& o : scene_.objects) r.obj_ids.push_back(o.type + 1);
+  r.info = f.info;
+  r.T_cam_distractor = f.T_cam_distractor;
+  r.distractor_info = f.distractor_info;
+  size_t valid = 0;
+  for (float z : f.depth) valid += z > 0;
+  st.valid_depth_fraction = static_cast<double>(valid) / f.depth.size();
+  for (const auto& inf : f.info)
+    if (inf.px_count_all > 0) st.visib_sum += inf.visib_fract, ++st.visib_count;
+}
+
+void SyntheticSceneGenerator::write_synth_info(const std::string& dir) const {
+  const int n = static_cast<int>(scene_.objects.size());
+  const int nd = static_cast<int>(scene_.distractors.size());
   nlohmann::ordered_json info;
   info["generator"] = "orpe synth";
   info["params"] = params_to_json(params_);
@@ -537,14 +550,17 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   info["warnings"] = scene_.warnings;
   write_file_atomic(dir + "/synth_info.json",
                     [&](std::ostream& os) { os << info.dump(1) << "\n"; });
+}
 
+SynthReport SyntheticSceneGenerator::report(const std::string& dir, const std::string& scene,
+                                            const std::vector<FrameSummary>& stats) const {
   SynthReport rep;
   rep.out_dir = dir;
   rep.scene_dir = scene;
   rep.frames = num_frames();
-  rep.objects = n;
+  rep.objects = static_cast<int>(scene_.objects.size());
   rep.types = static_cast<int>(scene_.types.size());
-  rep.distractors = nd;
+  rep.distractors = static_cast<int>(scene_.distractors.size());
   rep.scene = scene_.kind;
   rep.trajectory_extent_m = trajectory_extent_m(T_world_cam_);
   double lo = 0, hi = 0, acc = 0;
@@ -555,13 +571,13 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
     lo = std::min(lo, acc), hi = std::max(hi, acc);
   }
   rep.arc_deg = (hi - lo) * 180.0 / M_PI;
-  const double vs = std::accumulate(visib_sum.begin(), visib_sum.end(), 0.0);
-  const int vc = std::accumulate(visib_count.begin(), visib_count.end(), 0);
+  double vs = 0, valid = 0;
+  int vc = 0;
+  for (const FrameSummary& st : stats)
+    vs += st.visib_sum, vc += st.visib_count, valid += st.valid_depth_fraction;
   rep.mean_visib_fract = vc > 0 ? vs / vc : 0.0;
-  rep.mean_valid_depth =
-      std::accumulate(valid_frac.begin(), valid_frac.end(), 0.0) / std::max(1, num_frames());
+  rep.mean_valid_depth = valid / std::max(1, num_frames());
   rep.warnings = scene_.warnings;
-  rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return rep;
 }
 

@@ -22,6 +22,8 @@
 
 namespace orpe::synth {
 
+struct BopFrameRecord;
+
 /// Per object instance and frame, as in BOP's scene_gt_info.json.
 struct ObjectFrameInfo {
   int px_count_all = 0;    ///< pixels of the object's silhouette in the image (occlusions ignored)
@@ -108,6 +110,20 @@ class SyntheticSceneGenerator {
   /// T_world_cam_: the hand-held arc or the loop.
   void make_camera_path(std::mt19937_64& rng);
   void add_distractors(const SceneLayoutParams& layout);
+  // The steps of write_bop().
+  /// Per frame, what the report sums: visible fractions of the objects and valid depth.
+  struct FrameSummary {
+    double visib_sum = 0;
+    int visib_count = 0;
+    double valid_depth_fraction = 0;
+  };
+  /// Frame i rendered and its images written into `scene`; its record and summary filled.
+  void write_frame_files(int i, const std::string& scene, double max_preview_depth,
+                         BopFrameRecord& record, FrameSummary& summary) const;
+  /// synth_info.json: the parameters and what the scene is made of.
+  void write_synth_info(const std::string& dir) const;
+  SynthReport report(const std::string& dir, const std::string& scene,
+                     const std::vector<FrameSummary>& stats) const;
 
   SynthParams params_;
   PinholeIntrinsics K_;

@@ -71,39 +71,36 @@ double depth_error_bound_m(double z, double theta, double f, const DepthSensorPa
   return 5.0 * p.noise_scale * axial_noise_sigma_m(z, theta) + quantisation_step_m(z, f, p);
 }
 
-DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vector3f>& normals,
-                                 const PinholeIntrinsics& K, const DepthSensorParams& p,
-                                 std::mt19937_64& rng, DepthSensorStats* stats) {
-  DepthSensorStats st;
+namespace {
+
+/// 1. Projector shadows, row by row: projector column of a point = u - f b / z. Scanning from the
+/// projector's side (right to left), a point is lit only if no point to its right maps to a
+/// projector column at or left of its own. Marks them 1 in `invalid`.
+void mark_projector_shadows(const DepthImage& clean, double f, const DepthSensorParams& p,
+                            MaskImage& invalid, DepthSensorStats& st) {
   const int W = clean.width(), H = clean.height();
-  DepthImage out = clean;
-  if (!p.enabled) {
-    if (stats) *stats = st;
-    return out;
-  }
-  const double f = K.fx;
-  const PixelRandom R{rng()};
-  // 1. Projector shadows, row by row: projector column of a point = u - f b / z. Scanning from the
-  // projector's side (right to left), a point is lit only if no point to its right maps to a
-  // projector column at or left of its own.
-  MaskImage invalid(W, H, 0);
-  if (p.projector_shadow) {
-    const double fb = f * p.baseline_m;
-    for (int v = 0; v < H; ++v) {
-      double min_col = 1e30;
-      for (int u = W - 1; u >= 0; --u) {
-        const float z = clean.at(u, v);
-        if (z <= 0) continue;
-        const double col = u - fb / z;
-        if (col > min_col + 0.5) {
-          invalid.at(u, v) = 1;
-          ++st.shadowed;
-        }
-        min_col = std::min(min_col, col);
+  const double fb = f * p.baseline_m;
+  for (int v = 0; v < H; ++v) {
+    double min_col = 1e30;
+    for (int u = W - 1; u >= 0; --u) {
+      const float z = clean.at(u, v);
+      if (z <= 0) continue;
+      const double col = u - fb / z;
+      if (col > min_col + 0.5) {
+        invalid.at(u, v) = 1;
+        ++st.shadowed;
       }
+      min_col = std::min(min_col, col);
     }
   }
-  // 2-3. Grazing angles and depth edges on the clean image.
+}
+
+/// 2. Grazing angles: invalid (2) beyond grazing_max_deg, with a growing probability from
+/// grazing_start_deg. Returns each pixel's incidence angle (rad).
+Image<float> mark_grazing(const DepthImage& clean, const Image<Eigen::Vector3f>& normals,
+                          const PinholeIntrinsics& K, const DepthSensorParams& p,
+                          const PixelRandom& R, MaskImage& invalid, DepthSensorStats& st) {
+  const int W = clean.width(), H = clean.height();
   const double cos_max = std::cos(p.grazing_max_deg * M_PI / 180.0);
   const double cos_start = std::cos(p.grazing_start_deg * M_PI / 180.0);
   Image<float> theta_img(W, H, 0.0f);
@@ -123,6 +120,14 @@ DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vec
         ++st.grazing;
       }
     }
+  return theta_img;
+}
+
+/// 3. Depth edges of the clean image: dropped (3) with edge_dropout, else the depth of a pixel
+/// jittered by lateral_sigma_px.
+void jitter_edges(const DepthImage& clean, const DepthSensorParams& p, const PixelRandom& R,
+                  MaskImage& invalid, DepthImage& out, DepthSensorStats& st) {
+  const int W = clean.width(), H = clean.height();
   auto is_edge = [&](int u, int v) {
     const float z = clean.at(u, v);
     const double thr = p.edge_jump_m + 0.02 * z;
@@ -152,7 +157,13 @@ DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vec
       out.at(u, v) = clean.at(su, sv);
       if (out.at(u, v) <= 0) invalid.at(u, v) = 3;
     }
-  // 4-6. Axial noise, quantisation, range, dropouts.
+}
+
+/// 4-6. Axial noise, disparity quantisation, range, dropouts.
+void add_axial_noise(const DepthImage& clean, const Image<float>& theta_img, double f,
+                     const DepthSensorParams& p, const PixelRandom& R, const MaskImage& invalid,
+                     DepthImage& out, DepthSensorStats& st) {
+  const int W = clean.width(), H = clean.height();
   const double fb = f * p.baseline_m;
   for (int v = 0; v < H; ++v)
     for (int u = 0; u < W; ++u) {
@@ -183,6 +194,27 @@ DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vec
       }
       out.at(u, v) = static_cast<float>(z);
     }
+}
+
+}  // namespace
+
+DepthImage simulate_depth_sensor(const DepthImage& clean, const Image<Eigen::Vector3f>& normals,
+                                 const PinholeIntrinsics& K, const DepthSensorParams& p,
+                                 std::mt19937_64& rng, DepthSensorStats* stats) {
+  DepthSensorStats st;
+  const int W = clean.width(), H = clean.height();
+  DepthImage out = clean;
+  if (!p.enabled) {
+    if (stats) *stats = st;
+    return out;
+  }
+  const double f = K.fx;
+  const PixelRandom R{rng()};
+  MaskImage invalid(W, H, 0);
+  if (p.projector_shadow) mark_projector_shadows(clean, f, p, invalid, st);
+  const Image<float> theta_img = mark_grazing(clean, normals, K, p, R, invalid, st);
+  jitter_edges(clean, p, R, invalid, out, st);
+  add_axial_noise(clean, theta_img, f, p, R, invalid, out, st);
   if (stats) *stats = st;
   return out;
 }

@@ -12,8 +12,8 @@
 #include <stdexcept>
 
 #include "orpe/core/error.h"
-#include "orpe/io/model_io.h"
 #include "orpe/core/ply_format.h"
+#include "orpe/io/model_io.h"
 #include "orpe/pose/model_search.h"
 #include "orpe/render/mesh.h"
 #include "orpe/render/mesh_io.h"
@@ -292,33 +292,41 @@ const StampedPose* pose_at(const std::vector<StampedPose>& trajectory, double ti
 
 }  // namespace
 
-ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
-                                                 const std::vector<GroundTruthObjectPose>& objects,
-                                                 const std::map<int, const ModelSurface*>& surfaces,
-                                                 const std::map<int, std::string>& class_names,
-                                                 const ReconstructionErrorParams& params) {
-  if (map.instance_ids.size() != map.size() || map.class_ids.size() != map.size())
-    throw std::invalid_argument(
-        "reconstruction error: the map needs per-surfel instance and class ids");
+namespace {
+
+/// The map's object surfels per instance (above min_confidence when the map has confidences), and
+/// each instance's class (the majority of its surfels' class ids).
+struct MapInstances {
+  std::map<int, std::vector<Eigen::Vector3f>> points;
+  std::map<int, int> class_id;
+};
+
+MapInstances map_instances(const PointCloudData& map, const ReconstructionErrorParams& params) {
   const bool use_confidence = map.confidences.size() == map.size();
-  // Surfels per instance, and each instance's class (majority of its surfels' class ids).
-  std::map<int, std::vector<Eigen::Vector3f>> instance_points;
-  std::map<int, std::map<int, int>> instance_class_votes;
+  MapInstances out;
+  std::map<int, std::map<int, int>> votes;
   for (size_t i = 0; i < map.size(); ++i) {
     const int id = map.instance_ids[i];
     if (id <= 0) continue;
     if (use_confidence && map.confidences[i] < params.min_confidence) continue;
-    instance_points[id].push_back(map.positions_m[i]);
-    ++instance_class_votes[id][map.class_ids[i]];
+    out.points[id].push_back(map.positions_m[i]);
+    ++votes[id][map.class_ids[i]];
   }
-  // Assign each instance to the nearest ground-truth object of its class.
+  for (const auto& [id, v] : votes)
+    out.class_id[id] = std::max_element(v.begin(), v.end(), [](const auto& a, const auto& b) {
+                         return a.second < b.second;
+                       })->first;
+  return out;
+}
+
+/// Each instance assigned to the nearest ground-truth object of its class (by its centroid and
+/// the model surface's centre); instances of no object's class go to `unmatched`.
+std::map<size_t, std::vector<int>> assign_instances(
+    const MapInstances& instances, const std::vector<GroundTruthObjectPose>& objects,
+    const std::map<int, const ModelSurface*>& surfaces, std::vector<int>* unmatched) {
   std::map<size_t, std::vector<int>> assigned;  // object index -> instances
-  ReconstructionEvaluation ev;
-  for (const auto& [id, pts] : instance_points) {
-    const auto& votes = instance_class_votes[id];
-    const int cls = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
-                      return a.second < b.second;
-                    })->first;
+  for (const auto& [id, pts] : instances.points) {
+    const int cls = instances.class_id.at(id);
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
     for (const auto& p : pts) centroid += p.cast<double>();
     centroid /= static_cast<double>(pts.size());
@@ -338,10 +346,57 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
       }
     }
     if (best_object < 0)
-      ev.unmatched_instances.push_back(id);
+      unmatched->push_back(id);
     else
       assigned[static_cast<size_t>(best_object)].push_back(id);
   }
+  return assigned;
+}
+
+/// The error figures of one object whose surfels `pts` exist and whose model surface is known.
+void measure_object(const GroundTruthObjectPose& o, const std::vector<Eigen::Vector3f>& pts,
+                    const ModelSurface& surface, const ReconstructionErrorParams& params,
+                    ObjectReconstructionError& e) {
+  const std::vector<double> d = surface_distances(pts, o.T_world_obj, surface);
+  const auto share = [&](double limit) {
+    return static_cast<double>(
+               std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) /
+           static_cast<double>(d.size());
+  };
+  e.far_near_fraction = share(params.far_near_m);
+  e.far_fraction = share(params.far_m);
+  if (!o.seen_surface_obj.empty()) {
+    e.completeness =
+        covered_share(pts, o.T_world_obj, o.seen_surface_obj, params.completeness_distance_m);
+    e.seen_surface_samples = static_cast<int>(o.seen_surface_obj.size());
+  }
+  const Stats st = distance_stats(d);
+  e.mean_m = st.mean;
+  e.median_m = st.median;
+  e.rms_m = st.rms;
+  if (params.register_model) {
+    const SE3 T = register_model(pts, o.T_world_obj, surface, params);
+    e.mean_registered_m = distance_stats(surface_distances(pts, T, surface)).mean;
+    const SE3 delta = T * o.T_world_obj.inverse();
+    e.registration_shift_m = (T.translation() - o.T_world_obj.translation()).norm();
+    e.registration_angle_deg = delta.rotation_angle_deg();
+  }
+}
+
+}  // namespace
+
+ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
+                                                 const std::vector<GroundTruthObjectPose>& objects,
+                                                 const std::map<int, const ModelSurface*>& surfaces,
+                                                 const std::map<int, std::string>& class_names,
+                                                 const ReconstructionErrorParams& params) {
+  if (map.instance_ids.size() != map.size() || map.class_ids.size() != map.size())
+    throw std::invalid_argument(
+        "reconstruction error: the map needs per-surfel instance and class ids");
+  ReconstructionEvaluation ev;
+  const MapInstances instances = map_instances(map, params);
+  std::map<size_t, std::vector<int>> assigned =
+      assign_instances(instances, objects, surfaces, &ev.unmatched_instances);
   double sum = 0, sum_registered = 0, sum_completeness = 0;
   int n = 0, n_registered = 0, n_completeness = 0;
   for (size_t k = 0; k < objects.size(); ++k) {
@@ -354,7 +409,7 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
     e.instances = assigned[k];
     std::vector<Eigen::Vector3f> pts;
     for (int id : e.instances)
-      pts.insert(pts.end(), instance_points[id].begin(), instance_points[id].end());
+      pts.insert(pts.end(), instances.points.at(id).begin(), instances.points.at(id).end());
     e.surfels = static_cast<int>(pts.size());
     const auto s = surfaces.find(o.class_id);
     if (pts.empty() || s == surfaces.end() || !s->second) {
@@ -368,37 +423,12 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
       ev.objects.push_back(e);
       continue;
     }
-    const std::vector<double> d = surface_distances(pts, o.T_world_obj, *s->second);
-    const auto share = [&](double limit) {
-      return static_cast<double>(
-                 std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) /
-             static_cast<double>(d.size());
-    };
-    e.far_near_fraction = share(params.far_near_m);
-    e.far_fraction = share(params.far_m);
+    measure_object(o, pts, *s->second, params, e);
     ev.max_far_fraction = std::max(ev.max_far_fraction, e.far_fraction);
-    if (!o.seen_surface_obj.empty()) {
-      e.completeness =
-          covered_share(pts, o.T_world_obj, o.seen_surface_obj, params.completeness_distance_m);
-      e.seen_surface_samples = static_cast<int>(o.seen_surface_obj.size());
-      sum_completeness += e.completeness;
-      ++n_completeness;
-    }
-    const Stats st = distance_stats(d);
-    e.mean_m = st.mean;
-    e.median_m = st.median;
-    e.rms_m = st.rms;
-    sum += st.mean;
+    if (!o.seen_surface_obj.empty()) sum_completeness += e.completeness, ++n_completeness;
+    sum += e.mean_m;
     ++n;
-    if (params.register_model) {
-      const SE3 T = register_model(pts, o.T_world_obj, *s->second, params);
-      e.mean_registered_m = distance_stats(surface_distances(pts, T, *s->second)).mean;
-      const SE3 delta = T * o.T_world_obj.inverse();
-      e.registration_shift_m = (T.translation() - o.T_world_obj.translation()).norm();
-      e.registration_angle_deg = delta.rotation_angle_deg();
-      sum_registered += e.mean_registered_m;
-      ++n_registered;
-    }
+    if (params.register_model) sum_registered += e.mean_registered_m, ++n_registered;
     ev.objects.push_back(e);
   }
   std::sort(ev.objects.begin(), ev.objects.end(), [](const auto& a, const auto& b) {

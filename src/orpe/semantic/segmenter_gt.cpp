@@ -123,6 +123,75 @@ GroundTruthSegmenter::GroundTruthSegmenter(const SegmentationParams& params,
     for (int c = 1; c <= 21; ++c) class_ids_.push_back(c);
 }
 
+namespace {
+
+/// The degraded mask of ground-truth object k (label k of `labels`, within `box`): its boundary
+/// shifted (a per-object bias plus a per-frame jitter), its class sometimes wrong, its score drawn;
+/// false when this frame misses it. Deterministic in (seed, frame, instance).
+bool degrade_object(const SegmentationParams& p, const std::vector<int>& class_ids,
+                    const LabelImage& labels, int k, const BoxPx& box,
+                    const ObjectGroundTruth& object, std::uint64_t seed, std::uint64_t frame_key,
+                    Detection& det) {
+  const int width = labels.width(), height = labels.height();
+  const auto object_key = 0x1000000ULL + static_cast<std::uint64_t>(object.instance_id);
+  Rng object_rng(seed, kObjectStream, object_key);  // same in every frame
+  const int base_shift =
+      object_rng.uniform_int(p.gt_boundary_shift_min_px, p.gt_boundary_shift_max_px);
+  Rng rng(seed, frame_key, object_key);
+  if (rng.bernoulli(p.gt_miss_rate)) return false;
+  const int shift = base_shift + rng.uniform_int(-p.gt_boundary_jitter_px, p.gt_boundary_jitter_px);
+  det.score = static_cast<float>(rng.uniform(0.8, 1.0));
+  if (rng.bernoulli(p.gt_wrong_class_rate)) {
+    std::vector<int> others;
+    for (int c : class_ids)
+      if (c != object.class_id) others.push_back(c);
+    if (!others.empty()) {
+      det.class_id = others[rng.uniform_int(0, static_cast<int>(others.size()) - 1)];
+      det.score = static_cast<float>(rng.uniform(0.5, 0.9));
+    }
+  }
+  cv::Mat1b mask(height, width, static_cast<uchar>(0));
+  for (int v = box.v_min; v <= box.v_max; ++v)
+    for (int u = box.u_min; u <= box.u_max; ++u)
+      if (labels.at(u, v) == k) mask(v, u) = 1;
+  soft_mask(mask, box, shift, p, rng, det.probability);
+  return true;
+}
+
+/// p.gt_spurious_per_frame (Poisson mean) spurious elliptic detections of random classes.
+void append_spurious(const SegmentationParams& p, const std::vector<int>& class_ids, int width,
+                     int height, std::uint64_t seed, std::uint64_t frame_key,
+                     std::vector<Detection>& out) {
+  const float threshold = static_cast<float>(p.mask_threshold);
+  Rng rng(seed, frame_key, kSpuriousStream);
+  const int count = rng.poisson(p.gt_spurious_per_frame);
+  for (int i = 0; i < count; ++i) {
+    const int ru = rng.uniform_int(p.gt_spurious_min_radius_px, p.gt_spurious_max_radius_px);
+    const int rv = rng.uniform_int(p.gt_spurious_min_radius_px, p.gt_spurious_max_radius_px);
+    const int cu = rng.uniform_int(0, width - 1), cv_ = rng.uniform_int(0, height - 1);
+    const double angle_deg = rng.uniform(0.0, 180.0);
+    Detection det;
+    det.class_id = class_ids[rng.uniform_int(0, static_cast<int>(class_ids.size()) - 1)];
+    det.score = static_cast<float>(rng.uniform(0.5, 0.9));
+    det.source_instance_id = -1;
+    det.probability = ProbabilityImage(width, height, 0.0f);
+    cv::Mat1b mask(height, width, static_cast<uchar>(0));
+    cv::ellipse(mask, cv::Point(cu, cv_), cv::Size(ru, rv), angle_deg, 0, 360, cv::Scalar(1), -1);
+    BoxPx box;
+    for (int v = std::max(0, cv_ - std::max(ru, rv));
+         v <= std::min(height - 1, cv_ + std::max(ru, rv)); ++v)
+      for (int u = std::max(0, cu - std::max(ru, rv));
+           u <= std::min(width - 1, cu + std::max(ru, rv)); ++u)
+        if (mask(v, u)) box.include(u, v);
+    if (box.empty()) continue;
+    soft_mask(mask, box, 0, p, rng, det.probability);
+    det.box = mask_box(det.probability, threshold);
+    if (keep(det, p)) out.push_back(std::move(det));
+  }
+}
+
+}  // namespace
+
 std::vector<Detection> GroundTruthSegmenter::detect(const RgbdFrame& frame) const {
   std::vector<Detection> out;
   const LabelImage& labels = frame.labels_gt;
@@ -159,64 +228,15 @@ std::vector<Detection> GroundTruthSegmenter::detect(const RgbdFrame& frame) cons
       det.score = 1.0f;
       for (size_t i = 0; i < labels.size(); ++i)
         if (labels[i] == k) det.probability[i] = 1.0f;
-    } else {
-      const auto object_key = 0x1000000ULL + static_cast<std::uint64_t>(object.instance_id);
-      Rng object_rng(seed, kObjectStream, object_key);  // same in every frame
-      const int base_shift = object_rng.uniform_int(params_.gt_boundary_shift_min_px,
-                                                    params_.gt_boundary_shift_max_px);
-      Rng rng(seed, frame_key, object_key);
-      if (rng.bernoulli(params_.gt_miss_rate)) continue;
-      const int shift = base_shift + rng.uniform_int(-params_.gt_boundary_jitter_px,
-                                                     params_.gt_boundary_jitter_px);
-      det.score = static_cast<float>(rng.uniform(0.8, 1.0));
-      if (rng.bernoulli(params_.gt_wrong_class_rate)) {
-        std::vector<int> others;
-        for (int c : class_ids_)
-          if (c != object.class_id) others.push_back(c);
-        if (!others.empty()) {
-          det.class_id = others[rng.uniform_int(0, static_cast<int>(others.size()) - 1)];
-          det.score = static_cast<float>(rng.uniform(0.5, 0.9));
-        }
-      }
-      cv::Mat1b mask(height, width, static_cast<uchar>(0));
-      for (int v = boxes[k].v_min; v <= boxes[k].v_max; ++v)
-        for (int u = boxes[k].u_min; u <= boxes[k].u_max; ++u)
-          if (labels.at(u, v) == k) mask(v, u) = 1;
-      soft_mask(mask, boxes[k], shift, params_, rng, det.probability);
+    } else if (!degrade_object(params_, class_ids_, labels, k, boxes[k], object, seed, frame_key,
+                               det)) {
+      continue;
     }
     det.box = mask_box(det.probability, threshold);
     if (keep(det, params_)) out.push_back(std::move(det));
   }
-
-  if (params_.gt_degrade && params_.gt_spurious_per_frame > 0) {
-    Rng rng(seed, frame_key, kSpuriousStream);
-    const int count = rng.poisson(params_.gt_spurious_per_frame);
-    for (int i = 0; i < count; ++i) {
-      const int ru =
-          rng.uniform_int(params_.gt_spurious_min_radius_px, params_.gt_spurious_max_radius_px);
-      const int rv =
-          rng.uniform_int(params_.gt_spurious_min_radius_px, params_.gt_spurious_max_radius_px);
-      const int cu = rng.uniform_int(0, width - 1), cv_ = rng.uniform_int(0, height - 1);
-      const double angle_deg = rng.uniform(0.0, 180.0);
-      Detection det;
-      det.class_id = class_ids_[rng.uniform_int(0, static_cast<int>(class_ids_.size()) - 1)];
-      det.score = static_cast<float>(rng.uniform(0.5, 0.9));
-      det.source_instance_id = -1;
-      det.probability = ProbabilityImage(width, height, 0.0f);
-      cv::Mat1b mask(height, width, static_cast<uchar>(0));
-      cv::ellipse(mask, cv::Point(cu, cv_), cv::Size(ru, rv), angle_deg, 0, 360, cv::Scalar(1), -1);
-      BoxPx box;
-      for (int v = std::max(0, cv_ - std::max(ru, rv));
-           v <= std::min(height - 1, cv_ + std::max(ru, rv)); ++v)
-        for (int u = std::max(0, cu - std::max(ru, rv));
-             u <= std::min(width - 1, cu + std::max(ru, rv)); ++u)
-          if (mask(v, u)) box.include(u, v);
-      if (box.empty()) continue;
-      soft_mask(mask, box, 0, params_, rng, det.probability);
-      det.box = mask_box(det.probability, threshold);
-      if (keep(det, params_)) out.push_back(std::move(det));
-    }
-  }
+  if (params_.gt_degrade && params_.gt_spurious_per_frame > 0)
+    append_spurious(params_, class_ids_, width, height, seed, frame_key, out);
   return out;
 }
 

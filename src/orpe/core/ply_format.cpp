@@ -221,102 +221,102 @@ void check_text_bytes(const std::string& path, const std::string& data, size_t e
   }
 }
 
-PlyFile read_ply_header(const std::string& path) {
-  PlyFile file;
-  std::ifstream is(path, std::ios::binary);
-  if (!is) throw IoError(path, "cannot open PLY file");
-  file.data.assign((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
-  const std::string& data = file.data;
-  std::vector<Element>& elements = file.elements;
-  Format& format = file.format;
+namespace {
 
-  if (data.compare(0, 3, "ply") != 0) throw IoError(path, "not a PLY file (no 'ply' magic)");
-
-  // Header: lines up to "end_header".
-  bool have_format = false, have_end = false;
-  size_t pos = 0;
+/// The header's lines read into a PlyFile, one keyword at a time; errors name the line.
+struct HeaderReader {
+  const std::string& path;
+  PlyFile& file;
+  bool have_format = false;
   int line_no = 0;
-  while (pos < data.size()) {
-    const size_t eol = data.find('\n', pos);
-    if (eol == std::string::npos) break;
-    std::string line = data.substr(pos, eol - pos);
-    pos = eol + 1;
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw IoError(path, fmt::format("PLY header line {}: {}", line_no, what));
+  }
+
+  /// One line (without its newline); false at end_header.
+  bool read_line(std::string line) {
     ++line_no;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream ls(line);
     std::string key;
     ls >> key;
-    auto fail = [&](const std::string& what) {
-      throw IoError(path, fmt::format("PLY header line {}: {}", line_no, what));
-    };
-    if (key == "end_header") {
-      have_end = true;
-      break;
-    }
-    if (key.empty() || key == "ply" || key == "comment" || key == "obj_info") continue;
-    if (key == "format") {
-      // assimp reads the first format line, an element by its name (two elements of one name made
-      // it read out of bounds: fuzz mesh_ply finding 30): a second of either is refused.
-      if (have_format) fail("a second format line");
-      std::string f;
-      ls >> f;
-      if (f == "ascii")
-        format = Format::kAscii;
-      else if (f == "binary_little_endian")
-        format = Format::kBinaryLittleEndian;
-      else if (f == "binary_big_endian")
-        format = Format::kBinaryBigEndian;
-      else
-        fail("unknown format '" + f + "'");
-      have_format = true;
-    } else if (key == "element") {
-      Element e;
-      long long count = -1;
-      if (!(ls >> e.name >> count) || count < 0) fail("malformed element line");
-      for (const Element& other : elements)
-        if (other.name == e.name)
-          fail(fmt::format("a second element '{}' (the first is on line {})", e.name, other.line));
-      e.count = static_cast<size_t>(count);
-      e.line = line_no;
-      elements.push_back(e);
-    } else if (key == "property") {
-      if (elements.empty()) fail("property before any element");
-      Property p;
-      std::string type;
-      ls >> type;
-      if (type == "list") {
-        std::string count_type, item_type;
-        ls >> count_type >> item_type >> p.name;
-        p.is_list = true;
-        p.count_type = parse_type(count_type);
-        p.type = parse_type(item_type);
-        if (p.count_type == PlyType::kInvalid || p.type == PlyType::kInvalid)
-          fail("unknown list type");
-      } else {
-        ls >> p.name;
-        p.type = parse_type(type);
-        if (p.type == PlyType::kInvalid) fail("unknown property type '" + type + "'");
-      }
-      if (p.name.empty()) fail("property without a name");
-      elements.back().properties.push_back(p);
-    } else {
+    if (key == "end_header") return false;
+    if (key.empty() || key == "ply" || key == "comment" || key == "obj_info") return true;
+    if (key == "format")
+      read_format(ls);
+    else if (key == "element")
+      read_element(ls);
+    else if (key == "property")
+      read_property(ls);
+    else
       fail("unknown keyword '" + key + "'");
-    }
+    return true;
   }
-  if (!have_end) throw IoError(path, "PLY header has no end_header (truncated file?)");
-  if (!have_format) throw IoError(path, "PLY header has no format line");
-  check_text_bytes(path, data, format == Format::kAscii ? data.size() : pos);
 
-  // Counts the body cannot hold (a corrupt or hostile header) fail before any allocation. Records
-  // without properties take no bytes, so nothing bounds their count: assimp made an instance of
-  // each (1e9 records: over 10 s, fuzz mesh_ply finding 27); no PLY writer makes one.
-  size_t remaining = data.size() - pos;
-  for (const Element& e : elements) {
+  void read_format(std::istringstream& ls) {
+    // assimp reads the first format line, an element by its name (two elements of one name made
+    // it read out of bounds: fuzz mesh_ply finding 30): a second of either is refused.
+    if (have_format) fail("a second format line");
+    std::string f;
+    ls >> f;
+    if (f == "ascii")
+      file.format = Format::kAscii;
+    else if (f == "binary_little_endian")
+      file.format = Format::kBinaryLittleEndian;
+    else if (f == "binary_big_endian")
+      file.format = Format::kBinaryBigEndian;
+    else
+      fail("unknown format '" + f + "'");
+    have_format = true;
+  }
+
+  void read_element(std::istringstream& ls) {
+    Element e;
+    long long count = -1;
+    if (!(ls >> e.name >> count) || count < 0) fail("malformed element line");
+    for (const Element& other : file.elements)
+      if (other.name == e.name)
+        fail(fmt::format("a second element '{}' (the first is on line {})", e.name, other.line));
+    e.count = static_cast<size_t>(count);
+    e.line = line_no;
+    file.elements.push_back(e);
+  }
+
+  void read_property(std::istringstream& ls) {
+    if (file.elements.empty()) fail("property before any element");
+    Property p;
+    std::string type;
+    ls >> type;
+    if (type == "list") {
+      std::string count_type, item_type;
+      ls >> count_type >> item_type >> p.name;
+      p.is_list = true;
+      p.count_type = parse_type(count_type);
+      p.type = parse_type(item_type);
+      if (p.count_type == PlyType::kInvalid || p.type == PlyType::kInvalid)
+        fail("unknown list type");
+    } else {
+      ls >> p.name;
+      p.type = parse_type(type);
+      if (p.type == PlyType::kInvalid) fail("unknown property type '" + type + "'");
+    }
+    if (p.name.empty()) fail("property without a name");
+    file.elements.back().properties.push_back(p);
+  }
+};
+
+/// Counts the body cannot hold (a corrupt or hostile header) fail before any allocation. Records
+/// without properties take no bytes, so nothing bounds their count: assimp made an instance of
+/// each (1e9 records: over 10 s, fuzz mesh_ply finding 27); no PLY writer makes one.
+void check_record_counts(const std::string& path, const PlyFile& file, size_t body_pos) {
+  size_t remaining = file.data.size() - body_pos;
+  for (const Element& e : file.elements) {
     if (e.properties.empty() && e.count > 0)
       throw IoError(path, fmt::format("PLY header line {}: element '{}' declares {} records but no "
                                       "properties",
                                       e.line, e.name, e.count));
-    const size_t per = min_record_bytes(e, format);
+    const size_t per = min_record_bytes(e, file.format);
     if (per > 0 && e.count > remaining / per)
       throw IoError(path,
                     fmt::format("PLY element '{}' declares {} records, more than the {} bytes "
@@ -324,6 +324,36 @@ PlyFile read_ply_header(const std::string& path) {
                                 e.name, e.count, remaining));
     remaining -= per * e.count;
   }
+}
+
+}  // namespace
+
+PlyFile read_ply_header(const std::string& path) {
+  PlyFile file;
+  std::ifstream is(path, std::ios::binary);
+  if (!is) throw IoError(path, "cannot open PLY file");
+  file.data.assign((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+  const std::string& data = file.data;
+  if (data.compare(0, 3, "ply") != 0) throw IoError(path, "not a PLY file (no 'ply' magic)");
+
+  // Header: lines up to "end_header".
+  HeaderReader header{path, file};
+  bool have_end = false;
+  size_t pos = 0;
+  while (pos < data.size()) {
+    const size_t eol = data.find('\n', pos);
+    if (eol == std::string::npos) break;
+    const std::string line = data.substr(pos, eol - pos);
+    pos = eol + 1;
+    if (!header.read_line(line)) {
+      have_end = true;
+      break;
+    }
+  }
+  if (!have_end) throw IoError(path, "PLY header has no end_header (truncated file?)");
+  if (!header.have_format) throw IoError(path, "PLY header has no format line");
+  check_text_bytes(path, data, file.format == Format::kAscii ? data.size() : pos);
+  check_record_counts(path, file, pos);
   file.body_pos = pos;
   return file;
 }

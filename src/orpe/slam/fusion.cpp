@@ -243,8 +243,8 @@ size_t SurfelFusion::update_surfels(const Frame& f, std::int32_t now, SurfelMap*
     for (int u = 0; u < W; ++u) {
       const std::int32_t i = assoc_.at(u, v);
       if (i < 0 || !home_.at(u, v)) continue;
-      Vec3f p_w, n_w;
-      float a, r;
+      Vec3f p_w = Vec3f::Zero(), n_w = Vec3f::Zero();
+      float a = 0, r = 0;
       if (!f.observe(u, v, &p_w, &n_w, &a, &r)) continue;
       const float c = map->confidence[i];
       if (r < growth * map->radius_m[i]) {
@@ -284,8 +284,8 @@ size_t SurfelFusion::add_new_surfels(const Frame& f, std::int32_t now, SurfelMap
     size_t k = old_size + row_counts_[static_cast<size_t>(v)];
     for (int u = 0; u < W; ++u) {
       if (assoc_.at(u, v) != kNewSurfel) continue;
-      Vec3f p_w, n_w;
-      float a, r;
+      Vec3f p_w = Vec3f::Zero(), n_w = Vec3f::Zero();
+      float a = 0, r = 0;
       f.observe(u, v, &p_w, &n_w, &a, &r);  // true: checked during association
       map->position_world[k] = p_w;
       map->normal_world[k] = n_w;

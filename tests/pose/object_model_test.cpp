@@ -19,6 +19,15 @@ void write_text(const std::string& path, const std::string& text) {
   os << text;
 }
 
+/// A 3 x 8 cm cylinder's surface sampled every `spacing_m`, every `every`-th sample repeated at the
+/// end (ties for the nearest-point searches).
+test::SurfaceSamples cylinder_with_ties(float spacing_m, size_t every) {
+  test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, spacing_m);
+  const size_t n = s.points.size();
+  for (size_t i = 0; i < n; i += every) s.points.push_back(s.points[i]);
+  return s;
+}
+
 TEST(ObjectModel, LoadErrorsNameTheFile) {
   const std::string dir = test::scratch_dir("xyz");
   try {
@@ -112,9 +121,7 @@ TEST(ObjectModel, SearchIndexMatchesBruteForce) {
 // nearest() returns when it is nearer than the bound, none otherwise -- also with duplicate points
 // (ties) and with a bound just above the nearest distance.
 TEST(ObjectModel, BoundedSearchReturnsTheExactNearestOrNone) {
-  test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.006f);
-  const size_t n = s.points.size();
-  for (size_t i = 0; i < n; i += 7) s.points.push_back(s.points[i]);  // ties
+  const test::SurfaceSamples s = cylinder_with_ties(0.006f, 7);
   const ModelSearchIndex index(s.points);
   std::mt19937 rng(4);
   std::uniform_real_distribution<float> u(-0.07f, 0.07f);
@@ -143,9 +150,8 @@ TEST(ObjectModel, BoundedSearchReturnsTheExactNearestOrNone) {
 // the bound whatever the hint -- the point found for a nearby query, a far point, or none -- since
 // a hint only shortens the search; with duplicate points (ties) the distance is the nearest's.
 TEST(ObjectModel, HintedSearchEqualsTheBoundedSearch) {
-  test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.004f);
+  const test::SurfaceSamples s = cylinder_with_ties(0.004f, 11);
   const size_t n = s.points.size();
-  for (size_t i = 0; i < n; i += 11) s.points.push_back(s.points[i]);  // ties
   const ModelSearchIndex index(s.points);
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-0.07f, 0.07f), step(-0.004f, 0.004f);

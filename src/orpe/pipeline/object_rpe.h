@@ -262,8 +262,10 @@ class ObjectRpePipeline {
   bool render_projected(PoseFrame& f);
   void candidates_from_map(PoseFrame& f) const;
   void candidates_from_detections(PoseFrame& f) const;
-  /// The candidate's model, or null (the estimate's reason says why: no model, not usable).
+  /// Loads the models of the frame's candidates not loaded yet, on all cores (model_for reports
+  /// any that fails to load).
   void preload_models(const PoseFrame& f);
+  /// The candidate's model, or null (the estimate's reason says why: no model, not usable).
   const ObjectModel* model_for(const Candidate& c, ObjectFrameEstimate& est);
   /// The pose track of the candidate's instance (null without an instance).
   Track* track_for(VariantState& vs, const Candidate& c);

@@ -150,14 +150,6 @@ std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, in
   return out;
 }
 
-std::shared_ptr<ModelColour> load_mesh_colour(const std::string& mesh_path, double metres_per_unit,
-                                              int samples) {
-  MeshLoadOptions mo;
-  mo.metres_per_unit = metres_per_unit;
-  mo.warn_missing_texture = false;
-  return model_colour_from_mesh(load_mesh(mesh_path, mo), samples);
-}
-
 std::vector<VisibleColourSample> visible_colour_samples(
     const ModelColour& colour, const SE3& T_cam_obj, const ColorImage& image,
     const DepthImage& depth, const MaskImage& mask, const PinholeIntrinsics& K,

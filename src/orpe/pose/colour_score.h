@@ -108,12 +108,6 @@ constexpr float kUniformGreyRange = 2.0f / 255.0f;
 std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, int samples = 20000,
                                                     unsigned seed = 11);
 
-/// Loads a mesh file (OBJ/PLY, render/mesh_io.h) with its texture and samples its colour as above;
-/// nullptr when the mesh has neither texture nor varying vertex colours (a missing texture is no
-/// warning: most YCB meshes ship without theirs). Throws IoError for an unreadable mesh.
-std::shared_ptr<ModelColour> load_mesh_colour(const std::string& mesh_path, double metres_per_unit,
-                                              int samples = 20000);
-
 /// Agreement of the image with the model's colour at T_cam_obj (see above).
 ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj,
                                  const ColorImage& image, const DepthImage& depth,

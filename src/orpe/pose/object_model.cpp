@@ -149,16 +149,16 @@ ObjectModel load_object_model(const std::string& points_path, const ModelLoadOpt
   // when wanted, its colour come from the same TriangleMesh.
   std::optional<TriangleMesh> mesh;
   if (!options.mesh_path.empty()) {
-    MeshLoadOptions mo;  // file units: the vertices are scaled below, as the point file's
+    MeshLoadOptions mo;  // in metres, as the point file
+    mo.metres_per_unit = 1.0 / options.units_per_m;
     mo.load_texture = options.load_colour;
     mo.warn_missing_texture = false;
     mesh = load_mesh(options.mesh_path, mo);
-    const float scale = static_cast<float>(1.0 / options.units_per_m);
     // Keep only vertices with a normal (faces reference them).
     std::vector<Eigen::Vector3f> verts, norms;
     for (size_t i = 0; i < mesh->vertices.size(); ++i)
       if (mesh->normals[i].squaredNorm() > 0.5f) {
-        verts.push_back(mesh->vertices[i] * scale);
+        verts.push_back(mesh->vertices[i]);
         norms.push_back(mesh->normals[i]);
       }
     if (verts.empty()) throw IoError(options.mesh_path, "no vertex is used by a face");
@@ -180,10 +180,7 @@ ObjectModel load_object_model(const std::string& points_path, const ModelLoadOpt
     throw IoError(points_path, e.what());
   }
   if (options.detect_symmetry) model.symmetry = detect_symmetry(model);
-  if (options.load_colour && mesh) {
-    for (auto& v : mesh->vertices) v *= static_cast<float>(1.0 / options.units_per_m);
-    model.colour = model_colour_from_mesh(*mesh);
-  }
+  if (options.load_colour && mesh) model.colour = model_colour_from_mesh(*mesh);
   return model;
 }
 

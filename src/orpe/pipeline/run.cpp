@@ -290,8 +290,7 @@ using ProgressFn = std::function<void(const std::string&)>;
 /// What the frame loop leaves for the outputs and the summary.
 struct FrameLoop {
   FrameLog frame_log;
-  std::vector<std::string> wrong_size;  ///< frames left out: their size differs from the first's
-  std::vector<std::string> skipped;     ///< every frame left out, with why (unreadable, size)
+  std::vector<std::string> skipped;  ///< every frame left out, with why (unreadable, size)
 };
 
 /// Every frame of `reader` through the pipeline (until the end or a stop request), then the
@@ -301,6 +300,7 @@ FrameLoop run_frames(ObjectRpePipeline& pipeline, const DatasetReader& reader,
                      const OrpeConfig& config, const RunOptions& options, MaskRecorder* masks,
                      const ProgressFn& progress, RunSummary& summary) {
   FrameLoop loop;
+  std::vector<std::string> wrong_size;  // frames left out: their size differs from the first's
   FrameStream stream(reader);
   RgbdFrame frame, first_frame;
   const int every = config.pipeline.progress_every_n_frames;
@@ -330,7 +330,7 @@ FrameLoop run_frames(ObjectRpePipeline& pipeline, const DatasetReader& reader,
                       frame.index, frame.name, frame.depth.width(), frame.depth.height(),
                       first_frame.depth.width(), first_frame.depth.height());
       spdlog::warn("skipping {}", msg);
-      loop.wrong_size.push_back(msg);
+      wrong_size.push_back(msg);
       continue;
     }
     const PipelineFrameResult& r = pipeline.process(frame);
@@ -342,10 +342,10 @@ FrameLoop run_frames(ObjectRpePipeline& pipeline, const DatasetReader& reader,
     if (every > 0 && (summary.frames % every == 0 || summary.frames == static_cast<int>(total)))
       progress(fmt::format("[{:4d}/{}] {}", summary.frames, total, r.report()));
   }
-  summary.wrong_size_frames = static_cast<int>(loop.wrong_size.size());
-  summary.skipped_frames = static_cast<int>(stream.skipped() + loop.wrong_size.size());
+  summary.wrong_size_frames = static_cast<int>(wrong_size.size());
+  summary.skipped_frames = static_cast<int>(stream.skipped() + wrong_size.size());
   for (const auto& [pos, msg] : stream.skipped_frames()) loop.skipped.push_back(msg);
-  loop.skipped.insert(loop.skipped.end(), loop.wrong_size.begin(), loop.wrong_size.end());
+  loop.skipped.insert(loop.skipped.end(), wrong_size.begin(), wrong_size.end());
   if (summary.frames == 0 && summary.interrupted)
     throw Interrupted("interrupted before the first frame was processed; nothing written");
   if (summary.frames == 0)

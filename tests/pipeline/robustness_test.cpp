@@ -33,8 +33,9 @@ struct TrackedFrame {
 };
 
 // The default tracker: its free-space self-check is on (docs/SLAM.md, "The tracker's self-check").
-// Relocalisation is off here: these tests judge the tracker's own verdict on each jump (with it on, a
-// jump frame may be relocalised -- correctly -- against frame 0: tests/pipeline/relocalisation_test.cpp).
+// Relocalisation is off here: these tests judge the tracker's own verdict on each jump (with it on,
+// a jump frame may be relocalised -- correctly -- against frame 0:
+// tests/pipeline/relocalisation_test.cpp).
 slam::SlamParams default_params() {
   slam::SlamParams params;
   params.reloc.enabled = false;
@@ -173,6 +174,37 @@ TEST(NoDepth, AFrameWithoutDepthIsReportedAndNotFused) {
   tiny.intrinsics.width = tiny.intrinsics.height = 2;
   tiny.intrinsics.cx = tiny.intrinsics.cy = 0.5;
   EXPECT_TRUE(slam2.process(tiny).no_depth);
+}
+
+// A frame whose images are not the first frame's size is left out of the run, not fused or
+// tracked, and said: a warning, summary.json's frames_wrong_size and the skipped message naming it.
+TEST(OddSizedFrames, AFrameOfAnotherSizeIsSkippedAndReported) {
+  const std::string scene =
+      test::synthetic_scene("oddsize", test::small_scene_params(64, 48, 3, 1, 4));
+  const std::string copy = test::scratch_dir("oddsize_copy") + "/scene";
+  fs::copy(scene, copy, fs::copy_options::recursive);
+  // Frame 1's images (colour, depth, labels, masks) from the same scene made at half the size.
+  const std::string small =
+      test::synthetic_scene("oddsize_small", test::small_scene_params(32, 24, 3, 1, 4));
+  for (const auto& e : fs::recursive_directory_iterator(small + "/test/000000"))
+    if (e.is_regular_file() && e.path().filename().string().rfind("000001", 0) == 0)
+      fs::copy_file(e.path(), copy + "/" + fs::relative(e.path(), small).string(),
+                    fs::copy_options::overwrite_existing);
+  const std::string out = test::scratch_dir("oddsize_out") + "/run";
+  RunSummary s;
+  try {
+    s = run_object_rpe(OrpeConfig{}, slam_run(copy, out));
+  } catch (const std::exception& e) {
+    FAIL() << "the run should go on without the odd frame: " << e.what();
+  }
+  EXPECT_EQ(s.frames, 2);
+  EXPECT_EQ(s.skipped_frames, 1);
+  const nlohmann::json j = read_json(out + "/summary.json");
+  const auto& skipped = j["dataset"]["skipped_messages"];
+  ASSERT_EQ(skipped.size(), 1u) << j["dataset"].dump();
+  const std::string msg = skipped[0].get<std::string>();
+  EXPECT_NE(msg.find("frame 1"), std::string::npos) << msg;
+  EXPECT_EQ(j["dataset"]["frames_wrong_size"].get<int>(), 1);
 }
 
 TEST(StagedOutputs, ARunNeedsOverwriteToReplaceAPreviousOneAndLeavesNoStaleFiles) {

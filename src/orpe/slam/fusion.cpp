@@ -85,19 +85,20 @@ struct SurfelFusion::Frame {
   const int W, H, level;
   const float fx, fy, cx, cy, f_mean, max_z, g_norm, inv_2sig2;
 
-  Frame(const FramePyramid& frame, int lvl, const ColorImage& color_at_level,
+  /// Level `lvl` of `frame` (L = frame.levels[lvl]), with its colour.
+  Frame(const FramePyramid& frame, int lvl, const FrameLevel& L, const ColorImage& color_at_level,
         const SE3& T_world_cam, const FusionParams& p)
-      : depth(lvl == 0 ? frame.raw_depth : frame.levels.at(static_cast<size_t>(lvl)).depth),
-        normal(frame.levels.at(static_cast<size_t>(lvl)).normal),
+      : depth(lvl == 0 ? frame.raw_depth : L.depth),
+        normal(L.normal),
         color(color_at_level),
         T_wc(T_world_cam),
-        W(frame.levels.at(static_cast<size_t>(lvl)).K.width),
-        H(frame.levels.at(static_cast<size_t>(lvl)).K.height),
+        W(L.K.width),
+        H(L.K.height),
         level(lvl),
-        fx(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.fx)),
-        fy(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.fy)),
-        cx(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.cx)),
-        cy(static_cast<float>(frame.levels.at(static_cast<size_t>(lvl)).K.cy)),
+        fx(static_cast<float>(L.K.fx)),
+        fy(static_cast<float>(L.K.fy)),
+        cx(static_cast<float>(L.K.cx)),
+        cy(static_cast<float>(L.K.cy)),
         f_mean(0.5f * (fx + fy)),
         max_z(static_cast<float>(p.max_depth_m)),
         g_norm(p.confidence_radius_px > 0
@@ -137,8 +138,9 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
   // level.
   const int level = std::min(params_.fusion_level, static_cast<int>(frame.levels.size()) - 1);
   if (level > 0) downsample_color(frame.color, level, &color_lowres_);
-  const Frame f(frame, level, level == 0 ? frame.color : color_lowres_, T_world_cam, params_);
-  const PinholeIntrinsics& K = frame.levels.at(static_cast<size_t>(level)).K;
+  const FrameLevel& L = frame.levels.at(static_cast<size_t>(level));
+  const Frame f(frame, level, L, level == 0 ? frame.color : color_lowres_, T_world_cam, params_);
+  const PinholeIntrinsics& K = L.K;
   RenderOptions opt;
   opt.active_window_frames = params_.active_window_frames;
   opt.now = now;

@@ -38,15 +38,16 @@ def main():
     ap.add_argument("--min-visible", type=float, default=0.1)
     ap.add_argument("--bin", default=os.path.join(os.path.dirname(__file__), "..", "build", "bin"))
     ap.add_argument("--configs", default="colour,no colour",
-                    help="comma-separated subset of: colour, no colour, lambert fit (colour ranked by the Lambert "
-                         "fit instead of the plain NCC: pose_registration.colour_lambert_fit=true)")
+                    help="comma-separated subset of: colour (the default evidence, the Lambert fit), no colour, "
+                         "plain ncc, local contrast (pose_registration.colour_evidence=ncc / local_contrast)")
     ap.add_argument("--set", action="append", default=[], dest="sets", help="section.key=value for orpe run")
     args = ap.parse_args()
     orpe = os.path.join(os.path.abspath(args.bin), "orpe")
     os.makedirs(args.out, exist_ok=True)
     seeds = [int(s) for s in args.seeds.split(",") if s]
     known = {"colour": [], "no colour": ["--set", "pose_registration.colour_enabled=false"],
-             "lambert fit": ["--set", "pose_registration.colour_lambert_fit=true"]}
+             "plain ncc": ["--set", "pose_registration.colour_evidence=ncc"],
+             "local contrast": ["--set", "pose_registration.colour_evidence=local_contrast"]}
     names = [c.strip() for c in args.configs.split(",") if c.strip()]
     for c in names:
         if c not in known:

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include "orpe/core/atomic_file.h"
@@ -53,6 +54,10 @@ bool ColourScoreParams::IsValid(std::string* why) const {
     return fail("colour_depth_tolerance_m must be in (0, 0.5]");
   if (!(min_learned_fraction >= 0 && min_learned_fraction <= 1))
     return fail("colour_min_learned_fraction must be in [0, 1]");
+  if (evidence != "lambert" && evidence != "local_contrast" && evidence != "ncc")
+    return fail("colour_evidence must be lambert, local_contrast or ncc, not '" + evidence + "'");
+  if (!(local_contrast_radius > 0 && local_contrast_radius <= 1))
+    return fail("colour_local_contrast_radius must be in (0, 1]");
   return true;
 }
 
@@ -231,6 +236,65 @@ bool box_on_surface(const DepthImage& depth, const MaskImage& mask, int u, int v
 
 }  // namespace
 
+namespace {
+
+/// Weighted Pearson correlation accumulated pair by pair.
+struct WeightedCorrelation {
+  double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  void add(double x, double y, double w) {
+    sw += w, sx += w * x, sy += w * y;
+    sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
+  }
+  /// False when there is no weight or either side is flat (variance under 1e-6).
+  bool correlation(double* r) const {
+    if (!(sw > 0)) return false;
+    const double mx = sx / sw, my = sy / sw;
+    const double vx = sxx / sw - mx * mx, vy = syy / sw - my * my, cxy = sxy / sw - mx * my;
+    if (vx < 1e-6 || vy < 1e-6) return false;
+    *r = std::clamp(cxy / std::sqrt(vx * vy), -1.0, 1.0);
+    return true;
+  }
+};
+
+/// Integral image of (weight, weight * model grey, weight * image grey) over a pixel rectangle:
+/// the sums over any square in O(1).
+class SampleBoxSums {
+ public:
+  SampleBoxSums(const std::vector<VisibleColourSample>& vis, const ModelColour& colour) {
+    u0_ = v0_ = std::numeric_limits<int>::max();
+    int u1 = std::numeric_limits<int>::min(), v1 = u1;
+    for (const auto& s : vis) {
+      u0_ = std::min(u0_, s.u), v0_ = std::min(v0_, s.v);
+      u1 = std::max(u1, s.u), v1 = std::max(v1, s.v);
+    }
+    w_ = u1 - u0_ + 2, h_ = v1 - v0_ + 2;  // one row and column of zeros in front
+    sums_.assign(static_cast<size_t>(w_) * static_cast<size_t>(h_), Eigen::Vector3d::Zero());
+    for (const auto& s : vis) {
+      const double w = colour.weight[s.index];
+      at(s.u - u0_ + 1, s.v - v0_ + 1) +=
+          Eigen::Vector3d(w, w * colour.grey[s.index], w * static_cast<double>(s.image_grey));
+    }
+    for (int y = 1; y < h_; ++y)
+      for (int x = 1; x < w_; ++x) at(x, y) += at(x - 1, y) + at(x, y - 1) - at(x - 1, y - 1);
+  }
+  /// Sums over the pixels (u, v) with |u - cu| <= r and |v - cv| <= r.
+  Eigen::Vector3d box(int cu, int cv, int r) const {
+    const int xa = std::clamp(cu - r - u0_, 0, w_ - 1),
+              xb = std::clamp(cu + r - u0_ + 1, 0, w_ - 1);
+    const int ya = std::clamp(cv - r - v0_, 0, h_ - 1),
+              yb = std::clamp(cv + r - v0_ + 1, 0, h_ - 1);
+    return at(xb, yb) - at(xa, yb) - at(xb, ya) + at(xa, ya);
+  }
+
+ private:
+  Eigen::Vector3d& at(int x, int y) { return sums_[static_cast<size_t>(y * w_ + x)]; }
+  const Eigen::Vector3d& at(int x, int y) const { return sums_[static_cast<size_t>(y * w_ + x)]; }
+  int u0_ = 0, v0_ = 0, w_ = 0, h_ = 0;
+  std::vector<Eigen::Vector3d> sums_;
+};
+
+}  // namespace
+
 ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_obj,
                                   const ColorImage& image, const DepthImage& depth,
                                   const MaskImage& mask, const PinholeIntrinsics& K,
@@ -239,10 +303,16 @@ ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_ob
   WeightedLeastSquares<4> shading;
   WeightedLeastSquares<5> albedo;
   double sw = 0;
-  for (const VisibleColourSample& s :
-       visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m)) {
+  const std::vector<VisibleColourSample> vis =
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
+  if (vis.empty()) return out;
+  const SampleBoxSums sums(vis, colour);
+  for (const VisibleColourSample& s : vis) {
     if (!box_on_surface(depth, mask, s.u, s.v, params.depth_tolerance_m)) continue;
-    const double w = colour.weight[s.index], a = colour.grey[s.index], y = s.image_grey;
+    // The albedo over the sample's 3x3 pixel box, as the image's grey (box_grey): a print finer
+    // than a pixel (small text) averages alike on both sides instead of aliasing on the model's.
+    const Eigen::Vector3d px = sums.box(s.u, s.v, 1);
+    const double w = colour.weight[s.index], y = s.image_grey, a = px(1) / px(0);
     const Eigen::Vector3d n = s.normal.cast<double>();
     shading.add(Eigen::Vector4d(1, n.x(), n.y(), n.z()), y, w);
     albedo.add((Eigen::Matrix<double, 5, 1>() << 1, a, a * n.x(), a * n.y(), a * n.z()).finished(),
@@ -258,12 +328,46 @@ ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_ob
   return out;
 }
 
+ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                         const ColorImage& image, const DepthImage& depth,
+                                         const MaskImage& mask, const PinholeIntrinsics& K,
+                                         const ColourScoreParams& params) {
+  ColourAgreement out;
+  const std::vector<VisibleColourSample> vis =
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
+  out.pixels = static_cast<int>(vis.size());
+  if (out.pixels < params.min_pixels) return out;
+  std::vector<float> z;
+  z.reserve(vis.size());
+  for (const auto& s : vis) z.push_back(depth.at(s.u, s.v));
+  std::nth_element(z.begin(), z.begin() + static_cast<long>(z.size() / 2), z.end());
+  const double z_median = z[z.size() / 2];
+  Eigen::Vector3f lo = colour.points.front(), hi = lo;
+  for (const auto& p : colour.points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const double radius_m = params.local_contrast_radius * static_cast<double>((hi - lo).norm());
+  const int r =
+      std::max(1, static_cast<int>(std::lround(K.fx * radius_m / std::max(z_median, 0.01))));
+  const SampleBoxSums sums(vis, colour);
+  WeightedCorrelation corr;
+  for (const auto& s : vis) {
+    // b(0), px(0) > 0: the sample itself is inside. The model's grey over the 3x3 pixel box, as
+    // the image's (box_grey): a print finer than a pixel averages alike on both sides.
+    const Eigen::Vector3d b = sums.box(s.u, s.v, r), px = sums.box(s.u, s.v, 1);
+    corr.add(px(1) / px(0) - b(1) / b(0), s.image_grey - b(2) / b(0), colour.weight[s.index]);
+  }
+  out.valid = corr.correlation(&out.ncc);
+  return out;
+}
+
 ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam_obj,
                                      const ColorImage& image, const DepthImage& depth,
                                      const MaskImage& mask, const PinholeIntrinsics& K,
                                      const ColourScoreParams& params) {
-  return params.lambert_fit ? lambert_agreement(colour, T_cam_obj, image, depth, mask, K, params)
-                            : colour_agreement(colour, T_cam_obj, image, depth, mask, K, params);
+  if (params.evidence == "lambert")
+    return lambert_agreement(colour, T_cam_obj, image, depth, mask, K, params);
+  if (params.evidence == "local_contrast")
+    return local_contrast_agreement(colour, T_cam_obj, image, depth, mask, K, params);
+  return colour_agreement(colour, T_cam_obj, image, depth, mask, K, params);
 }
 
 std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj) {

@@ -56,7 +56,8 @@ struct ColourScoreParams {
   bool try_flips = true;
   bool refine_turn = true;
   double min_learned_fraction = 0.3;
-  bool lambert_fit = false;
+  std::string evidence = "lambert";  ///< lambert | local_contrast | ncc
+  double local_contrast_radius = 0.05;
 
   template <class V>
   void visit(V&& v) {
@@ -79,10 +80,15 @@ struct ColourScoreParams {
       "(10-degree steps, then 5, 2.5, 1.25 about the best), which geometry leaves free");
     v("colour_min_learned_fraction", min_learned_fraction,
       "A learned colour model is used only when this fraction of its samples has a colour");
-    v("colour_lambert_fit", lambert_fit,
-      "Score a candidate by the Lambert fit (lambert_agreement: the share of the image's grey "
-      "variation beyond a shading of the normals that the model's shaded albedo explains) "
-      "instead of the plain NCC, which a shading gradient across a curved label can fool");
+    v("colour_evidence", evidence,
+      "What a candidate is ranked by: lambert (lambert_agreement: the share of the image's grey "
+      "variation beyond a shading of the normals that the model's shaded albedo explains), "
+      "local_contrast (local_contrast_agreement: the NCC of each side minus its local mean) or "
+      "ncc (colour_agreement: the plain NCC of grey levels, which a shading gradient across a "
+      "curved label can fool)");
+    v("colour_local_contrast_radius", local_contrast_radius,
+      "colour_evidence=local_contrast: the radius of the local mean, a fraction of the model's "
+      "bounding-box diagonal");
   }
   bool IsValid(std::string* why) const;
 };
@@ -115,7 +121,9 @@ ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj
                                  const ColourScoreParams& params);
 
 /// Agreement under an unknown Lambert shading. Under a distant light the image's grey level of a
-/// visible sample is y = o + a (c0 + c . n): its albedo a (the model's grey level) times a shading
+/// visible sample is y = o + a (c0 + c . n): its albedo a (the mean grey level of the model's
+/// visible samples in its 3x3 pixel box, as y is the image's: a print finer than a pixel averages
+/// alike on both sides instead of aliasing on the model's; session 19) times a shading
 /// linear in its normal n (camera frame; ambient + diffuse where the light reaches it, a gain per
 /// face of a box), plus an offset o. Two weighted least-squares fits over the same samples:
 ///   shading alone:  y ~ [1, n]          (residual sum of squares RSS_s; 4 parameters)
@@ -136,8 +144,24 @@ ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_ob
                                   const MaskImage& mask, const PinholeIntrinsics& K,
                                   const ColourScoreParams& params);
 
-/// The colour evidence the pose stage ranks candidates by: lambert_agreement when
-/// params.lambert_fit, else colour_agreement.
+/// Agreement of local contrast: the NCC of the model's and the image's grey levels, each minus its
+/// own local mean. Both sides are taken over the same visible samples (visible_colour_samples):
+/// the model's grey of a sample is the mean over the samples in its 3x3 pixel box (as the image's
+/// box_grey: a print finer than a pixel averages alike on both sides), its local mean the mean over
+/// the samples in the square of half-side R pixels, R = fx * params.local_contrast_radius * (the
+/// model's bounding-box diagonal) / (median depth of the visible samples), at least 1; the image's
+/// likewise. The outline and occlusions thus cut both sides alike. A shading that varies slowly
+/// across the window (a can's curved side, a light gradient) leaves the image's local contrast near
+/// the print's contrast times the local shading, so a wrong turn of a label no longer matches the
+/// shading itself. A model of one colour has no local contrast: no evidence. Same validity rules
+/// as colour_agreement (params.min_pixels samples, neither side flat).
+ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                         const ColorImage& image, const DepthImage& depth,
+                                         const MaskImage& mask, const PinholeIntrinsics& K,
+                                         const ColourScoreParams& params);
+
+/// The colour evidence the pose stage ranks candidates by, as params.evidence names it:
+/// lambert_agreement, local_contrast_agreement or colour_agreement.
 ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam_obj,
                                      const ColorImage& image, const DepthImage& depth,
                                      const MaskImage& mask, const PinholeIntrinsics& K,

@@ -159,9 +159,10 @@ TEST(ColourScore, PriorFlipsLetTheFastPathLeaveAFlippedPrior) {
   // turns are refined too and the print picks the front.
   const TriangleMesh mesh = printed_box();
   const ObjectModel model = box_model(mesh, true);
-  ModelRegistrationParams flips;
-  flips.prior_flips = true;
-  const ModelRegistrationEstimator plain, with_flips(flips);
+  ModelRegistrationParams flips, no_flips;
+  ASSERT_TRUE(flips.prior_flips) << "the default since session 19";
+  no_flips.prior_flips = false;
+  const ModelRegistrationEstimator plain(no_flips), with_flips(flips);
   int kept_wrong = 0, right = 0, n = 0;
   for (double yaw : {-0.4, 0.3})
     for (double pitch : {-0.3, 0.35}) {
@@ -218,6 +219,36 @@ TEST(ColourScore, CanLabelGivesTheTurnAboutTheAxisAndNotWithoutTheTurnSearch) {
   // flip's 30-degree turn steps all missed the label).
   EXPECT_LT(worst_with, 0.003);
   EXPECT_GT(worst_without, worst_with + 0.002);
+}
+
+TEST(ColourScore, TheFastPathSearchesACansTurnByColour) {
+  // The prior is the can turned about its axis (geometrically the same can: the refined prior
+  // fits). The fast path's flips are 180-degree turns about the principal axes, so without the
+  // colour turn search it keeps the prior's turn; with it (colour_refine_turn, as the global search
+  // does) the label gives the turn.
+  const TriangleMesh mesh = labelled_can();
+  const ObjectModel model = box_model(mesh, true);
+  ASSERT_TRUE(model.symmetry.continuous);
+  ModelRegistrationParams search, no_search;
+  no_search.colour.refine_turn = false;
+  const ModelRegistrationEstimator with_search(search), without_search(no_search);
+  int right_with = 0, kept_wrong_without = 0, n = 0;
+  for (double turn : {0.4, 1.9, 3.3}) {
+    const Mat3 R = so3_exp(Vec3(-M_PI / 2 + 0.3, 0, 0)) * so3_exp(Vec3(0, 0, turn));
+    const SE3 T(R, Vec3(0.01, -0.01, 0.6));
+    const View v = render(mesh, T);
+    SingleViewInput in = input_of(v, model);
+    in.T_cam_obj_prior = T * model.symmetry.continuous_element(M_PI / 2);  // a quarter turn off
+    const SingleViewPose a = with_search.estimate(in), b = without_search.estimate(in);
+    ASSERT_TRUE(a.valid && b.valid);
+    EXPECT_TRUE(a.from_prior) << a.report();
+    ++n;
+    right_with += add_m(model, a.T_cam_obj, T) < 0.005;
+    kept_wrong_without += b.from_prior && add_m(model, b.T_cam_obj, T) > 0.02;
+  }
+  EXPECT_EQ(right_with, n);
+  EXPECT_EQ(kept_wrong_without, n)
+      << "without the turn search the fast path keeps the prior's turn";
 }
 
 /// A can whose label is light with one dark panel over a quarter of its turn and faint rings (a

@@ -63,9 +63,12 @@ struct PipelineParams {
   /// global search, an independent vote), and a prior-refined measurement counts
   /// prior_mode_weight times a global one in the competition of the filter's modes (0: it refines
   /// the mode it came from and never votes for it). false = every estimate is a global search (the
-  /// paper). Off by default: on the three YCB clips it lowered Object-RPE's ADD(-S) AUC (per frame
-  /// 66.4 -> 62.9, final 65.4 -> 63.0; one ambiguous box kept its first mode; docs/PIPELINE.md).
-  bool ekf_prior_hypothesis = false;
+  /// paper). Off from session 7 to 18 (then it lowered Object-RPE's ADD(-S) AUC on the three YCB
+  /// clips: one ambiguous box kept its first mode); on since session 19, with
+  /// pose_registration.prior_flips: on the same clips ADD-S unchanged, ADD(-S) per frame / final
+  /// 59.5 / 57.8 -> 62.0 / 63.0 (degraded masks), 61.3 / 57.4 -> 61.4 / 64.5 (exact), single view
+  /// 107 -> 76 ms per frame (docs/PIPELINE.md, docs/BENCHMARKS.md).
+  bool ekf_prior_hypothesis = true;
   int prior_max_consecutive = 2;
   double prior_mode_weight = 0.0;
   /// Skip rule (EKF variants; a deviation, docs/PIPELINE.md): an object is not re-estimated on an

@@ -559,6 +559,26 @@ void refine_turn_by_colour(const ModelRegistrationParams& params, const Registra
   h = turned;
 }
 
+/// colour_refine_turn, a model with a continuous symmetry axis (a can): refine_turn_by_colour on
+/// the first of `hyps` within colour_geometry_margin of `best_geometry` for each direction of the
+/// axis in the camera among them (the can upright or upside down).
+void refine_turns_by_colour(const ModelRegistrationParams& params, const Registration& reg,
+                            const SegmentedCloud& cloud, const ObjectModel& model,
+                            const SingleViewInput& input, double best_geometry,
+                            std::vector<Hypothesis>& hyps) {
+  const ColourScoreParams& cp = params.colour;
+  if (!cp.refine_turn || !model.symmetry.continuous) return;
+  std::vector<Vec3> axes;
+  for (Hypothesis& h : hyps) {
+    if (h.score < best_geometry - cp.geometry_margin) continue;
+    const Vec3 axis = h.T_cam_obj.rotation() * model.symmetry.axis_obj;
+    if (std::any_of(axes.begin(), axes.end(), [&](const Vec3& a) { return a.dot(axis) > 0.87; }))
+      continue;
+    axes.push_back(axis);
+    refine_turn_by_colour(params, reg, cloud, model, input, best_geometry, h);
+  }
+}
+
 /// Among `hyps` within colour_geometry_margin of `best_geometry`: each one's colour NCC, and the
 /// index of the best score + colour_weight * NCC; `out` gets the chosen pose's NCC and its lead
 /// over the best other (distinct) candidate.
@@ -618,18 +638,7 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
     refine.insert(refine.end(), extra.begin(), extra.end());
   }
   const double best_geometry = refine[geometric_best()].score;
-  if (cp.refine_turn && model.symmetry.continuous) {
-    // One turn search per direction of the axis in the camera (the can upright or upside down).
-    std::vector<Vec3> axes;
-    for (Hypothesis& h : refine) {
-      if (h.score < best_geometry - cp.geometry_margin) continue;
-      const Vec3 axis = h.T_cam_obj.rotation() * model.symmetry.axis_obj;
-      if (std::any_of(axes.begin(), axes.end(), [&](const Vec3& a) { return a.dot(axis) > 0.87; }))
-        continue;
-      axes.push_back(axis);
-      refine_turn_by_colour(params, reg, cloud, model, input, best_geometry, h);
-    }
-  }
+  refine_turns_by_colour(params, reg, cloud, model, input, best_geometry, refine);
   return choose_by_colour(cp, model, input, refine, best_geometry, out);
 }
 
@@ -674,7 +683,11 @@ int compare_prior_modes(const ModelRegistrationParams& p, const Registration& re
   out.prior_modes_compared = true;
   const ColourScoreParams& cp = p.colour;
   if (!input.color || input.color->empty() || !has_usable_colour(model, cp)) return best;
-  return choose_by_colour(cp, model, input, hyps, hyps[static_cast<size_t>(best)].score, out);
+  // A can's turn about its axis is not among the principal flips: searched by colour as in the
+  // global path (else the fast path keeps the prior's turn, right or wrong, for good).
+  const double best_geometry = hyps[static_cast<size_t>(best)].score;
+  refine_turns_by_colour(p, reg, cloud, model, input, best_geometry, hyps);
+  return choose_by_colour(cp, model, input, hyps, best_geometry, out);
 }
 
 }  // namespace

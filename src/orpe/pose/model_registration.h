@@ -74,7 +74,7 @@ struct ModelRegistrationParams {
   double prior_min_inlier_fraction = 0.7;
   double prior_max_free_space_violation = 0.15;
   double prior_min_score = 0.8;
-  bool prior_flips = false;
+  bool prior_flips = true;
 
   template <class V>
   void visit(V&& v) {

@@ -122,6 +122,24 @@ void principal_frame(const std::vector<Eigen::Vector3f>& pts, Vec3& centre, Mat3
   centre = mean + axes * (0.5 * (lo + hi));
 }
 
+/// Weighted Pearson correlation accumulated pair by pair.
+struct WeightedCorrelation {
+  double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  void add(double x, double y, double w) {
+    sw += w, sx += w * x, sy += w * y;
+    sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
+  }
+  /// False when there is no weight or either side is flat (variance under 1e-6).
+  bool correlation(double* r) const {
+    if (!(sw > 0)) return false;
+    const double mx = sx / sw, my = sy / sw;
+    const double vx = sxx / sw - mx * mx, vy = syy / sw - my * my, cxy = sxy / sw - mx * my;
+    if (vx < 1e-6 || vy < 1e-6) return false;
+    *r = std::clamp(cxy / std::sqrt(vx * vy), -1.0, 1.0);
+    return true;
+  }
+};
+
 }  // namespace
 
 std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, int samples,
@@ -176,21 +194,14 @@ ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj
                                  const MaskImage& mask, const PinholeIntrinsics& K,
                                  const ColourScoreParams& params) {
   ColourAgreement out;
-  double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  WeightedCorrelation corr;
   for (const VisibleColourSample& s :
        visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m)) {
-    const double w = colour.weight[s.index];
-    const double x = colour.grey[s.index], y = s.image_grey;
-    sw += w, sx += w * x, sy += w * y;
-    sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
+    corr.add(colour.grey[s.index], s.image_grey, colour.weight[s.index]);
     ++out.pixels;
   }
-  if (out.pixels < params.min_pixels || sw <= 0) return out;
-  const double mx = sx / sw, my = sy / sw;
-  const double vx = sxx / sw - mx * mx, vy = syy / sw - my * my, cxy = sxy / sw - mx * my;
-  if (vx < 1e-6 || vy < 1e-6) return out;  // a flat-coloured model or image says nothing
-  out.ncc = std::clamp(cxy / std::sqrt(vx * vy), -1.0, 1.0);
-  out.valid = true;
+  if (out.pixels < params.min_pixels) return out;
+  out.valid = corr.correlation(&out.ncc);  // a flat-coloured model or image says nothing
   return out;
 }
 
@@ -233,28 +244,6 @@ bool box_on_surface(const DepthImage& depth, const MaskImage& mask, int u, int v
     }
   return true;
 }
-
-}  // namespace
-
-namespace {
-
-/// Weighted Pearson correlation accumulated pair by pair.
-struct WeightedCorrelation {
-  double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-  void add(double x, double y, double w) {
-    sw += w, sx += w * x, sy += w * y;
-    sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
-  }
-  /// False when there is no weight or either side is flat (variance under 1e-6).
-  bool correlation(double* r) const {
-    if (!(sw > 0)) return false;
-    const double mx = sx / sw, my = sy / sw;
-    const double vx = sxx / sw - mx * mx, vy = syy / sw - my * my, cxy = sxy / sw - mx * my;
-    if (vx < 1e-6 || vy < 1e-6) return false;
-    *r = std::clamp(cxy / std::sqrt(vx * vy), -1.0, 1.0);
-    return true;
-  }
-};
 
 /// Integral image of (weight, weight * model grey, weight * image grey) over a pixel rectangle:
 /// the sums over any square in O(1).

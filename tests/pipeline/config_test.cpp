@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 
+#include "orpe/core/config_keys.h"
 #include "orpe/core/error.h"
 #include "orpe/pipeline/config.h"
 #include "support/test_data.h"
@@ -154,6 +156,57 @@ TEST(Config, PresetsAreValidAndOverridable) {
   apply_config_preset(c, "default");
   EXPECT_EQ(c.slam_tracking.level0_pixel_step, OrpeConfig().slam_tracking.level0_pixel_step);
   EXPECT_THROW(apply_config_preset(c, "turbo"), ConfigError);
+}
+
+std::string override_error(const std::string& assignment) {
+  OrpeConfig c;
+  try {
+    apply_config_override(c, assignment);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Config, ARenamedOrMistypedKeyIsToldTheWayForward) {
+  // A renamed key points to its successor, in every way a key is given.
+  const std::string renamed = override_error("pose_registration.colour_lambert_fit=true");
+  EXPECT_NE(renamed.find("unknown config key 'pose_registration.colour_lambert_fit'"),
+            std::string::npos) << renamed;
+  EXPECT_NE(renamed.find("renamed: use 'pose_registration.colour_evidence'"), std::string::npos)
+      << renamed;
+  const std::string dir = test::scratch_dir("renamed_keys");
+  for (const std::string name : {"c.json", "c.yaml"}) {
+    const bool yaml = name == "c.yaml";
+    std::ofstream(dir + "/" + name) << (yaml ? "pose_registration:\n  colour_lambert_fit: false\n"
+                                             : R"({"pose_registration": {"colour_lambert_fit": false}})");
+    OrpeConfig c;
+    try {
+      load_config_file(c, dir + "/" + name);
+      ADD_FAILURE() << name;
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find("use 'pose_registration.colour_evidence'"),
+                std::string::npos) << e.what();
+    }
+  }
+  // A typo gets the nearest key of its section; a word far from every key gets no guess.
+  EXPECT_NE(override_error("dataset.strid=2").find("did you mean 'dataset.stride'?"),
+            std::string::npos);
+  EXPECT_NE(override_error("slam_loop.enabeld=true").find("did you mean 'slam_loop.enabled'?"),
+            std::string::npos);
+  const std::string far = override_error("dataset.colour=2");
+  EXPECT_NE(far.find("unknown config key 'dataset.colour'"), std::string::npos) << far;
+  EXPECT_EQ(far.find("did you mean"), std::string::npos) << far;
+  // The table stays true: every old key is unknown now, every new key is a key.
+  std::vector<std::string> keys;
+  for (const ParamDoc& d : describe_config(OrpeConfig{})) keys.push_back(d.key);
+  for (const RenamedConfigKey& r : renamed_config_keys()) {
+    EXPECT_EQ(std::count(keys.begin(), keys.end(), r.old_key), 0) << r.old_key;
+    EXPECT_EQ(std::count(keys.begin(), keys.end(), r.new_key), 1) << r.new_key;
+  }
+  EXPECT_EQ(edit_distance("stride", "strid"), 1u);
+  EXPECT_EQ(edit_distance("enabled", "enabeld"), 2u);
+  EXPECT_EQ(edit_distance("", "abc"), 3u);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "orpe/core/config_keys.h"
 #include "orpe/core/error.h"
 #include "orpe/core/params.h"
 
@@ -63,6 +64,14 @@ nlohmann::json params_to_json(P p) {
   return j;
 }
 
+/// The keys of P, in visit order.
+template <class P>
+std::vector<std::string> params_keys(P p) {
+  std::vector<std::string> keys;
+  p.visit([&](const char* key, auto&, const char*) { keys.emplace_back(key); });
+  return keys;
+}
+
 /// Sets fields from a JSON object; unknown keys and wrong types are errors naming `section.key`.
 template <class P>
 void params_from_json(P& p, const nlohmann::json& j, const std::string& section) {
@@ -98,7 +107,7 @@ void params_from_json(P& p, const nlohmann::json& j, const std::string& section)
                           params_detail::type_name<T>() + " (" + e.what() + ")");
       }
     });
-    if (!found) throw ConfigError("unknown config key '" + section + "." + it.key() + "'");
+    if (!found) throw ConfigError(unknown_config_key_message(section, it.key(), params_keys(p)));
   }
 }
 

@@ -67,7 +67,7 @@ void load_yaml_config(OrpeConfig& config, const std::string& path) {
               path, fmt::format("line {}: '{}.{}' must be a single value", key_line, name, key));
         try {
           if (!params_set(params, key, kv.second.Scalar(), name))
-            throw ConfigError("unknown config key '" + name + "." + key + "'");
+            throw ConfigError(unknown_config_key_message(name, key, params_keys(params)));
         } catch (const ConfigError& e) {
           throw IoError(path, fmt::format("line {}: {}", key_line, e.what()));
         }
@@ -122,14 +122,16 @@ void apply_config_override(OrpeConfig& config, const std::string& assignment) {
   const std::string key = assignment.substr(dot + 1, eq - dot - 1);
   const std::string value = assignment.substr(eq + 1);
   bool section_found = false, key_found = false;
+  std::vector<std::string> known_keys;
   config.visit_sections([&](const char* name, auto& params) {
     if (section != name) return;
     section_found = true;
     key_found = params_set(params, key, value, section);
+    if (!key_found) known_keys = params_keys(params);
   });
   if (!section_found)
     throw ConfigError("unknown config section '" + section + "' in '" + assignment + "'");
-  if (!key_found) throw ConfigError("unknown config key '" + section + "." + key + "'");
+  if (!key_found) throw ConfigError(unknown_config_key_message(section, key, known_keys));
 }
 
 std::vector<ParamDoc> describe_config(const OrpeConfig& config) {

@@ -164,12 +164,14 @@ int main(int argc, char** argv) {
     };
     std::vector<Seen> seen;
     const auto& pp = config.pipeline;
+    const int min_pose_mask_px = pp.min_pose_mask_px_for(reader->info().intrinsics.width,
+                                                         reader->info().intrinsics.height);
     for (const Record& r : records) {
       if (r.instance <= 0) continue;
       // As the pipeline: a mask below min_pose_mask_px has no estimate; its record exists only
       // when the run reported fused poses for such masks (ekf_report_min_mask_px), and the replay
       // keeps it only when its own ekf_report_min_mask_px admits it.
-      if (r.mask_px >= 0 && r.mask_px < pp.min_pose_mask_px &&
+      if (r.mask_px >= 0 && r.mask_px < min_pose_mask_px &&
           (pp.ekf_report_min_mask_px <= 0 || r.mask_px < pp.ekf_report_min_mask_px))
         continue;
       Track& t = tracks[r.instance];

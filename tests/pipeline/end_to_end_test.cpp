@@ -53,6 +53,7 @@ TEST(EndToEnd, FullModeRecoversObjectPosesOnASyntheticScene) {
   EXPECT_EQ(summary["counts"]["frames"].get<int>(), 8);
   EXPECT_EQ(summary["counts"]["evaluated_frames"].get<int>(), 8);
   EXPECT_EQ(summary["single_view_estimator"].get<std::string>(), "model_registration");
+  EXPECT_EQ(summary["single_view_min_mask_px"].get<int>(), 50);  // auto at 320 x 240
   EXPECT_EQ(summary["config"]["pose_registration"]["num_rotations"].get<int>(), 120);
   EXPECT_GT(summary["timing_ms"]["total"]["single_view"].get<double>(), 0);
   EXPECT_EQ(read_tum_trajectory(out + "/trajectory.txt").size(), 8u);

@@ -50,6 +50,14 @@ bool skip_estimate(const SkipState& s, int fused_views, const SE3& T_world_cam,
 double single_view_weight(const SingleViewPose& sv) {
   return std::clamp(sv.score, 0.01, 1.0);
 }
+
+/// How far a map instance is confirmed to exist: detections / min_confirmed_detections, at most 1.
+/// A per-frame row's score carries it, so that of two rows of one class in one image (a blob just
+/// detected once, an object detected on every keyframe) the established object ranks first.
+double existence_weight(int detections, int min_confirmed_detections) {
+  if (min_confirmed_detections <= 1) return 1.0;
+  return std::clamp(static_cast<double>(detections) / min_confirmed_detections, 0.0, 1.0);
+}
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------
@@ -176,6 +184,7 @@ struct ObjectRpePipeline::Candidate {
   int mask_px = 0;
   int object_key = 0;        // detection index (raw masks) or instance id (projected masks)
   bool report_only = false;  // too small for a single-view estimate: EKF variants report the state
+  int detections = 1;        // keyframes that detected its map instance so far (1 without one)
 };
 
 ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const DatasetInfo& dataset)
@@ -435,6 +444,7 @@ struct ObjectRpePipeline::PoseFrame {
   SE3 T_world_cam;
   PipelineFrameResult& result;
   PinholeIntrinsics K;
+  int min_pose_mask_px = 1;  // params.pipeline.min_pose_mask_px_for(this image)
   std::vector<InstanceView> views;              // per instance: projected mask, depth, colour
   slam::RenderedView view;                      // PD / PC: the instances' render over the scene's
   const DepthImage* projected_depth = nullptr;  // view.depth, or the frame's without renders
@@ -453,6 +463,7 @@ void ObjectRpePipeline::estimate_poses(const RgbdFrame& frame, const SE3& T_worl
   PoseFrame f(frame, T_world_cam, result);
   f.K.width = frame.depth.width();
   f.K.height = frame.depth.height();
+  f.min_pose_mask_px = params_.pipeline.min_pose_mask_px_for(f.K.width, f.K.height);
   const bool need_projected = render_projected(f);
   f.projected_depth = need_projected ? &f.view.depth : &frame.depth;
   f.projected_color = need_projected ? &f.view.color : &frame.color;
@@ -507,8 +518,8 @@ bool ObjectRpePipeline::render_projected(PoseFrame& f) {
     bool any_ekf = false;
     for (const auto& v : variants_) any_ekf |= v.config.ekf && v.config.projected_mask;
     const int min_view_px = any_ekf && pp.ekf_report_min_mask_px > 0
-                                ? std::min(pp.min_pose_mask_px, pp.ekf_report_min_mask_px)
-                                : pp.min_pose_mask_px;
+                                ? std::min(f.min_pose_mask_px, pp.ekf_report_min_mask_px)
+                                : f.min_pose_mask_px;
     f.views = split_instance_views(images, semantic_->fusion().instances(), min_view_px);
     f.view.depth = std::move(images.scene_depth);
     f.view.color = std::move(images.scene_color);
@@ -536,10 +547,11 @@ void ObjectRpePipeline::candidates_from_map(PoseFrame& f) const {
     c.mask = &iv.projected_mask;
     c.mask_px = iv.area_px;
     c.object_key = iv.instance_id;
+    c.detections = info->second.detections;
     if (c.class_id <= 0 || info->second.detections < pp.min_instance_detections ||
         c.class_probability < pp.min_class_probability)
       continue;
-    if (c.mask_px < pp.min_pose_mask_px) {
+    if (c.mask_px < f.min_pose_mask_px) {
       if (pp.ekf_report_min_mask_px <= 0 || c.mask_px < pp.ekf_report_min_mask_px) continue;
       c.report_only = true;
     }
@@ -584,7 +596,8 @@ void ObjectRpePipeline::candidates_from_detections(PoseFrame& f) const {
         best_votes = n;
         c.instance_id = id;
       }
-    if (area < pp.min_pose_mask_px || c.class_probability < pp.min_class_probability) continue;
+    if (c.instance_id > 0) c.detections = instances.at(c.instance_id).detections;
+    if (area < f.min_pose_mask_px || c.class_probability < pp.min_class_probability) continue;
     f.from_detections.push_back(c);
   }
 }
@@ -727,7 +740,7 @@ void ObjectRpePipeline::fuse_estimate(PoseFrame& f, VariantState& vs, const Cand
   row.scene_id = dataset_.scene_id;
   row.im_id = f.frame.index;
   row.obj_id = est.class_id;
-  row.score = est.score;
+  row.score = est.score * existence_weight(c.detections, params_.semantic.min_confirmed_detections);
   row.T_cam_obj = est.T_cam_obj;
   vs.rows.push_back(row);
   if (cfg.ekf && est.instance_id > 0)

@@ -1,6 +1,8 @@
 #include "orpe/pipeline/pipeline_params.h"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 
 #include "orpe/core/error.h"
 
@@ -21,13 +23,20 @@ constexpr std::array<NamedAblation, 5> kAblations = {{
 
 }  // namespace
 
+int PipelineParams::min_pose_mask_px_for(int width, int height) const {
+  if (min_pose_mask_px > 0) return min_pose_mask_px;
+  constexpr double kPixels = 200, kReferenceArea = 640.0 * 480.0;
+  const double area = static_cast<double>(std::max(width, 0)) * std::max(height, 0);
+  return std::max(1, static_cast<int>(std::lround(kPixels * std::min(1.0, area / kReferenceArea))));
+}
+
 bool PipelineParams::IsValid(std::string* why) const {
   auto fail = [&](const char* reason) {
     if (why) *why = reason;
     return false;
   };
   if (pose_every_n_keyframes < 1) return fail("pose_every_n_keyframes must be >= 1");
-  if (min_pose_mask_px < 1) return fail("min_pose_mask_px must be >= 1");
+  if (min_pose_mask_px < 0) return fail("min_pose_mask_px must be >= 0 (0 = auto)");
   if (ekf_report_min_mask_px < 0) return fail("ekf_report_min_mask_px must be >= 0");
   if (min_instance_detections < 0) return fail("min_instance_detections must be >= 0");
   if (!(min_class_probability >= 0 && min_class_probability <= 1))

@@ -31,7 +31,11 @@ struct PipelineParams {
   /// Single-view pose runs on every n-th keyframe of the segmentation (its keyframe policy decides
   /// which frames are keyframes); these are the "evaluated frames" of poses.csv.
   int pose_every_n_keyframes = 1;
-  int min_pose_mask_px = 200;  ///< instances / detections with a smaller mask get no pose estimate
+  /// Instances / detections with a smaller mask (pixels) get no single-view estimate. 0 = auto:
+  /// 200 at 640 x 480 and larger images, scaled down by the image's area below (50 at 320 x 240),
+  /// so that a low-resolution camera keeps the small objects a 640 x 480 one estimates
+  /// (min_pose_mask_px_for()).
+  int min_pose_mask_px = 0;
   /// EKF, projected masks: a map instance whose projected mask has at least this many pixels, but
   /// fewer than min_pose_mask_px, gets no single-view estimate, yet its fused pose is reported (the
   /// map knows where the object is, the estimator cannot work on so few pixels); 50 = the semantic
@@ -115,7 +119,9 @@ struct PipelineParams {
     v("use_ekf", use_ekf, "Fuse single-view poses per object instance with the SE(3) EKF");
     v("pose_every_n_keyframes", pose_every_n_keyframes,
       "Estimate poses on every n-th segmentation keyframe (the evaluated frames)");
-    v("min_pose_mask_px", min_pose_mask_px, "Masks with fewer pixels get no pose estimate");
+    v("min_pose_mask_px", min_pose_mask_px,
+      "Masks with fewer pixels get no pose estimate; 0 = auto: 200 at 640 x 480 and above, scaled "
+      "down by the image area below (50 at 320 x 240)");
     v("ekf_report_min_mask_px", ekf_report_min_mask_px,
       "EKF with projected masks: report the fused pose of instances whose projected mask has at "
       "least this many pixels but too few for a single-view estimate (0 = off)");
@@ -166,6 +172,8 @@ struct PipelineParams {
       "Progress line every n frames (0 = none)");
   }
   bool IsValid(std::string* why) const;
+  /// The mask threshold in pixels for a width x height image (min_pose_mask_px, or its auto value).
+  int min_pose_mask_px_for(int width, int height) const;
 
   /// The named ablation configurations, in table order.
   static const std::vector<std::string>& ablation_names();

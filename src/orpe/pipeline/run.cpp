@@ -485,6 +485,9 @@ void summarise_inputs(const ObjectRpePipeline& pipeline, const RunOptions& optio
   write_camera_and_models(info, js);
   js.set("single_view_estimator",
          pipeline.single_view_estimator() ? pipeline.single_view_estimator()->name() : "none");
+  // The mask threshold in pixels at this camera's size (pipeline.min_pose_mask_px 0 = auto).
+  js.set("single_view_min_mask_px", pipeline.params().pipeline.min_pose_mask_px_for(
+                                        info.intrinsics.width, info.intrinsics.height));
   js.set("variants", summary.variants);
   for (size_t v = 0; v < pipeline.num_variants(); ++v) {
     const PoseVariant& variant = pipeline.variant(v);

@@ -359,7 +359,8 @@ ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam
   return colour_agreement(colour, T_cam_obj, image, depth, mask, K, params);
 }
 
-std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj) {
+std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj,
+                                  bool quarter_turns) {
   std::vector<SE3> out;
   if (model.points.size() < 4) return out;
   Vec3 c;
@@ -374,6 +375,9 @@ std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj
     for (int k = 1; k < 12; ++k)
       if (k != 6)
         out.push_back(about(model.symmetry.axis_obj, model.symmetry.axis_point_obj, k * M_PI / 6));
+  if (quarter_turns && !model.symmetry.continuous)
+    for (int k = 0; k < 3; ++k)
+      for (const double angle : {M_PI / 2, -M_PI / 2}) out.push_back(about(axes.col(k), c, angle));
   return out;
 }
 

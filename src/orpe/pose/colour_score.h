@@ -54,6 +54,7 @@ struct ColourScoreParams {
   int min_pixels = 60;
   double depth_tolerance_m = 0.015;
   bool try_flips = true;
+  bool try_quarter_turns = true;
   bool refine_turn = true;
   double min_learned_fraction = 0.3;
   std::string evidence = "lambert";  ///< lambert | local_contrast | ncc
@@ -72,6 +73,9 @@ struct ColourScoreParams {
       "Fewer visible coloured samples -> no colour evidence for that candidate (NCC 0)");
     v("colour_depth_tolerance_m", depth_tolerance_m,
       "A sample is visible when the observed depth at its pixel is within this (m) of its own");
+    v("colour_try_quarter_turns", try_quarter_turns,
+      "Models without a continuous symmetry axis: the 90-degree turns about the principal axes "
+      "compete too (refined, within colour_geometry_margin)");
     v("colour_try_flips", try_flips,
       "Also refine the best pose turned 180 degrees about each principal axis of the model (and "
       "by 60-degree steps about a continuous symmetry axis): the modes geometry confuses");
@@ -184,9 +188,11 @@ std::vector<VisibleColourSample> visible_colour_samples(
     double depth_tolerance_m);
 
 /// The poses geometry tends to confuse with T_cam_obj: T_cam_obj * S for S = 180-degree turns about
-/// the three principal axes of the model points (through their bounding-box centre), and 60-degree
-/// steps about the model's continuous symmetry axis when it has one.
-std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj);
+/// the three principal axes of the model points (through their bounding-box centre), and 30-degree
+/// steps about the model's continuous symmetry axis when it has one; with `quarter_turns` and no
+/// continuous axis, then also the 90-degree turns both ways about each principal axis.
+std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj,
+                                  bool quarter_turns = false);
 
 /// Whether `model` carries a colour model usable under `params`.
 bool has_usable_colour(const ObjectModel& model, const ColourScoreParams& params);

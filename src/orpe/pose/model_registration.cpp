@@ -624,7 +624,8 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
         refine.begin());
   };
   if (cp.try_flips) {
-    const std::vector<SE3> flips = confusable_poses(model, refine[geometric_best()].T_cam_obj);
+    const std::vector<SE3> flips =
+        confusable_poses(model, refine[geometric_best()].T_cam_obj, cp.try_quarter_turns);
     std::vector<Hypothesis> extra(flips.size());
     const double start =
         std::max(params.refine_max_corr_factor * model.diameter_m, params.final_max_corr_m);
@@ -669,8 +670,11 @@ int compare_prior_modes(const ModelRegistrationParams& p, const Registration& re
                         const SegmentedCloud& cloud, const ObjectModel& model,
                         const SingleViewInput& input, std::vector<Hypothesis>& hyps,
                         SingleViewPose& out) {
-  std::vector<SE3> turns = confusable_poses(model, hyps.front().T_cam_obj);
-  turns.resize(std::min<size_t>(turns.size(), 3));  // the principal flips, not the axis turns
+  const bool colour = input.color && !input.color->empty() && has_usable_colour(model, p.colour);
+  std::vector<SE3> turns =
+      confusable_poses(model, hyps.front().T_cam_obj, colour && p.colour.try_quarter_turns);
+  if (model.symmetry.continuous)
+    turns.resize(std::min<size_t>(turns.size(), 3));  // the principal flips, not the axis turns
   std::vector<Hypothesis> extra(turns.size());
 #pragma omp parallel for schedule(dynamic, 1)
   for (int i = 0; i < static_cast<int>(turns.size()); ++i)
@@ -682,7 +686,7 @@ int compare_prior_modes(const ModelRegistrationParams& p, const Registration& re
     if (hyps[static_cast<size_t>(i)].score > hyps[static_cast<size_t>(best)].score) best = i;
   out.prior_modes_compared = true;
   const ColourScoreParams& cp = p.colour;
-  if (!input.color || input.color->empty() || !has_usable_colour(model, cp)) return best;
+  if (!colour) return best;
   // A can's turn about its axis is not among the principal flips: searched by colour as in the
   // global path (else the fast path keeps the prior's turn, right or wrong, for good).
   const double best_geometry = hyps[static_cast<size_t>(best)].score;

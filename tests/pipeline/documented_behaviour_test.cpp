@@ -40,6 +40,16 @@ std::shared_ptr<test::RecordingEstimator::Shared> attach_recorder(ObjectRpePipel
   return shared;
 }
 
+/// Runs the first `frames` frames of `reader` through `pipeline`, the recorder told each one's truth.
+void process_frames(ObjectRpePipeline& pipeline, test::RecordingEstimator::Shared& shared,
+                    DatasetReader& reader, size_t frames) {
+  for (size_t i = 0; i < frames; ++i) {
+    const RgbdFrame f = reader.read(i);
+    test::set_truth(shared, f);
+    pipeline.process(f);
+  }
+}
+
 /// Estimator double whose answer for every other call of a class is the truth turned by a symmetry
 /// of the object (Rz(pi): every `orpe synth` class has it; docs/SYNTH.md).
 class FlippingEstimator final : public SingleViewPoseEstimator {
@@ -247,11 +257,7 @@ TEST(DocumentedBehaviour, ARowOfAnInstanceDetectedOnceWeighsLessThanAConfirmedOn
   ASSERT_EQ(params.semantic.min_confirmed_detections, 2);
   ObjectRpePipeline pipeline(params, reader->info());
   const auto shared = attach_recorder(pipeline);
-  for (size_t i = 0; i < 3; ++i) {
-    const RgbdFrame f = reader->read(i);
-    test::set_truth(*shared, f);
-    pipeline.process(f);
-  }
+  process_frames(pipeline, *shared, *reader, 3);
   std::map<int, std::map<int, double>> score;  // frame -> class -> score
   for (const auto& row : pipeline.pose_rows(0)) score[row.im_id][row.obj_id] = row.score;
   ASSERT_EQ(score[0].size(), 3u);
@@ -288,11 +294,7 @@ TEST(DocumentedBehaviour, TheAutoMaskThresholdScalesWithTheImageAreaBelow640x480
     params.pipeline.min_pose_mask_px = min_pose_mask_px;
     ObjectRpePipeline pipeline(params, reader->info());
     const auto shared = attach_recorder(pipeline);
-    for (size_t i = 0; i < 4; ++i) {
-      const RgbdFrame f = reader->read(i);
-      test::set_truth(*shared, f);
-      pipeline.process(f);
-    }
+    process_frames(pipeline, *shared, *reader, 4);
     return pipeline.stats().single_view_estimates;
   };
   const int automatic = estimates(0), fixed = estimates(200);

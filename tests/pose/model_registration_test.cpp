@@ -2,11 +2,13 @@
 // seen from one side, with depth noise, a support plane and partial occlusion.
 #include <gtest/gtest.h>
 
+#include <ctime>
 #include <random>
 
 #include "orpe/core/error.h"
 #include "orpe/pose/model_registration.h"
 #include "pose/synthetic_scene.h"
+#include "support/test_data.h"
 
 namespace orpe {
 namespace {
@@ -220,7 +222,10 @@ TEST_F(ModelRegistrationLShape, PriorHypothesisIsUsed) {
 TEST_F(ModelRegistrationLShape, PriorFastPathGivesTheGlobalPoseMuchFaster) {
   // An easy view (L shape, no occlusion) and a prior a few mm and degrees off, as a fused pose
   // moved into the camera is: the local refinement lands where the global search does, in a
-  // fraction of its time (a ratio measured in this run, not an absolute time).
+  // fraction of its time (a ratio measured in this run, not an absolute time; the process's CPU
+  // time, all threads, so that other processes on the machine do not move it: the wall-time ratio
+  // failed once, 0.22, while the suite shared the cores with another job; the CPU ratio measured
+  // 0.155-0.159 both idle and beside two busy loops).
   const SurfaceSamples& dense = *dense_;
   const ObjectModel& model = *model_;
   std::mt19937 rng(21);
@@ -230,23 +235,27 @@ TEST_F(ModelRegistrationLShape, PriorFastPathGivesTheGlobalPoseMuchFaster) {
     const SE3 T_gt = random_pose(rng, 0.6);
     const test::SyntheticView view = test::render_view(dense, T_gt, opt);
     SingleViewInput in = input_of(view, model);
+    auto cpu_ms = [] { return 1000.0 * static_cast<double>(std::clock()) / CLOCKS_PER_SEC; };
+    double t0 = cpu_ms();
     const SingleViewPose global = ModelRegistrationEstimator().estimate(in);
+    global_ms += cpu_ms() - t0;
     ASSERT_TRUE(global.valid) << global.reason;
     ASSERT_FALSE(global.from_prior);
     in.T_cam_obj_prior = T_gt * SE3(so3_exp(Vec3(0.04, -0.03, 0.02)), Vec3(0.006, -0.004, 0.004));
+    t0 = cpu_ms();
     const SingleViewPose fast = ModelRegistrationEstimator().estimate(in);
+    fast_ms += cpu_ms() - t0;
     ASSERT_TRUE(fast.valid) << fast.reason;
     EXPECT_TRUE(fast.from_prior) << "case " << k << ": " << fast.report();
     EXPECT_LT(test::add(model.points, fast.T_cam_obj, global.T_cam_obj), 0.003)
         << "case " << k << ": fast " << fast.report() << " / global " << global.report();
-    fast_ms += fast.time_ms;
-    global_ms += global.time_ms;
     // Switched off, the same prior goes through the global search.
     ModelRegistrationParams off;
     off.prior_refinement = false;
     EXPECT_FALSE(ModelRegistrationEstimator(off).estimate(in).from_prior);
   }
-  EXPECT_LT(fast_ms, 0.2 * global_ms) << fast_ms << " ms vs " << global_ms << " ms";
+  test::print_figure("fast_over_global_cpu", fast_ms / global_ms);
+  EXPECT_LT(fast_ms, 0.2 * global_ms) << fast_ms << " ms vs " << global_ms << " ms CPU";
 }
 
 TEST_F(ModelRegistrationLShape, PriorThatNoLongerFitsFallsBackToTheGlobalSearch) {

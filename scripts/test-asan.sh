@@ -18,7 +18,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 export ORPE_PRESET=asan
 export ORPE_BUILD_DIR=${ORPE_ASAN_BUILD_DIR:-build-asan}
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1}
+# intercept_tls_get_addr=0: LeakSanitizer's scan of dynamic TLS misreads glibc's DTLS blocks at some
+# heap layouts and its tracer dies with SIGSEGV after the test passed ("Tracer caught signal 11",
+# "DTLS 22 at 0x2f2d-0x40000402f"; google/sanitizers#1322; seen in session 20, reproducible 5 of 5 on
+# DocumentedBehaviour.AMergedInstancesPoseTrackMovesToTheSurvivor). Leaks are still detected (static
+# TLS, stacks, globals and the heap are scanned; a plain leaking program still fails).
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1:intercept_tls_get_addr=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
 export ORPE_TEST_EXCLUDE=${ORPE_TEST_EXCLUDE:-^install_consumer$}
 labels=(-LE long)

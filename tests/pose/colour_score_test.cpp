@@ -35,10 +35,12 @@ std::shared_ptr<ColorImage> face_atlas() {
   return tex;
 }
 
-TriangleMesh printed_box() {
+/// A box of `size_m` whose six faces carry the atlas's six tiles (cells of at most `cell_m`).
+TriangleMesh printed_box(const Eigen::Vector3f& size_m = Eigen::Vector3f(0.16f, 0.06f, 0.21f),
+                         float cell_m = 0.02f) {
   std::array<UvRect, 6> uv;
   for (int f = 0; f < 6; ++f) uv[f] = {f / 6.0f, 0.0f, (f + 1) / 6.0f, 1.0f};
-  TriangleMesh mesh = make_box(Eigen::Vector3f(0.16f, 0.06f, 0.21f), 0.02f, &uv);
+  TriangleMesh mesh = make_box(size_m, cell_m, &uv);
   mesh.texture = face_atlas();
   return mesh;
 }
@@ -258,10 +260,7 @@ TEST(ColourScore, AQuarterTurnOfANearlySquareCartonIsRankedByColour) {
   // "Session 20"). The prior is that quarter turn. With colour_try_quarter_turns (default) the
   // quarter turns compete like the 180-degree flips and the print picks the truth; without them the
   // fast path keeps the prior's turn.
-  std::array<UvRect, 6> uv;
-  for (int f = 0; f < 6; ++f) uv[f] = {f / 6.0f, 0.0f, (f + 1) / 6.0f, 1.0f};
-  TriangleMesh mesh = make_box(Eigen::Vector3f(0.060f, 0.056f, 0.14f), 0.005f, &uv);
-  mesh.texture = face_atlas();
+  const TriangleMesh mesh = printed_box(Eigen::Vector3f(0.060f, 0.056f, 0.14f), 0.005f);
   const ObjectModel model = box_model(mesh, true);
   ASSERT_FALSE(model.symmetry.continuous);
   ModelRegistrationParams quarter, no_quarter;

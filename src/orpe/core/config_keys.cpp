@@ -7,8 +7,9 @@ namespace orpe {
 
 const std::vector<RenamedConfigKey>& renamed_config_keys() {
   static const std::vector<RenamedConfigKey> table = {
+      // 2026-12-07 (session 19)
       {"pose_registration.colour_lambert_fit", "pose_registration.colour_evidence",
-       "true -> lambert, false -> ncc; local_contrast is new", "2026-12-07"},
+       "true -> lambert, false -> ncc; local_contrast is new"},
   };
   return table;
 }

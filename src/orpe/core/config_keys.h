@@ -14,7 +14,6 @@ struct RenamedConfigKey {
   const char* old_key;
   const char* new_key;
   const char* how;
-  const char* since;  ///< the date of the rename
 };
 
 /// Every rename so far, oldest first.

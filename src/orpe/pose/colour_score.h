@@ -78,7 +78,7 @@ struct ColourScoreParams {
       "compete too (refined, within colour_geometry_margin)");
     v("colour_try_flips", try_flips,
       "Also refine the best pose turned 180 degrees about each principal axis of the model (and "
-      "by 60-degree steps about a continuous symmetry axis): the modes geometry confuses");
+      "by 30-degree steps about a continuous symmetry axis): the modes geometry confuses");
     v("colour_refine_turn", refine_turn,
       "Models with a continuous symmetry axis (cans): choose the turn about the axis by colour "
       "(10-degree steps, then 5, 2.5, 1.25 about the best), which geometry leaves free");

@@ -113,6 +113,7 @@ struct Checked {
   int calls = 0;
   int mask_is_detection = 0, mask_is_projected = 0;
   double depth_is_camera = 0, depth_is_map = 0, color_is_camera = 0, color_is_map = 0;
+  int frames = 0, scene_reused = 0;  // evaluated frames; those reusing the semantic stage's render
 };
 
 Checked run_variant(const std::string& name) {
@@ -147,6 +148,8 @@ Checked run_variant(const std::string& name) {
       c.color_is_map += color_agreement(call.mask, call.color, view.color);
     }
   }
+  c.frames = static_cast<int>(scene.frames.size());
+  c.scene_reused = pipeline.stats().projected_scene_reused;
   if (c.calls > 0) {
     c.depth_is_camera /= c.calls;
     c.depth_is_map /= c.calls;
@@ -192,6 +195,10 @@ TEST(AblationWiring, PcUsesTheMapsColour) {
   EXPECT_DOUBLE_EQ(c.color_is_map, 1.0);
   EXPECT_LT(c.color_is_camera, 0.5)
       << "colour noise makes the camera's colour differ from the map's";
+  // The projected images of every frame after the first (whose semantic stage had no labelled
+  // surfel to render around) came from the semantic stage's render of the scene; the images are
+  // those of the independent render above all the same.
+  EXPECT_EQ(c.scene_reused, c.frames - 1);
 }
 
 TEST(AblationWiring, NamedConfigurationsSetTheSwitches) {

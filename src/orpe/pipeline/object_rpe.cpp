@@ -311,6 +311,7 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
   const bool delayed = params_.pipeline.segmentation_delay_frames > 0;
   if (semantic_ && !lost && !delayed) {
     t0 = Clock::now();
+    keep_scene_for_pose_stage();
     const slam::IndexImage& pixel_surfel = slam_->last_pixel_surfel();
     const SemanticStep& step = semantic_->process(frame, T_world_cam, slam_->map(),
                                                   pixel_surfel.empty() ? nullptr : &pixel_surfel);
@@ -329,6 +330,19 @@ const PipelineFrameResult& ObjectRpePipeline::process(const RgbdFrame& frame) {
     result_.instances = static_cast<int>(semantic_->fusion().instances().size());
   finish_result(t_frame);
   return result_;
+}
+
+void ObjectRpePipeline::keep_scene_for_pose_stage() {
+  // The semantic stage's render of every surfel serves the pose stage's projected depth and colour
+  // when that runs next, at the same camera and map (docs/PIPELINE.md, "Projected images"): kept,
+  // when the next keyframe will be evaluated with projected inputs, over the instances' window
+  // grown by twice the pose stage's margin (its instances may have grown meanwhile).
+  semantic_->drop_kept_scene();
+  bool projected = false;
+  for (const auto& v : variants_)
+    projected |= v.config.projected_mask || v.config.projected_depth || v.config.projected_color;
+  const bool evaluated = stats_.keyframes % params_.pipeline.pose_every_n_keyframes == 0;
+  semantic_->set_keep_scene(projected && evaluated ? 2 * params_.pipeline.render_margin_px : -1);
 }
 
 void ObjectRpePipeline::keyframe_fused(const SemanticStep& step, const RgbdFrame& frame,
@@ -381,6 +395,7 @@ void ObjectRpePipeline::fuse_pending_keyframe() {
     detections = semantic_->detect(*p.frame, context, &segment_ms);
   }
   // The frame's pixel -> surfel image is stale by now: the fusion projects the map itself.
+  keep_scene_for_pose_stage();
   const SemanticStep& step = semantic_->integrate(*p.frame, p.T_world_cam, std::move(detections),
                                                   slam_->map(), nullptr, segment_ms);
   result_.semantic_ms += ms_since(t0);
@@ -514,7 +529,9 @@ bool ObjectRpePipeline::render_projected(PoseFrame& f) {
     ro.depth_tolerance_m = params_.semantic.mask_depth_tolerance_m;
     ro.want_color = true;
     ro.scene_margin_px = pp.render_margin_px;  // the scene around the instances (windowed)
+    if (semantic_) ro.reuse_scene = &semantic_->fusion().kept_scene();
     instance_renderer_.render(slam_->map(), f.T_world_cam, f.K, ro, &images);
+    stats_.projected_scene_reused += images.scene_reused;
     bool any_ekf = false;
     for (const auto& v : variants_) any_ekf |= v.config.ekf && v.config.projected_mask;
     const int min_view_px = any_ekf && pp.ekf_report_min_mask_px > 0

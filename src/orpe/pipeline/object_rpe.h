@@ -167,6 +167,9 @@ struct PipelineStats {
   int single_view_skipped = 0;     ///< objects not re-estimated (PipelineParams::skip_*)
   int ekf_accepted = 0, ekf_rejected = 0;
   int colour_views_learned = 0;  ///< views that taught an object its colour (learned from the map)
+  /// Evaluated frames whose projected images reused the semantic stage's render of every surfel
+  /// (SceneRender; of render_views' frames).
+  int projected_scene_reused = 0;
   double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
   /// Asynchronous segmentation: time the pipeline waited for a keyframe's detections (ms).
   double segmentation_wait_ms = 0;
@@ -248,6 +251,8 @@ class ObjectRpePipeline {
   struct PendingKeyframe;
   /// After a keyframe's semantic fusion: track hand-over, counts, pose estimation when evaluated.
   void keyframe_fused(const SemanticStep& step, const RgbdFrame& frame, const SE3& T_world_cam);
+  /// Before a keyframe's semantic fusion: whether it keeps its render for the pose stage.
+  void keep_scene_for_pose_stage();
   /// Delayed segmentation: queues the keyframe (and starts its back-end when asynchronous).
   void submit_keyframe(const RgbdFrame& frame, const SE3& T_world_cam);
   /// Delayed segmentation: fuses the oldest queued keyframe (waiting for its detections).

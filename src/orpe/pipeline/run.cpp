@@ -544,6 +544,7 @@ void summarise_timing(const RunSummary& summary, JsonSummary& js) {
   js.set("counts.ekf_accepted", st.ekf_accepted);
   js.set("counts.ekf_rejected", st.ekf_rejected);
   js.set("counts.colour_views_learned", st.colour_views_learned);
+  js.set("counts.projected_scene_reused", st.projected_scene_reused);
   const double n = std::max(summary.frames, 1);
   js.set("timing_ms.total.read", summary.read_ms);
   js.set("timing_ms.total.slam", st.slam_ms);

@@ -4,16 +4,15 @@
 #include <cmath>
 
 namespace orpe {
-namespace {
-
-/// Copies a window-sized image into the full-size one at (u0, v0).
-template <class T>
-void paste(const Image<T>& window, int u0, int v0, Image<T>& full) {
-  for (int v = 0; v < window.height(); ++v)
-    std::copy_n(&window.at(0, v), window.width(), &full.at(u0, v0 + v));
+bool SceneRender::matches(const slam::SurfelMap& m, const SE3& T, const PinholeIntrinsics& k,
+                          float max_splat_px, float radius_scale, int wu0, int wv0, int wu1,
+                          int wv1) const {
+  return map == &m && map_size == m.size() && T.matrix() == T_world_cam.matrix() &&
+         k.fx == K.fx && k.fy == K.fy && k.cx == K.cx && k.cy == K.cy && k.width == K.width &&
+         k.height == K.height && max_splat_px == max_splat_radius_px &&
+         radius_scale == splat_radius_scale && wu0 >= u0 && wv0 >= v0 &&
+         wu1 < u0 + depth.width() && wv1 < v0 + depth.height();
 }
-
-}  // namespace
 
 std::array<int, 4> InstanceRenderer::gather_labelled(const slam::SurfelMap& map,
                                                      const SE3& T_world_cam,
@@ -74,6 +73,7 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
 void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam,
                               const PinholeIntrinsics& K, const InstanceRenderOptions& o,
                               InstanceImages* out) {
+  if (o.keep_scene) o.keep_scene->clear();
   auto [u0, v0, u1, v1] =
       gather_labelled(map, T_world_cam, K, o.max_splat_radius_px, o.splat_radius_scale);
   const bool want_scene = o.scene_margin_px >= 0;
@@ -89,6 +89,7 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
   out->scene_depth = want_scene ? DepthImage(W, H, 0.0f) : DepthImage();
   out->scene_color = want_scene ? ColorImage(W, H, Rgb8{}) : ColorImage();
   out->window_u_min = u0, out->window_v_min = v0, out->window_u_max = u1, out->window_v_max = v1;
+  out->scene_reused = false;
   if (u1 < u0 || v1 < v0) return;  // no labelled surfel in view
 
   PinholeIntrinsics Kw = K;  // the window: intrinsics cropped to it
@@ -98,9 +99,37 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
   options.max_splat_radius_px = o.max_splat_radius_px;
   options.radius_scale = o.splat_radius_scale;
   options.want_vertex = options.want_normal = false;
-  options.want_color = want_scene;
   options.want_instance = false;
-  renderer_.render(map, T_world_cam, Kw, options, &all_);
+  // The render of every surfel: reused, kept (whole image) or over the window only. (sx, sy) is
+  // the window's origin in the image it covers.
+  const DepthImage* scene_depth = &all_.depth;
+  const ColorImage* scene_color = &all_.color;
+  int sx = 0, sy = 0;
+  if (o.reuse_scene && o.reuse_scene->matches(map, T_world_cam, K, o.max_splat_radius_px,
+                                              o.splat_radius_scale, u0, v0, u1, v1)) {
+    scene_depth = &o.reuse_scene->depth, scene_color = &o.reuse_scene->color;
+    sx = u0 - o.reuse_scene->u0, sy = v0 - o.reuse_scene->v0;
+    out->scene_reused = true;
+  } else if (o.keep_scene) {
+    // The kept window: this one grown by keep_margin_px (a later render's window may be larger).
+    const int m = std::max(0, o.keep_margin_px);
+    const int ku0 = std::max(0, u0 - m), kv0 = std::max(0, v0 - m);
+    PinholeIntrinsics Kk = K;
+    Kk.cx -= ku0, Kk.cy -= kv0;
+    Kk.width = std::min(K.width - 1, u1 + m) - ku0 + 1;
+    Kk.height = std::min(K.height - 1, v1 + m) - kv0 + 1;
+    options.want_color = true;
+    renderer_.render(map, T_world_cam, Kk, options, &all_);
+    SceneRender& kept = *o.keep_scene;
+    kept.map = &map, kept.map_size = map.size(), kept.T_world_cam = T_world_cam, kept.K = K;
+    kept.max_splat_radius_px = o.max_splat_radius_px, kept.splat_radius_scale = o.splat_radius_scale;
+    kept.u0 = ku0, kept.v0 = kv0;
+    kept.depth = all_.depth, kept.color = all_.color;
+    sx = u0 - ku0, sy = v0 - kv0;
+  } else {
+    options.want_color = want_scene;
+    renderer_.render(map, T_world_cam, Kw, options, &all_);
+  }
   options.want_instance = true;
   options.want_color = o.want_color;
   renderer_.render(labelled_, T_world_cam, Kw, options, &objects_);
@@ -111,14 +140,16 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
       const size_t k = static_cast<size_t>(v) * Kw.width + u;
       if (objects_.surfel_index[k] < 0) continue;
       const float z = objects_.depth[k];
-      if (z > all_.depth[k] + tolerance) continue;  // something else is in front
+      if (z > scene_depth->at(sx + u, sy + v) + tolerance) continue;  // something else in front
       out->instance_id.at(u0 + u, v0 + v) = objects_.instance_id[k];
       out->depth.at(u0 + u, v0 + v) = z;
       if (o.want_color) out->color.at(u0 + u, v0 + v) = objects_.color[k];
     }
   if (want_scene) {
-    paste(all_.depth, u0, v0, out->scene_depth);
-    paste(all_.color, u0, v0, out->scene_color);
+    for (int v = 0; v < Kw.height; ++v) {
+      std::copy_n(&scene_depth->at(sx, sy + v), Kw.width, &out->scene_depth.at(u0, v0 + v));
+      std::copy_n(&scene_color->at(sx, sy + v), Kw.width, &out->scene_color.at(u0, v0 + v));
+    }
   }
 }
 

@@ -37,6 +37,29 @@ struct InstanceImages {
   ColorImage scene_color;
   /// The rendered window, inclusive pixel bounds (empty: no labelled surfel in view).
   int window_u_min = 0, window_v_min = 0, window_u_max = -1, window_v_max = -1;
+  /// The render of every surfel came from InstanceRenderOptions::reuse_scene (not rendered again).
+  bool scene_reused = false;
+};
+
+/// The render of every surfel over a window of the image (depth and colour), kept by one render so
+/// that a later one at the same camera whose window lies inside skips it: the semantic stage keeps
+/// it, the pose stage reuses it (ObjectRpePipeline; docs/PIPELINE.md, "Projected images"). Valid
+/// only while the map's geometry (positions, normals, radii, the number of surfels) is unchanged:
+/// matches() checks the map, its size, the camera and the splat options; that nothing moved in
+/// between is the caller's promise.
+struct SceneRender {
+  const slam::SurfelMap* map = nullptr;  ///< null: nothing kept
+  size_t map_size = 0;
+  SE3 T_world_cam;
+  PinholeIntrinsics K;  ///< of the whole image
+  float max_splat_radius_px = 0, splat_radius_scale = 0;
+  int u0 = 0, v0 = 0;  ///< the window's first pixel in the image; its size is depth's
+  DepthImage depth;    ///< 0 = empty
+  ColorImage color;
+  /// Same map (and size), camera and splat options, and the window [u0, u1] x [v0, v1] inside.
+  bool matches(const slam::SurfelMap& m, const SE3& T, const PinholeIntrinsics& k,
+               float max_splat_px, float radius_scale, int wu0, int wv0, int wu1, int wv1) const;
+  void clear() { map = nullptr; }
 };
 
 struct InstanceRenderOptions {
@@ -47,6 +70,14 @@ struct InstanceRenderOptions {
   /// >= 0: also fill InstanceImages::scene_depth / scene_color, with the window grown by this many
   /// pixels around the instances' splats; -1: no scene images.
   int scene_margin_px = -1;
+  /// Non-null: the render of every surfel (with colour) is kept here, over the window grown by
+  /// `keep_margin_px` (cleared when no labelled surfel is in view). The outputs are as without it.
+  SceneRender* keep_scene = nullptr;
+  int keep_margin_px = 0;
+  /// Non-null and matching (SceneRender::matches, this render's window inside its window): the
+  /// render of every surfel is taken from it instead of rendered again. The outputs are as without it (up to the float rounding of the
+  /// window's shifted principal point in the render it replaces).
+  const SceneRender* reuse_scene = nullptr;
 };
 
 class InstanceRenderer {

@@ -346,7 +346,16 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
 
   // 1. Instance masks M^ rendered from the map (geometry of this frame, semantics of t - 1).
   auto t0 = Clock::now();
-  render_instances(map, T_world_cam, K, false, &view_);
+  {
+    InstanceRenderOptions o;
+    o.max_splat_radius_px = static_cast<float>(params_.mask_splat_radius_px);
+    o.splat_radius_scale = static_cast<float>(params_.mask_splat_radius_scale);
+    o.depth_tolerance_m = params_.mask_depth_tolerance_m;
+    o.keep_scene = keep_scene_margin_px_ >= 0 ? &scene_ : nullptr;
+    o.keep_margin_px = keep_scene_margin_px_;
+    scene_.clear();
+    instance_renderer_.render(map, T_world_cam, K, o, &view_);
+  }
   rep.render_ms = ms_since(t0);
 
   // 2. Association, in order of decreasing score (ties: input order), class observations, the

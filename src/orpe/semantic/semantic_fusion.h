@@ -355,6 +355,13 @@ class SemanticFusion {
   const LabelImage& last_detection_labels() const { return detection_labels_; }
   /// Instance image rendered from the map before the last keyframe's update (the M^ masks).
   const LabelImage& last_rendered_instances() const { return view_.instance_id; }
+  /// From the next keyframe on: the association's render keeps the render of every surfel over its
+  /// window grown by `margin_px` (InstanceRenderOptions::keep_scene), for a later stage at the same
+  /// camera and map geometry (the pose stage's projected images); -1 (default): nothing kept.
+  void set_keep_scene(int margin_px) { keep_scene_margin_px_ = margin_px; }
+  /// The render kept by the last keyframe's association (SceneRender::map null when none).
+  const SceneRender& kept_scene() const { return scene_; }
+  void drop_kept_scene() { scene_.clear(); }
   /// The label-aware instance images of the map at a pose, as the association renders them.
   void render_instances(const slam::SurfelMap& map, const SE3& T_world_cam,
                         const PinholeIntrinsics& K, bool want_color, InstanceImages* out);
@@ -412,6 +419,8 @@ class SemanticFusion {
   slam::MapRenderer renderer_;
   InstanceRenderer instance_renderer_;
   InstanceImages view_;
+  int keep_scene_margin_px_ = -1;
+  SceneRender scene_;  // kept by the association's render when keep_scene_margin_px_ >= 0
   slam::IndexMap index_map_;
   LabelImage detection_labels_;
   ProbabilityImage pixel_probability_;

@@ -93,6 +93,9 @@ class SemanticMapper {
                                     const PinholeIntrinsics& K);
 
   const SemanticFusion& fusion() const { return fusion_; }
+  /// SemanticFusion::set_keep_scene / drop_kept_scene.
+  void set_keep_scene(int margin_px) { fusion_.set_keep_scene(margin_px); }
+  void drop_kept_scene() { fusion_.drop_kept_scene(); }
   const Segmenter& segmenter() const { return *segmenter_; }
   const SemanticStep& last_step() const { return step_; }
   int keyframes() const { return keyframes_; }

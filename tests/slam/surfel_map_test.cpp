@@ -192,6 +192,48 @@ TEST(MapRenderer, FiltersByConfidenceAndActiveWindow) {
   EXPECT_GT(view.drawn_surfels, 0u);
 }
 
+TEST(MapRenderer, AWindowEqualsThatWindowOfTheWholeImageBitForBit) {
+  // Two walls with tilted, jittered surfels seen obliquely, through a camera whose principal point
+  // is not a pixel centre (a cropped camera would round it differently).
+  SurfelMap map = make_wall(2.0f, 1);
+  const SurfelMap front = make_wall(1.5f, 2, 0.02f);
+  for (size_t i = 0; i < front.size(); ++i) map.push_back(front.get(i));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> jitter(-0.2f, 0.2f);
+  for (size_t i = 0; i < map.size(); ++i) {
+    map.normal_world[i] = Vec3f(jitter(rng), jitter(rng), -1.0f).normalized();
+    map.color[i] = Rgb8{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(i / 7), 9};
+  }
+  PinholeIntrinsics K = small_camera();
+  K.cx = 79.37, K.cy = 61.81;
+  const SE3 T_world_cam(so3_exp(Vec3(0.05, -0.08, 0.03)), Vec3(0.03, -0.02, 0.1));
+  RenderOptions opt;
+  opt.want_instance = opt.want_surfel_centre = true;
+  MapRenderer renderer;
+  RenderedView whole, window;
+  renderer.render(map, T_world_cam, K, opt, &whole);
+  opt.window_u0 = 37, opt.window_v0 = 23, opt.window_width = 61, opt.window_height = 45;
+  renderer.render(map, T_world_cam, K, opt, &window);
+  ASSERT_EQ(window.depth.width(), 61);
+  ASSERT_EQ(window.depth.height(), 45);
+  int covered = 0;
+  for (int v = 0; v < 45; ++v)
+    for (int u = 0; u < 61; ++u) {
+      const int x = u + 37, y = v + 23;
+      ASSERT_EQ(window.surfel_index.at(u, v), whole.surfel_index.at(x, y)) << x << "," << y;
+      ASSERT_EQ(window.depth.at(u, v), whole.depth.at(x, y)) << x << "," << y;
+      ASSERT_EQ(window.vertex.at(u, v), whole.vertex.at(x, y)) << x << "," << y;
+      ASSERT_EQ(window.normal.at(u, v), whole.normal.at(x, y)) << x << "," << y;
+      ASSERT_EQ(window.color.at(u, v), whole.color.at(x, y)) << x << "," << y;
+      ASSERT_EQ(window.instance_id.at(u, v), whole.instance_id.at(x, y)) << x << "," << y;
+      ASSERT_EQ(window.surfel_centre.at(u, v), whole.surfel_centre.at(x, y)) << x << "," << y;
+      covered += window.surfel_index.at(u, v) >= 0;
+    }
+  EXPECT_GT(covered, 61 * 45 / 2);
+  // Fewer surfels reach the window than the whole image.
+  EXPECT_LT(window.drawn_surfels, whole.drawn_surfels);
+}
+
 TEST(MapRenderer, IndexMapHoldsEachSurfelCentreInItsCell) {
   const SurfelMap map = make_wall(2.0f, 1, 0.02f);
   MapRenderer renderer;

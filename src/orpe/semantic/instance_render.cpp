@@ -92,16 +92,18 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
   out->scene_reused = false;
   if (u1 < u0 || v1 < v0) return;  // no labelled surfel in view
 
-  PinholeIntrinsics Kw = K;  // the window: intrinsics cropped to it
-  Kw.cx -= u0, Kw.cy -= v0;
-  Kw.width = u1 - u0 + 1, Kw.height = v1 - v0 + 1;
+  const int ww = u1 - u0 + 1, wh = v1 - v0 + 1;  // the window's size
   slam::RenderOptions options;
   options.max_splat_radius_px = o.max_splat_radius_px;
   options.radius_scale = o.splat_radius_scale;
   options.want_vertex = options.want_normal = false;
   options.want_instance = false;
-  // The render of every surfel: reused, kept (whole image) or over the window only. (sx, sy) is
-  // the window's origin in the image it covers.
+  const auto set_window = [&options](int wu0, int wv0, int w, int h) {
+    options.window_u0 = wu0, options.window_v0 = wv0;
+    options.window_width = w, options.window_height = h;
+  };
+  // The render of every surfel: reused, kept (a larger window) or over the window only. (sx, sy)
+  // is this window's origin in the render it is read from.
   const DepthImage* scene_depth = &all_.depth;
   const ColorImage* scene_color = &all_.color;
   int sx = 0, sy = 0;
@@ -114,12 +116,10 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
     // The kept window: this one grown by keep_margin_px (a later render's window may be larger).
     const int m = std::max(0, o.keep_margin_px);
     const int ku0 = std::max(0, u0 - m), kv0 = std::max(0, v0 - m);
-    PinholeIntrinsics Kk = K;
-    Kk.cx -= ku0, Kk.cy -= kv0;
-    Kk.width = std::min(K.width - 1, u1 + m) - ku0 + 1;
-    Kk.height = std::min(K.height - 1, v1 + m) - kv0 + 1;
+    set_window(ku0, kv0, std::min(K.width - 1, u1 + m) - ku0 + 1,
+               std::min(K.height - 1, v1 + m) - kv0 + 1);
     options.want_color = true;
-    renderer_.render(map, T_world_cam, Kk, options, &all_);
+    renderer_.render(map, T_world_cam, K, options, &all_);
     SceneRender& kept = *o.keep_scene;
     kept.map = &map, kept.map_size = map.size(), kept.T_world_cam = T_world_cam, kept.K = K;
     kept.max_splat_radius_px = o.max_splat_radius_px, kept.splat_radius_scale = o.splat_radius_scale;
@@ -127,17 +127,19 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
     kept.depth = all_.depth, kept.color = all_.color;
     sx = u0 - ku0, sy = v0 - kv0;
   } else {
+    set_window(u0, v0, ww, wh);
     options.want_color = want_scene;
-    renderer_.render(map, T_world_cam, Kw, options, &all_);
+    renderer_.render(map, T_world_cam, K, options, &all_);
   }
+  set_window(u0, v0, ww, wh);
   options.want_instance = true;
   options.want_color = o.want_color;
-  renderer_.render(labelled_, T_world_cam, Kw, options, &objects_);
+  renderer_.render(labelled_, T_world_cam, K, options, &objects_);
 
   const float tolerance = static_cast<float>(o.depth_tolerance_m);
-  for (int v = 0; v < Kw.height; ++v)
-    for (int u = 0; u < Kw.width; ++u) {
-      const size_t k = static_cast<size_t>(v) * Kw.width + u;
+  for (int v = 0; v < wh; ++v)
+    for (int u = 0; u < ww; ++u) {
+      const size_t k = static_cast<size_t>(v) * ww + u;
       if (objects_.surfel_index[k] < 0) continue;
       const float z = objects_.depth[k];
       if (z > scene_depth->at(sx + u, sy + v) + tolerance) continue;  // something else in front
@@ -146,9 +148,9 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
       if (o.want_color) out->color.at(u0 + u, v0 + v) = objects_.color[k];
     }
   if (want_scene) {
-    for (int v = 0; v < Kw.height; ++v) {
-      std::copy_n(&scene_depth->at(sx, sy + v), Kw.width, &out->scene_depth.at(u0, v0 + v));
-      std::copy_n(&scene_color->at(sx, sy + v), Kw.width, &out->scene_color.at(u0, v0 + v));
+    for (int v = 0; v < wh; ++v) {
+      std::copy_n(&scene_depth->at(sx, sy + v), ww, &out->scene_depth.at(u0, v0 + v));
+      std::copy_n(&scene_color->at(sx, sy + v), ww, &out->scene_color.at(u0, v0 + v));
     }
   }
 }

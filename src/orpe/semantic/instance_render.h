@@ -10,9 +10,9 @@
 //
 // Windowed: both renders cover only the window of the image the labelled surfels can reach (the
 // bounding box of their projected splats, plus `scene_margin_px` when the scene images are wanted),
-// rendered with the intrinsics cropped to it and pasted into full-size images. Outside the window
-// there is no instance by construction, so the instance outputs equal those of a full-image render
-// (up to float rounding of the shifted principal point); the cost scales with the window's area.
+// rendered as a window of the image (slam::RenderOptions' window: the whole image's pixel rays) and
+// pasted into full-size images. Outside the window there is no instance by construction, so the
+// outputs equal, bit for bit, those of a full-image render; the cost scales with the window's area.
 #pragma once
 
 #include <array>
@@ -75,8 +75,8 @@ struct InstanceRenderOptions {
   SceneRender* keep_scene = nullptr;
   int keep_margin_px = 0;
   /// Non-null and matching (SceneRender::matches, this render's window inside its window): the
-  /// render of every surfel is taken from it instead of rendered again. The outputs are as without it (up to the float rounding of the
-  /// window's shifted principal point in the render it replaces).
+  /// render of every surfel is taken from it instead of rendered again. The outputs are as without
+  /// it, bit for bit (every render is a window of the same image's pixel rays).
   const SceneRender* reuse_scene = nullptr;
 };
 

@@ -65,7 +65,11 @@ struct SurfelFilter {
 void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
                          const RenderOptions& options, RenderedView* out) {
   const CameraF cam(T_world_cam, K, 1);
-  const int W = cam.width, H = cam.height;
+  // The window (ox, oy, W, H) in the image's pixels; every ray below is the whole image's.
+  const bool windowed = options.window_width > 0 && options.window_height > 0;
+  const int ox = windowed ? options.window_u0 : 0, oy = windowed ? options.window_v0 : 0;
+  const int W = windowed ? options.window_width : cam.width;
+  const int H = windowed ? options.window_height : cam.height;
   const size_t npix = static_cast<size_t>(W) * H;
   if (zbuffer_.size() < npix) zbuffer_.resize(npix);
   std::uint64_t* zbuf = zbuffer_.data();
@@ -75,6 +79,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
   const long n = static_cast<long>(map.size());
   const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
   const float f_max = std::max(cam.fx, cam.fy);
+  const int x_end = ox + W - 1, y_end = oy + H - 1;  // the window's last pixel
   size_t drawn = 0;
 
 #pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
@@ -90,14 +95,16 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
     const float v = cam.fy * p.y() / z + cam.cy;
     const float r_m = map.radius_m[i] * options.radius_scale;
     const float r_px = std::min(r_m * f_max / z, options.max_splat_radius_px);
-    if (u + r_px < -0.5f || v + r_px < -0.5f || u - r_px > W - 0.5f || v - r_px > H - 0.5f) continue;
+    if (u + r_px < ox - 0.5f || v + r_px < oy - 0.5f || u - r_px > x_end + 0.5f ||
+        v - r_px > y_end + 0.5f)
+      continue;  // nothing of it in the window
     ++drawn;
     const auto idx = static_cast<std::uint32_t>(i);
     const int uc = static_cast<int>(std::floor(u + 0.5f)), vc = static_cast<int>(std::floor(v + 0.5f));
-    const int u0 = std::max(0, static_cast<int>(std::ceil(u - r_px)));
-    const int u1 = std::min(W - 1, static_cast<int>(std::floor(u + r_px)));
-    const int v0 = std::max(0, static_cast<int>(std::ceil(v - r_px)));
-    const int v1 = std::min(H - 1, static_cast<int>(std::floor(v + r_px)));
+    const int u0 = std::max(ox, static_cast<int>(std::ceil(u - r_px)));
+    const int u1 = std::min(x_end, static_cast<int>(std::floor(u + r_px)));
+    const int v0 = std::max(oy, static_cast<int>(std::ceil(v - r_px)));
+    const int v1 = std::min(y_end, static_cast<int>(std::floor(v + r_px)));
     const float r2 = r_m * r_m;
     // The plane n . X = n . p; along the pixel ray X = d * t with d = ((x - cx)/fx, (y - cy)/fy, 1)
     // the intersection's depth is t = (n . p) / (n . d).
@@ -107,6 +114,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
     for (int y = v0; y <= v1; ++y) {
       const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
       const float py = static_cast<float>(y) - v;
+      std::uint64_t* row = zbuf + static_cast<size_t>(y - oy) * W - ox;
       for (int x = u0; x <= u1; ++x) {
         const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
         const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
@@ -115,14 +123,15 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
         const float ex = dx * t - p.x(), ey = dy * t - p.y(), ez = t - z;
         if (ex * ex + ey * ey + ez * ez > r2 || t < options.near_m) continue;
         const float px = static_cast<float>(x) - u;
-        atomic_min(zbuf[static_cast<size_t>(y) * W + x], pack(t * (1.0f + kappa * (px * px + py * py)), idx));
+        atomic_min(row[x], pack(t * (1.0f + kappa * (px * px + py * py)), idx));
         if (x == uc && y == vc) centre_drawn = true;
       }
     }
     // A splat smaller than a pixel (or missed by every pixel ray) still covers its centre's pixel.
-    if (!centre_drawn && uc >= 0 && vc >= 0 && uc < W && vc < H) {
+    if (!centre_drawn && uc >= ox && vc >= oy && uc <= x_end && vc <= y_end) {
       const float px = static_cast<float>(uc) - u, py = static_cast<float>(vc) - v;
-      atomic_min(zbuf[static_cast<size_t>(vc) * W + uc], pack(z * (1.0f + kappa * (px * px + py * py)), idx));
+      atomic_min(zbuf[static_cast<size_t>(vc - oy) * W + (uc - ox)],
+                 pack(z * (1.0f + kappa * (px * px + py * py)), idx));
     }
   }
 
@@ -136,10 +145,10 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
   out->drawn_surfels = drawn;
 
 #pragma omp parallel for schedule(static)
-  for (int y = 0; y < H; ++y) {
-    const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
-    for (int x = 0; x < W; ++x) {
-      const size_t k = static_cast<size_t>(y) * W + x;
+  for (int yw = 0; yw < H; ++yw) {
+    const float dy = (static_cast<float>(yw + oy) - cam.cy) * inv_fy;
+    for (int xw = 0; xw < W; ++xw) {
+      const size_t k = static_cast<size_t>(yw) * W + xw;
       const std::uint64_t key = zbuf[k];
       if (key == kEmpty) {
         out->depth[k] = 0.0f;
@@ -153,7 +162,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
       }
       const std::int32_t s = unpack_index(key);
       // The key's depth carries the centre preference: recompute the ray-plane intersection.
-      const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
+      const float dx = (static_cast<float>(xw + ox) - cam.cx) * inv_fx;
       const Vec3f p = cam.T_cam_world(map.position_world[s]);
       const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[s]);
       const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();

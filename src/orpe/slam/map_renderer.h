@@ -55,6 +55,12 @@ struct RenderOptions {
   /// it, ties between coplanar discs go to the lowest index, which shifts colours systematically.
   float centre_preference = 0.003f;
 
+  /// A window of K's image (render()): pixels [window_u0, window_u0 + window_width) x
+  /// [window_v0, window_v0 + window_height); the outputs are window-sized and equal, bit for bit,
+  /// that window of a whole-image render (the same pixel rays: the window is not a cropped camera).
+  /// A width or height <= 0: the whole image. Precondition: the window lies inside the image.
+  int window_u0 = 0, window_v0 = 0, window_width = 0, window_height = 0;
+
   // What to write (index and depth are always written; the rest on request).
   bool want_vertex = true;
   bool want_normal = true;
@@ -97,7 +103,7 @@ struct IndexMap {
 class MapRenderer {
  public:
   /// Splats the map as seen from `T_world_cam` with intrinsics `K` into `out` (its images are
-  /// reallocated only when the size changes).
+  /// reallocated only when the size changes): the whole image, or RenderOptions' window of it.
   void render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
               const RenderOptions& options, RenderedView* out);
 

@@ -2,10 +2,12 @@
 // (label.png): every annotated object of every frame. Prints ADD-S AUC, ADD(-S) AUC, < 2 cm per
 // class and pooled, and the time per object; optionally one CSV row per instance.
 //
-//   build/bin/orpe_bench_pose_ycbv [--data DIR] [--videos 0000,0001,0002] [--stride N]
+//   build/bin/orpe_bench_pose_ycbv [--data DIR] [--format ycbv] [--videos 0000,0001,0002] [--stride N]
 //       [--set key=value ...] [--csv FILE] [--markdown] [--diagnose] [--classes 5,10]
 //       [--cut F] [--occlude F] [--dilate N] [--fuse] [--ekf key=value ...]
 //
+// --format: the dataset layout (dataset.format: ycbv, bop, ...), e.g. bop for a scene `orpe synth`
+// wrote (--data its scene directory, --videos its scene id).
 // --set takes ModelRegistrationParams fields (pose_registration.* without the prefix also works).
 // --diagnose also scores the ground-truth pose with the estimator's score, to tell search failures
 // (the truth scores higher than the estimate) from scoring failures (a wrong pose scores higher).
@@ -46,6 +48,7 @@
 #include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_registration.h"
 #include "orpe/pose/pose_ekf.h"
+#include "orpe/pipeline/object_models.h"
 
 namespace {
 
@@ -69,6 +72,8 @@ struct Row {
   orpe::SingleViewPose est;
   double adds_m = 0, add_m = 0;
   double score_gt = 0, inliers_gt = 0, violation_gt = 0;
+  double colour_gt = 0, colour_est = 0;  // the colour evidence at the truth and at the estimate
+  bool colour_diagnosed = false;
 };
 
 }  // namespace
@@ -87,6 +92,7 @@ int main(int argc, char** argv) {
   int dilate_px = 0;
   orpe::ModelRegistrationParams params;
   std::string colour_source = "mesh";
+  std::string format = "ycbv";
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -96,6 +102,8 @@ int main(int argc, char** argv) {
       };
       if (a == "--data")
         data = next();
+      else if (a == "--format")
+        format = next();
       else if (a == "--videos")
         videos = split(next(), ',');
       else if (a == "--colour-source") {
@@ -150,7 +158,7 @@ int main(int argc, char** argv) {
           throw orpe::ConfigError("unknown pose_registration key '" + kv.substr(0, eq) + "'");
       } else if (a == "--help" || a == "-h") {
         std::printf(
-            "usage: %s [--data DIR] [--videos 0000,0001] [--stride N] [--set key=value]... "
+            "usage: %s [--data DIR] [--format ycbv|bop|...] [--videos 0000,0001] [--stride N] [--set key=value]... "
             "[--csv FILE] [--markdown] [--diagnose] [--classes ids] [--cut F] [--occlude F] "
             "[--dilate N] [--fuse] [--ekf key=value] [--colour-source mesh|none|other-clips|"
             "mesh+other-clips]\n",
@@ -182,17 +190,9 @@ int main(int argc, char** argv) {
 
     auto ensure_model = [&](const orpe::DatasetInfo& info, int class_id) {
       if (models.count(class_id)) return;
-      const auto pts = info.model_points_paths.find(class_id);
-      if (pts == info.model_points_paths.end())
-        throw orpe::IoError(data, "no model points for class " + std::to_string(class_id));
-      orpe::ModelLoadOptions mo;
-      if (const auto mesh = info.model_mesh_paths.find(class_id);
-          mesh != info.model_mesh_paths.end())
-        mo.mesh_path = mesh->second;
-      mo.units_per_m = info.model_units_per_m;
-      mo.load_colour = colour_source.rfind("mesh", 0) == 0;
-      models[class_id] =
-          orpe::load_object_model(pts->second, mo, class_id, info.class_names.at(class_id));
+      // As the pipeline loads it (points file + mesh, or a mesh alone: BOP, orpe synth).
+      models[class_id] = orpe::load_dataset_object_model(info, class_id);
+      if (colour_source.rfind("mesh", 0) != 0) models[class_id].colour.reset();
       std::vector<orpe::Vec3> p;
       for (const auto& q : models[class_id].points) p.push_back(q.cast<double>());
       eval_points.emplace(class_id, orpe::ModelPoints(p));
@@ -205,7 +205,7 @@ int main(int argc, char** argv) {
     if (colour_source.find("other-clips") != std::string::npos)
       for (const auto& video : videos) {
         orpe::DatasetParams dp;
-        dp.format = "ycbv";
+        dp.format = format;
         dp.scene = video;
         dp.stride = 1;
         const auto reader = orpe::open_dataset(data, dp);
@@ -240,7 +240,7 @@ int main(int argc, char** argv) {
     for (const auto& video : videos) {
       std::map<int, orpe::ObjectModel> video_models;
       orpe::DatasetParams dp;
-      dp.format = "ycbv";
+      dp.format = format;
       dp.scene = video;
       dp.stride = stride;
       const auto reader = orpe::open_dataset(data, dp);
@@ -353,15 +353,29 @@ int main(int argc, char** argv) {
             row.score_gt = at_gt.score;
             row.inliers_gt = at_gt.inlier_fraction;
             row.violation_gt = at_gt.free_space_violation;
+            if (const auto& mc = in.model->colour; mc && mc->num_known() > 0) {
+              const auto evidence = [&](const orpe::SE3& T) {
+                return orpe::pose_colour_evidence(*mc, T, frame.color, *in.depth, mask,
+                                                  frame.intrinsics, params.colour)
+                    .ncc;
+              };
+              row.colour_gt = evidence(gt.T_cam_obj), row.colour_est = evidence(row.est.T_cam_obj);
+              row.colour_diagnosed = true;
+            }
           }
+          char colour_note[64] = "";
+          if (row.colour_diagnosed)
+            std::snprintf(colour_note, sizeof colour_note, " [evidence: est %.2f, gt %.2f]",
+                          row.colour_est, row.colour_gt);
           std::fprintf(
               stderr,
               "%s/%06d %-22s ADD-S %7.1f mm  ADD %7.1f mm  score %.3f%s  colour %s%.2f (lead "
-              "%.2f)  %s%6.0f ms\n",
+              "%.2f)%s  %s%6.0f ms\n",
               video.c_str(), frame.index, info.class_names.at(gt.class_id).c_str(),
               row.adds_m * 1000, row.add_m * 1000, row.est.score,
               diagnose ? (" (gt " + std::to_string(row.score_gt).substr(0, 5) + ")").c_str() : "",
               row.est.colour_used ? "" : "off ", row.est.colour_ncc, row.est.colour_margin,
+              colour_note,
               row.est.valid ? "" : "INVALID ", row.est.time_ms);
           scores.push_back(s);
           rows.push_back(row);

@@ -371,6 +371,67 @@ TEST(ColourScore, LambertFitAndLocalContrastKeepACurvedLabelsTurnWhereTheShading
   EXPECT_LE(evidence[2].fooled, 2);
 }
 
+/// A can (radius 3.5 cm, 10 cm tall) whose label is two bands of about one grey level (130.9 and
+/// 132.8 of 255): a rose band over a sea-green one (the synthetic scenes' cans have a cream band
+/// over a green one, 0.89 against 0.66 in grey but shaded down to a few grey levels apart); caps a
+/// plain grey. Upright and upside down differ only in hue.
+TriangleMesh two_band_can() {
+  auto tex = std::make_shared<ColorImage>(64, 64);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x)
+      tex->at(x, y) = y < 30 ? Rgb8{180, 110, 110} : y < 34 ? Rgb8{128, 128, 128} : Rgb8{100, 150, 130};
+  TriangleMesh mesh =
+      make_cylinder(0.035f, 0.10f, 72, 0.01f, UvRect{0.0f, 0.0f, 1.0f, 1.0f},
+                    UvRect{0.0f, 0.47f, 0.02f, 0.49f}, UvRect{0.0f, 0.47f, 0.02f, 0.49f});
+  mesh.texture = tex;
+  return mesh;
+}
+
+TEST(ColourScore, ChromaTellsACansTopFromItsBottomWhereTheGreyCannot) {
+  const TriangleMesh mesh = two_band_can();
+  const ObjectModel model = box_model(mesh, true);
+  ASSERT_TRUE(model.colour && model.colour->has_chroma());
+  ColourScoreParams with_chroma, grey_only;
+  ASSERT_GT(with_chroma.chroma_weight, 0) << "the default";
+  grey_only.chroma_weight = 0;
+  const Light light{Eigen::Vector3f(0.3f, 0.6f, -1.0f), 0.3f, 0.8f};
+  double worst_lead_with = 1, best_lead_grey = -1;
+  for (double tilt : {0.35, 0.7, 1.0})      // from the side to steeply from above
+    for (double turn : {0.3, 2.0, 4.1}) {  // about the can's axis
+      const Mat3 R = so3_exp(Vec3(-M_PI / 2 - tilt, 0, 0)) * so3_exp(Vec3(0, 0, turn));
+      const SE3 T(R, Vec3(0.01, -0.01, 0.55));
+      const View v = render(mesh, T, &light);
+      // Upside down: 180 degrees about an axis across the can, through its centre.
+      const SE3 F = T * SE3(so3_exp(Vec3(M_PI, 0, 0)), Vec3::Zero());
+      auto lead = [&](const ColourScoreParams& cp) {
+        const ColourAgreement t = pose_colour_evidence(*model.colour, T, v.color, v.depth, v.mask, v.K, cp);
+        const ColourAgreement f = pose_colour_evidence(*model.colour, F, v.color, v.depth, v.mask, v.K, cp);
+        EXPECT_TRUE(t.valid);
+        return t.ncc - f.ncc;
+      };
+      worst_lead_with = std::min(worst_lead_with, lead(with_chroma));
+      best_lead_grey = std::max(best_lead_grey, lead(grey_only));
+      const ColourAgreement c = chroma_agreement(*model.colour, T, v.color, v.depth, v.mask, v.K, with_chroma);
+      ASSERT_TRUE(c.valid);
+      EXPECT_GT(c.ncc, 0.8);
+    }
+  test::print_figure("worst_truth_lead_with_chroma", worst_lead_with);
+  test::print_figure("best_truth_lead_grey_only", best_lead_grey);
+  EXPECT_GT(worst_lead_with, 0.4);  // the truth always leads clearly with the chroma ...
+  EXPECT_LT(best_lead_grey, 0.2);   // ... and never clearly by the grey levels alone
+  // A model of one hue (a grey print) has no chroma evidence.
+  ModelColour grey_print = *model.colour;
+  std::fill(grey_print.chroma.begin(), grey_print.chroma.end(), Eigen::Vector2f(1.0f / 3, 1.0f / 3));
+  const SE3 T(so3_exp(Vec3(-M_PI / 2 - 0.5, 0, 0)), Vec3(0, 0, 0.55));
+  const View v = render(mesh, T, &light);
+  EXPECT_FALSE(chroma_agreement(grey_print, T, v.color, v.depth, v.mask, v.K, with_chroma).valid);
+  // A grey model keeps only its grey evidence.
+  ModelColour no_chroma = *model.colour;
+  no_chroma.chroma.clear();
+  EXPECT_EQ(pose_colour_evidence(no_chroma, T, v.color, v.depth, v.mask, v.K, with_chroma).ncc,
+            pose_colour_evidence(*model.colour, T, v.color, v.depth, v.mask, v.K, grey_only).ncc);
+}
+
 TEST(ColourScore, LambertFitOfAOneColourModelIsNoEvidenceAndOfTheTruthNearOne) {
   const TriangleMesh mesh = printed_box();
   const ObjectModel model = box_model(mesh, true);
@@ -465,6 +526,8 @@ TEST(ColourScore, ColourLearnedFromViewsWithKnownPosesRanksLikeTheTexture) {
     EXPECT_GT(acc.add_view(T, v.color, v.depth, v.mask, v.K), 100);
   }
   model.colour = acc.result("learned in the test");
+  ASSERT_TRUE(model.colour->has_chroma());  // the grey atlas: chromaticity about neutral
+  EXPECT_NEAR(model.colour->chroma[0].x(), 1.0f / 3, 0.02f);
   const ColourScoreParams cp;
   EXPECT_TRUE(has_usable_colour(model, cp));
   const SE3 T = front_view(0.4, -0.2);
@@ -560,7 +623,21 @@ TEST(ColourScore, ColourFileRoundTripAndErrors) {
   const auto back = read_model_colour(path);
   ASSERT_EQ(back->size(), colour->size());
   EXPECT_NEAR(back->grey[7], colour->grey[7], 1e-5);
+  ASSERT_TRUE(back->has_chroma());
+  EXPECT_NEAR(back->chroma[7].y(), colour->chroma[7].y(), 1e-5);
   EXPECT_EQ(back->source, "texture");
+  {  // a version-1 file (before chromaticity): grey only
+    std::ofstream os(path);
+    os << "# orpe model colour v1\nsource x\n0 0 0 0 0 1 0.5 1\n";
+  }
+  const auto v1 = read_model_colour(path);
+  ASSERT_EQ(v1->size(), 1u);
+  EXPECT_FALSE(v1->has_chroma());
+  {  // version 2 wants the chromaticity
+    std::ofstream os(path);
+    os << "# orpe model colour v2\nsource x\n0 0 0 0 0 1 0.5 1\n";
+  }
+  EXPECT_THROW(read_model_colour(path), IoError);
   {
     std::ofstream os(path);
     os << "# orpe model colour v1\nsource x\n0 0 0 0 0 1 0.5\n";

@@ -38,6 +38,10 @@ bool ModelColour::IsValid(std::string* why) const {
     if (!(weight[i] >= 0) || !std::isfinite(weight[i]))
       return fail("negative or non-finite weight");
   }
+  if (!chroma.empty() && chroma.size() != n) return fail("chroma and points sizes differ");
+  for (const Eigen::Vector2f& c : chroma)
+    if (!(c.x() >= 0 && c.y() >= 0 && c.x() + c.y() <= 1.0001f))
+      return fail("chromaticity outside the triangle r, g >= 0, r + g <= 1");
   return true;
 }
 
@@ -58,24 +62,42 @@ bool ColourScoreParams::IsValid(std::string* why) const {
     return fail("colour_evidence must be lambert, local_contrast or ncc, not '" + evidence + "'");
   if (!(local_contrast_radius > 0 && local_contrast_radius <= 1))
     return fail("colour_local_contrast_radius must be in (0, 1]");
+  if (!(chroma_weight >= 0 && chroma_weight <= 1))
+    return fail("colour_chroma_weight must be in [0, 1]");
+  if (!(chroma_min_spread >= 0 && chroma_min_spread <= 0.5))
+    return fail("colour_chroma_min_spread must be in [0, 0.5]");
+  if (!(chroma_min_grey >= 0 && chroma_min_grey < 1))
+    return fail("colour_chroma_min_grey must be in [0, 1)");
   return true;
 }
 
 namespace {
 
-/// Grey level of the 3x3 box around (u, v) (clipped at the border).
-float box_grey(const ColorImage& image, int u, int v) {
-  float sum = 0;
+/// Mean colour (r, g, b in [0, 255]) of the 3x3 box around (u, v) (clipped at the border).
+Eigen::Vector3f box_rgb(const ColorImage& image, int u, int v) {
+  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
   int n = 0;
   for (int dv = -1; dv <= 1; ++dv)
     for (int du = -1; du <= 1; ++du) {
       const int uu = u + du, vv = v + dv;
       if (!image.in_bounds(uu, vv)) continue;
-      sum += grey_of(image.at(uu, vv));
+      const Rgb8 c = image.at(uu, vv);
+      sum += Eigen::Vector3f(c.r, c.g, c.b);
       ++n;
     }
-  return n ? sum / static_cast<float>(n) : 0.0f;
+  return n ? Eigen::Vector3f(sum / static_cast<float>(n)) : Eigen::Vector3f::Zero();
 }
+
+float grey_of_rgb(const Eigen::Vector3f& c) {
+  return (0.299f * c.x() + 0.587f * c.y() + 0.114f * c.z()) / 255.0f;
+}
+
+/// (r, g) / (r + g + b); black: the neutral (1/3, 1/3).
+Eigen::Vector2f chroma_of_rgb(const Eigen::Vector3f& c) {
+  const float s = c.sum();
+  return s > 1e-3f ? Eigen::Vector2f(c.x() / s, c.y() / s) : Eigen::Vector2f(1.0f / 3, 1.0f / 3);
+}
+
 
 /// Calls f(i, u, v) for every sample facing the camera, projecting inside `mask` (when not empty)
 /// onto a pixel whose observed depth is within `tol` of the sample's depth.
@@ -163,13 +185,19 @@ std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, in
     out->points.push_back(p);
     out->normals.push_back(m.normals[j].normalized());
     out->grey.push_back(grey_of(colours[i]));
+    out->chroma.push_back(chroma_of_rgb(Eigen::Vector3f(colours[i].r, colours[i].g, colours[i].b)));
     out->weight.push_back(1.0f);
   }
   // One grey level everywhere (a YCB mesh whose OBJ gives every vertex the same colour, its texture
   // image not shipped): no evidence about the pose, and it would keep the colour learned from the
   // map from being used.
   const auto [lo, hi] = std::minmax_element(out->grey.begin(), out->grey.end());
-  if (lo == out->grey.end() || *hi - *lo < kUniformGreyRange) return nullptr;
+  if (lo == out->grey.end()) return nullptr;
+  if (*hi - *lo >= kUniformGreyRange) return out;
+  // One grey level: still evidence when the hue varies (two colours of one brightness).
+  Eigen::Vector2f c_lo = out->chroma.front(), c_hi = c_lo;
+  for (const Eigen::Vector2f& c : out->chroma) c_lo = c_lo.cwiseMin(c), c_hi = c_hi.cwiseMax(c);
+  if ((c_hi - c_lo).maxCoeff() < kUniformGreyRange) return nullptr;
   return out;
 }
 
@@ -184,19 +212,23 @@ std::vector<VisibleColourSample> visible_colour_samples(
   for_each_visible(colour.points, colour.normals, T_cam_obj, depth, mask, K, depth_tolerance_m,
                    [&](size_t i, int u, int v) {
                      if (colour.weight[i] <= 0) return;
-                     out.push_back({i, box_grey(image, u, v), R * colour.normals[i], u, v});
+                     const Eigen::Vector3f rgb = box_rgb(image, u, v);
+                     out.push_back({i, grey_of_rgb(rgb), chroma_of_rgb(rgb),
+                                    R * colour.normals[i], u, v});
                    });
   return out;
 }
 
-ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj,
-                                 const ColorImage& image, const DepthImage& depth,
-                                 const MaskImage& mask, const PinholeIntrinsics& K,
-                                 const ColourScoreParams& params) {
+namespace {
+
+// The evidences over the visible samples `vis` (visible_colour_samples at the pose): the pose
+// stage's blend computes them once for the grey and the chroma evidence.
+
+ColourAgreement ncc_of(const std::vector<VisibleColourSample>& vis, const ModelColour& colour,
+                       const ColourScoreParams& params) {
   ColourAgreement out;
   WeightedCorrelation corr;
-  for (const VisibleColourSample& s :
-       visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m)) {
+  for (const VisibleColourSample& s : vis) {
     corr.add(colour.grey[s.index], s.image_grey, colour.weight[s.index]);
     ++out.pixels;
   }
@@ -204,8 +236,6 @@ ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj
   out.valid = corr.correlation(&out.ncc);  // a flat-coloured model or image says nothing
   return out;
 }
-
-namespace {
 
 /// Weighted least squares of y on the columns of the rows x_i: the residual sum of squares, from
 /// the normal equations (a small ridge keeps a rank-deficient design, e.g. one box face in view or
@@ -282,23 +312,18 @@ class SampleBoxSums {
   std::vector<Eigen::Vector3d> sums_;
 };
 
-}  // namespace
-
-ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_obj,
-                                  const ColorImage& image, const DepthImage& depth,
-                                  const MaskImage& mask, const PinholeIntrinsics& K,
-                                  const ColourScoreParams& params) {
+ColourAgreement lambert_of(const std::vector<VisibleColourSample>& vis, const ModelColour& colour,
+                           const DepthImage& depth, const MaskImage& mask,
+                           const ColourScoreParams& params) {
   ColourAgreement out;
   WeightedLeastSquares<4> shading;
   WeightedLeastSquares<5> albedo;
   double sw = 0;
-  const std::vector<VisibleColourSample> vis =
-      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
   if (vis.empty()) return out;
   const SampleBoxSums sums(vis, colour);
   for (const VisibleColourSample& s : vis) {
     if (!box_on_surface(depth, mask, s.u, s.v, params.depth_tolerance_m)) continue;
-    // The albedo over the sample's 3x3 pixel box, as the image's grey (box_grey): a print finer
+    // The albedo over the sample's 3x3 pixel box, as the image's grey (its 3x3 mean): a print finer
     // than a pixel (small text) averages alike on both sides instead of aliasing on the model's.
     const Eigen::Vector3d px = sums.box(s.u, s.v, 1);
     const double w = colour.weight[s.index], y = s.image_grey, a = px(1) / px(0);
@@ -317,13 +342,10 @@ ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_ob
   return out;
 }
 
-ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T_cam_obj,
-                                         const ColorImage& image, const DepthImage& depth,
-                                         const MaskImage& mask, const PinholeIntrinsics& K,
-                                         const ColourScoreParams& params) {
+ColourAgreement local_contrast_of(const std::vector<VisibleColourSample>& vis,
+                                  const ModelColour& colour, const DepthImage& depth,
+                                  const PinholeIntrinsics& K, const ColourScoreParams& params) {
   ColourAgreement out;
-  const std::vector<VisibleColourSample> vis =
-      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
   out.pixels = static_cast<int>(vis.size());
   if (out.pixels < params.min_pixels) return out;
   std::vector<float> z;
@@ -340,7 +362,7 @@ ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T
   WeightedCorrelation corr;
   for (const auto& s : vis) {
     // b(0), px(0) > 0: the sample itself is inside. The model's grey over the 3x3 pixel box, as
-    // the image's (box_grey): a print finer than a pixel averages alike on both sides.
+    // the image's (its 3x3 mean): a print finer than a pixel averages alike on both sides.
     const Eigen::Vector3d b = sums.box(s.u, s.v, r), px = sums.box(s.u, s.v, 1);
     corr.add(px(1) / px(0) - b(1) / b(0), s.image_grey - b(2) / b(0), colour.weight[s.index]);
   }
@@ -348,15 +370,93 @@ ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T
   return out;
 }
 
+ColourAgreement chroma_of(const std::vector<VisibleColourSample>& vis, const ModelColour& colour,
+                          const DepthImage& depth, const MaskImage& mask,
+                          const ColourScoreParams& params) {
+  ColourAgreement out;
+  if (!colour.has_chroma()) return out;
+  double sw = 0;
+  Eigen::Vector2d sm = Eigen::Vector2d::Zero(), si = sm;  // weighted sums: model, image
+  double smm = 0, sii = 0, smi = 0;
+  for (const VisibleColourSample& s : vis) {
+    if (s.image_grey < params.chroma_min_grey) continue;
+    if (!box_on_surface(depth, mask, s.u, s.v, params.depth_tolerance_m)) continue;
+    const double w = colour.weight[s.index];
+    const Eigen::Vector2d m = colour.chroma[s.index].cast<double>(), i = s.image_chroma.cast<double>();
+    sw += w, sm += w * m, si += w * i;
+    smm += w * m.squaredNorm(), sii += w * i.squaredNorm(), smi += w * m.dot(i);
+    ++out.pixels;
+  }
+  if (out.pixels < params.min_pixels || !(sw > 0)) return out;
+  const Eigen::Vector2d mm = sm / sw, mi = si / sw;
+  const double vm = smm / sw - mm.squaredNorm(), vi = sii / sw - mi.squaredNorm();
+  if (vm < params.chroma_min_spread * params.chroma_min_spread || vi < 1e-8) return out;
+  out.ncc = std::clamp((smi / sw - mm.dot(mi)) / std::sqrt(vm * vi), -1.0, 1.0);
+  out.valid = true;
+  return out;
+}
+
+ColourAgreement grey_evidence_of(const std::vector<VisibleColourSample>& vis,
+                                 const ModelColour& colour, const DepthImage& depth,
+                                 const MaskImage& mask, const PinholeIntrinsics& K,
+                                 const ColourScoreParams& params) {
+  if (params.evidence == "lambert") return lambert_of(vis, colour, depth, mask, params);
+  if (params.evidence == "local_contrast") return local_contrast_of(vis, colour, depth, K, params);
+  return ncc_of(vis, colour, params);
+}
+
+}  // namespace
+
+ColourAgreement colour_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                 const ColorImage& image, const DepthImage& depth,
+                                 const MaskImage& mask, const PinholeIntrinsics& K,
+                                 const ColourScoreParams& params) {
+  return ncc_of(
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m),
+      colour, params);
+}
+
+ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                  const ColorImage& image, const DepthImage& depth,
+                                  const MaskImage& mask, const PinholeIntrinsics& K,
+                                  const ColourScoreParams& params) {
+  return lambert_of(
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m),
+      colour, depth, mask, params);
+}
+
+ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                         const ColorImage& image, const DepthImage& depth,
+                                         const MaskImage& mask, const PinholeIntrinsics& K,
+                                         const ColourScoreParams& params) {
+  return local_contrast_of(
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m),
+      colour, depth, K, params);
+}
+
+ColourAgreement chroma_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                 const ColorImage& image, const DepthImage& depth,
+                                 const MaskImage& mask, const PinholeIntrinsics& K,
+                                 const ColourScoreParams& params) {
+  if (!colour.has_chroma()) return {};
+  return chroma_of(
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m),
+      colour, depth, mask, params);
+}
+
 ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam_obj,
                                      const ColorImage& image, const DepthImage& depth,
                                      const MaskImage& mask, const PinholeIntrinsics& K,
                                      const ColourScoreParams& params) {
-  if (params.evidence == "lambert")
-    return lambert_agreement(colour, T_cam_obj, image, depth, mask, K, params);
-  if (params.evidence == "local_contrast")
-    return local_contrast_agreement(colour, T_cam_obj, image, depth, mask, K, params);
-  return colour_agreement(colour, T_cam_obj, image, depth, mask, K, params);
+  const std::vector<VisibleColourSample> vis =
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
+  ColourAgreement grey = grey_evidence_of(vis, colour, depth, mask, K, params);
+  if (!(params.chroma_weight > 0) || !colour.has_chroma()) return grey;
+  const ColourAgreement chroma = chroma_of(vis, colour, depth, mask, params);
+  if (!chroma.valid) return grey;
+  if (!grey.valid) return chroma;
+  grey.ncc = (1 - params.chroma_weight) * grey.ncc + params.chroma_weight * chroma.ncc;
+  return grey;
 }
 
 std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj,
@@ -393,6 +493,7 @@ ModelColourAccumulator::ModelColourAccumulator(const ObjectModel& model) {
   if (colour_.normals.size() != colour_.points.size())
     throw std::invalid_argument("ModelColourAccumulator: the model has no normals (prepare it)");
   sum_.assign(colour_.points.size(), 0.0);
+  chroma_sum_.assign(colour_.points.size(), Eigen::Vector2d::Zero());
   count_.assign(colour_.points.size(), 0.0);
 }
 
@@ -403,7 +504,9 @@ int ModelColourAccumulator::add_view(const SE3& T_cam_obj, const ColorImage& ima
   int n = 0;
   for_each_visible(colour_.points, colour_.normals, T_cam_obj, depth, mask, K, depth_tolerance_m,
                    [&](size_t i, int u, int v) {
-                     sum_[i] += box_grey(image, u, v);
+                     const Eigen::Vector3f rgb = box_rgb(image, u, v);
+                     sum_[i] += grey_of_rgb(rgb);
+                     chroma_sum_[i] += chroma_of_rgb(rgb).cast<double>();
                      count_[i] += 1;
                      ++n;
                    });
@@ -414,7 +517,10 @@ int ModelColourAccumulator::add_view(const SE3& T_cam_obj, const ColorImage& ima
 void ModelColourAccumulator::merge(const ModelColourAccumulator& other) {
   if (other.sum_.size() != sum_.size())
     throw std::invalid_argument("ModelColourAccumulator::merge: different models");
-  for (size_t i = 0; i < sum_.size(); ++i) sum_[i] += other.sum_[i], count_[i] += other.count_[i];
+  for (size_t i = 0; i < sum_.size(); ++i) {
+    sum_[i] += other.sum_[i], count_[i] += other.count_[i];
+    chroma_sum_[i] += other.chroma_sum_[i];
+  }
   views_ += other.views_;
 }
 
@@ -423,9 +529,11 @@ std::shared_ptr<ModelColour> ModelColourAccumulator::result(const std::string& s
   out->source = source;
   out->grey.assign(colour_.points.size(), 0.0f);
   out->weight.assign(colour_.points.size(), 0.0f);
+  out->chroma.assign(colour_.points.size(), Eigen::Vector2f(1.0f / 3, 1.0f / 3));
   for (size_t i = 0; i < colour_.points.size(); ++i)
     if (count_[i] > 0) {
       out->grey[i] = static_cast<float>(sum_[i] / count_[i]);
+      out->chroma[i] = (chroma_sum_[i] / count_[i]).cast<float>();
       out->weight[i] = 1.0f;
     }
   return out;
@@ -484,12 +592,16 @@ void write_model_colour(const std::string& path, const ModelColour& colour) {
   if (!colour.IsValid(&why))
     throw IoError(path, "refusing to write an invalid colour model: " + why);
   write_file_atomic(path, [&](std::ostream& os) {
-    os << "# orpe model colour v1\nsource " << colour.source << "\n" << std::setprecision(7);
+    const bool chroma = colour.has_chroma();
+    os << "# orpe model colour " << (chroma ? "v2" : "v1") << "\nsource " << colour.source << "\n"
+       << std::setprecision(7);
     for (size_t i = 0; i < colour.size(); ++i) {
       const auto& p = colour.points[i];
       const auto& n = colour.normals[i];
       os << p.x() << ' ' << p.y() << ' ' << p.z() << ' ' << n.x() << ' ' << n.y() << ' ' << n.z()
-         << ' ' << colour.grey[i] << ' ' << colour.weight[i] << '\n';
+         << ' ' << colour.grey[i] << ' ' << colour.weight[i];
+      if (chroma) os << ' ' << colour.chroma[i].x() << ' ' << colour.chroma[i].y();
+      os << '\n';
     }
   });
 }
@@ -501,11 +613,14 @@ std::shared_ptr<ModelColour> read_model_colour(const std::string& path) {
   std::string line;
   int line_no = 0;
   bool header = false;
+  int version = 0;
   while (std::getline(is, line)) {
     ++line_no;
     if (line_no == 1) {
-      header = line == "# orpe model colour v1";
-      if (!header) throw IoError(path, "line 1: expected '# orpe model colour v1'");
+      version = line == "# orpe model colour v1" ? 1 : line == "# orpe model colour v2" ? 2 : 0;
+      header = version > 0;
+      if (!header)
+        throw IoError(path, "line 1: expected '# orpe model colour v1' or '# orpe model colour v2'");
       continue;
     }
     if (line.empty() || line[0] == '#') continue;
@@ -515,20 +630,26 @@ std::shared_ptr<ModelColour> read_model_colour(const std::string& path) {
     }
     std::istringstream ls(line);
     Eigen::Vector3f p, n;
+    Eigen::Vector2f c(1.0f / 3, 1.0f / 3);
     float g = 0, w = 0;
     std::string extra;
-    if (!(ls >> p.x() >> p.y() >> p.z() >> n.x() >> n.y() >> n.z() >> g >> w) || (ls >> extra))
+    const bool read = (ls >> p.x() >> p.y() >> p.z() >> n.x() >> n.y() >> n.z() >> g >> w) &&
+                      (version == 1 || (ls >> c.x() >> c.y()));
+    if (!read || (ls >> extra))
       throw IoError(path, "line " + std::to_string(line_no) +
-                              ": expected 8 numbers 'x y z nx ny nz grey weight'");
+                              (version == 1
+                                   ? ": expected 8 numbers 'x y z nx ny nz grey weight'"
+                                   : ": expected 10 numbers 'x y z nx ny nz grey weight r g'"));
     if (!p.allFinite() || !n.allFinite() || !(n.norm() > 0.5f) || !(g >= 0 && g <= 1) ||
-        !(w >= 0) || !std::isfinite(w))
+        !(w >= 0) || !std::isfinite(w) || !(c.x() >= 0 && c.y() >= 0 && c.sum() <= 1.0001f))
       throw IoError(path, "line " + std::to_string(line_no) +
-                              ": non-finite value, zero normal, grey outside [0, 1] or negative "
-                              "weight");
+                              ": non-finite value, zero normal, grey outside [0, 1], negative "
+                              "weight or chromaticity outside r, g >= 0, r + g <= 1");
     out->points.push_back(p);
     out->normals.push_back(n.normalized());
     out->grey.push_back(g);
     out->weight.push_back(w);
+    if (version == 2) out->chroma.push_back(c);
   }
   if (!header) throw IoError(path, "empty file (expected '# orpe model colour v1')");
   if (out->points.empty()) throw IoError(path, "no samples");

@@ -38,9 +38,14 @@ struct ModelColour {
   std::vector<Eigen::Vector3f> normals;  ///< unit, outward
   std::vector<float> grey;               ///< [0, 1]
   std::vector<float> weight;             ///< >= 0; 0 = colour unknown at this sample
+  /// Chromaticity (r, g) / (r + g + b) of each sample, in [0, 1]: its colour without its
+  /// brightness, which a Lambert shading scales away (a green and a cream band of about one grey
+  /// level still differ here). Empty = grey only (a colour model file of version 1).
+  std::vector<Eigen::Vector2f> chroma;
   std::string source;                    ///< "texture", "vertex colours", "learned: ..."
 
   size_t size() const { return points.size(); }
+  bool has_chroma() const { return !points.empty() && chroma.size() == points.size(); }
   /// Samples with a known colour.
   size_t num_known() const;
   /// Sizes consistent and finite values.
@@ -59,6 +64,9 @@ struct ColourScoreParams {
   double min_learned_fraction = 0.3;
   std::string evidence = "lambert";  ///< lambert | local_contrast | ncc
   double local_contrast_radius = 0.05;
+  double chroma_weight = 0.5;
+  double chroma_min_spread = 0.02;
+  double chroma_min_grey = 0.08;
 
   template <class V>
   void visit(V&& v) {
@@ -93,6 +101,16 @@ struct ColourScoreParams {
     v("colour_local_contrast_radius", local_contrast_radius,
       "colour_evidence=local_contrast: the radius of the local mean, a fraction of the model's "
       "bounding-box diagonal");
+    v("colour_chroma_weight", chroma_weight,
+      "Share of the chromaticity agreement (chroma_agreement) in a candidate's colour evidence, "
+      "the grey evidence the rest; used when the model has chromaticity that varies over the "
+      "visible samples (0 = grey only, as before session 22)");
+    v("colour_chroma_min_spread", chroma_min_spread,
+      "The visible samples' chromaticity must spread by at least this (weighted RMS distance from "
+      "their mean; a cream/green label ~0.07, a grey print 0) for chroma evidence");
+    v("colour_chroma_min_grey", chroma_min_grey,
+      "Image pixels darker than this grey level (3x3 mean, [0, 1]) have too noisy a "
+      "chromaticity: left out of the chroma evidence");
   }
   bool IsValid(std::string* why) const;
 };
@@ -113,8 +131,8 @@ constexpr float kUniformGreyRange = 2.0f / 255.0f;
 
 /// Samples `samples` points on the textured or vertex-coloured mesh (object frame, metres), with
 /// outward normals from the triangles. nullptr when the mesh has neither texture nor colours, or
-/// when its samples all have the same grey level (within kUniformGreyRange: a mesh with one vertex
-/// colour everywhere says nothing about the pose).
+/// when its samples all have the same grey level and chromaticity (within kUniformGreyRange: a mesh
+/// with one vertex colour everywhere says nothing about the pose). The samples carry chromaticity.
 std::shared_ptr<ModelColour> model_colour_from_mesh(const TriangleMesh& mesh, int samples = 20000,
                                                     unsigned seed = 11);
 
@@ -150,8 +168,8 @@ ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_ob
 
 /// Agreement of local contrast: the NCC of the model's and the image's grey levels, each minus its
 /// own local mean. Both sides are taken over the same visible samples (visible_colour_samples):
-/// the model's grey of a sample is the mean over the samples in its 3x3 pixel box (as the image's
-/// box_grey: a print finer than a pixel averages alike on both sides), its local mean the mean over
+/// the model's grey of a sample is the mean over the samples in its 3x3 pixel box (the image's grey
+/// is its 3x3 mean: a print finer than a pixel averages alike on both sides), its local mean the mean over
 /// the samples in the square of half-side R pixels, R = fx * params.local_contrast_radius * (the
 /// model's bounding-box diagonal) / (median depth of the visible samples), at least 1; the image's
 /// likewise. The outline and occlusions thus cut both sides alike. A shading that varies slowly
@@ -164,8 +182,24 @@ ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T
                                          const MaskImage& mask, const PinholeIntrinsics& K,
                                          const ColourScoreParams& params);
 
+/// Agreement of chromaticity: the weighted correlation of the model's and the image's (r, g)
+/// chromaticity over the visible samples (visible_colour_samples) whose 3x3 pixel box lies on the
+/// surface and is not darker than params.chroma_min_grey: sum w (m - m_mean) . (i - i_mean) over
+/// the root of the product of both sides' weighted sums of squares, in [-1, 1]. Chromaticity does
+/// not change with a white light's brightness or a Lambert shading, so a label whose colours have
+/// about one grey level (green and cream) still tells its top from its bottom. Not valid without
+/// chromaticity in the model, with fewer than params.min_pixels samples, when the model's visible
+/// chromaticity spreads less than params.chroma_min_spread or the image's is flat.
+ColourAgreement chroma_agreement(const ModelColour& colour, const SE3& T_cam_obj,
+                                 const ColorImage& image, const DepthImage& depth,
+                                 const MaskImage& mask, const PinholeIntrinsics& K,
+                                 const ColourScoreParams& params);
+
 /// The colour evidence the pose stage ranks candidates by, as params.evidence names it:
-/// lambert_agreement, local_contrast_agreement or colour_agreement.
+/// lambert_agreement, local_contrast_agreement or colour_agreement; with chromaticity in the
+/// model (and params.chroma_weight > 0) blended with chroma_agreement when that is valid:
+/// (1 - chroma_weight) * grey + chroma_weight * chroma (the chroma alone when the grey evidence is
+/// not valid).
 ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam_obj,
                                      const ColorImage& image, const DepthImage& depth,
                                      const MaskImage& mask, const PinholeIntrinsics& K,
@@ -175,6 +209,7 @@ ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam
 struct VisibleColourSample {
   size_t index = 0;        ///< into the ModelColour's samples
   float image_grey = 0;    ///< 3x3 box-filtered grey level of its pixel, [0, 1]
+  Eigen::Vector2f image_chroma{1.0f / 3, 1.0f / 3};  ///< chromaticity of the 3x3 mean colour
   Eigen::Vector3f normal;  ///< the sample's normal in the camera frame
   int u = 0, v = 0;        ///< its pixel
 };
@@ -198,7 +233,7 @@ std::vector<SE3> confusable_poses(const ObjectModel& model, const SE3& T_cam_obj
 bool has_usable_colour(const ObjectModel& model, const ColourScoreParams& params);
 
 /// Builds a colour model from frames with known object poses: each frame's visible samples get the
-/// grey level under them, averaged over frames (weight = number of views that saw the sample).
+/// grey level and chromaticity under them, averaged over frames (weight = 1 where seen).
 /// Samples start from the model's own points and normals.
 class ModelColourAccumulator {
  public:
@@ -216,6 +251,7 @@ class ModelColourAccumulator {
  private:
   ModelColour colour_;
   std::vector<double> sum_;
+  std::vector<Eigen::Vector2d> chroma_sum_;
   std::vector<double> count_;
   int views_ = 0;
 };
@@ -283,8 +319,10 @@ class ColourLearner {
   int views_learned_ = 0, contradictions_ = 0, resets_ = 0;
 };
 
-/// Text file of a colour model: "# orpe model colour v1" then "source <text>" then one line per
-/// sample "x y z nx ny nz grey weight". Throws IoError naming the file (and line) on failure.
+/// Text file of a colour model: "# orpe model colour v2" then "source <text>" then one line per
+/// sample "x y z nx ny nz grey weight r g" (r, g: its chromaticity). Version 1 files (written
+/// before session 22: 8 numbers per line, no chromaticity) are read too, and written for a colour
+/// without chromaticity. Throws IoError naming the file (and line) on failure.
 void write_model_colour(const std::string& path, const ModelColour& colour);
 std::shared_ptr<ModelColour> read_model_colour(const std::string& path);
 

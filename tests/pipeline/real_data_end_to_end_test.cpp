@@ -124,9 +124,12 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   EXPECT_LE(rejected, 18);
   EXPECT_LE(rejected_symmetric, 5);
 
-  // Poses (per-frame EKF rows, poses.csv): measured ADD-S AUC 96.26 and ADD(-S) AUC 72.58 over the
-  // 60 instances, 59 estimated; bounds -2.75 points (ADD-S) and -7.5 points (ADD(-S), which moves
-  // with every flip of the near-symmetric mug between its two modes).
+  // Poses (per-frame EKF rows, poses.csv): measured ADD-S AUC 96.26 over the 60 instances, 59
+  // estimated; bound -2.75 points. ADD(-S) per class: the mug's handle stays hidden in this clip, so
+  // which of its two modes (the handle ~90 degrees apart) the views settle on is a coin toss that a
+  // float rounding flips (session 22: the pooled ADD(-S) 72.58 with one mode, 64.36 with the other;
+  // docs/RESULTS.md): only its ADD-S is bounded (measured 97.15, bound -2.75). The gelatin box and the
+  // foam brick (symmetric: ADD-S): measured ADD(-S) 49.03 and 98.44, bound -7.5 points.
   const auto& all = r.eval["all"];
   const double adds = all["adds_auc"].get<double>();
   const double add_s = all["add_s_auc"].get<double>();
@@ -135,7 +138,18 @@ TEST(RealDataEndToEnd, FullModeOnYcbvClip0000WithTrackedCamerasAndDegradedDetect
   EXPECT_EQ(all["instances"].get<int>(), 60);
   EXPECT_GE(all["estimated"].get<int>(), 59);
   EXPECT_GT(adds, 93.5);
-  EXPECT_GT(add_s, 65.0);
+  std::map<std::string, std::pair<double, double>> per_class;  // name -> (ADD-S, ADD(-S)) AUC
+  for (const auto& c : r.eval["classes"])
+    per_class[c["name"].get<std::string>()] = {c["adds_auc"].get<double>(),
+                                               c["add_s_auc"].get<double>()};
+  ASSERT_EQ(per_class.size(), 3u);
+  for (const auto& [name, auc] : per_class) {
+    test::print_figure("ycbv0000_adds_auc_" + name, auc.first);
+    test::print_figure("ycbv0000_add_s_auc_" + name, auc.second);
+  }
+  EXPECT_GT(per_class["025_mug"].first, 94.4);
+  EXPECT_GT(per_class["009_gelatin_box"].second, 41.5);
+  EXPECT_GT(per_class["061_foam_brick"].second, 90.9);
 
   // Map: measured reconstruction error 1.42 mm (mean over the 3 objects of the per-object mean
   // surfel distance to the model at the ground-truth pose: 2.27 / 1.00 / 0.99 mm); bound 1.5x.

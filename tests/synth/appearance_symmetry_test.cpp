@@ -53,6 +53,17 @@ TEST(SynthAppearance, PrintedBoxesAndLabelledCansAreNotSymmetricFlatColoursAre) 
   const synth::ObjectSymmetries s = appearance_symmetries(striped);
   ASSERT_EQ(s.discrete.size(), 1u);
   EXPECT_GT(s.discrete[0].rotation()(2, 2), 0.99);
+
+  // Two hues of one grey level (both 130.93 of 255) above and below 5 cm: the same in grey, not in
+  // colour: only the half turn about z keeps it.
+  synth::ObjectModel hued = flat;
+  auto hued_mesh = std::make_shared<TriangleMesh>(*striped_mesh);
+  for (size_t i = 0; i < hued_mesh->vertices.size(); ++i)
+    hued_mesh->colors[i] = hued_mesh->vertices[i].z() > 0.05f ? Rgb8{180, 110, 110} : Rgb8{98, 144, 150};
+  hued.mesh = hued_mesh;
+  const synth::ObjectSymmetries h = appearance_symmetries(hued);
+  ASSERT_EQ(h.discrete.size(), 1u);
+  EXPECT_GT(h.discrete[0].rotation()(2, 2), 0.99);
 }
 
 std::string read_text(const std::string& path) {

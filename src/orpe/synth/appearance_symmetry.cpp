@@ -9,7 +9,7 @@ namespace {
 
 struct ColouredSamples {
   std::vector<Eigen::Vector3f> points;
-  std::vector<double> grey;
+  std::vector<Eigen::Vector3d> rgb;  ///< [0, 1] per channel
 };
 
 ColouredSamples coloured_samples(const TriangleMesh& mesh, int count, std::uint64_t seed) {
@@ -18,17 +18,19 @@ ColouredSamples coloured_samples(const TriangleMesh& mesh, int count, std::uint6
   ColouredSamples s;
   for (size_t i = 0; i < pts.size(); ++i) {
     s.points.push_back(pts[i].cast<float>());
-    s.grey.push_back((0.299 * colours[i].r + 0.587 * colours[i].g + 0.114 * colours[i].b) / 255.0);
+    s.rgb.push_back(Eigen::Vector3d(colours[i].r, colours[i].g, colours[i].b) / 255.0);
   }
   return s;
 }
 
-/// Pearson correlation of a's grey levels with those of b's samples nearest to S * a.points.
+/// Correlation of a's colours with those of b's samples nearest to S * a.points: the covariance
+/// summed over the three channels over the root of the product of the summed variances (a print
+/// whose halves differ only in hue, at one grey level, is not symmetric either).
 double transformed_correlation(const ColouredSamples& a, const ColouredSamples& b, const SE3& S) {
   const Eigen::Matrix3f R = S.rotation().cast<float>();
   const Eigen::Vector3f t = S.translation().cast<float>();
   const size_t n = a.points.size();
-  std::vector<double> y(n);
+  std::vector<Eigen::Vector3d> y(n);
 #pragma omp parallel for schedule(static)
   for (long i = 0; i < static_cast<long>(n); ++i) {
     const Eigen::Vector3f q = R * a.points[i] + t;
@@ -38,17 +40,18 @@ double transformed_correlation(const ColouredSamples& a, const ColouredSamples& 
       const float d = (b.points[j] - q).squaredNorm();
       if (d < best) best = d, arg = j;
     }
-    y[i] = b.grey[arg];
+    y[i] = b.rgb[arg];
   }
-  double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  Eigen::Vector3d sx = Eigen::Vector3d::Zero(), sy = sx;
+  double sxx = 0, syy = 0, sxy = 0;
   for (size_t i = 0; i < n; ++i) {
-    const double x = a.grey[i];
-    sx += x, sy += y[i], sxx += x * x, syy += y[i] * y[i], sxy += x * y[i];
+    const Eigen::Vector3d& x = a.rgb[i];
+    sx += x, sy += y[i], sxx += x.squaredNorm(), syy += y[i].squaredNorm(), sxy += x.dot(y[i]);
   }
   const double m = static_cast<double>(n);
-  const double vx = sxx / m - (sx / m) * (sx / m), vy = syy / m - (sy / m) * (sy / m);
+  const double vx = sxx / m - (sx / m).squaredNorm(), vy = syy / m - (sy / m).squaredNorm();
   if (vx < 1e-8 || vy < 1e-8) return 1.0;  // flat colour: nothing tells S from the identity
-  return (sxy / m - (sx / m) * (sy / m)) / std::sqrt(vx * vy);
+  return (sxy / m - (sx / m).dot(sy / m)) / std::sqrt(vx * vy);
 }
 
 SE3 turn_about(const Vec3& axis, const Vec3& offset, double angle) {

@@ -419,6 +419,21 @@ TEST(ColourScore, ChromaTellsACansTopFromItsBottomWhereTheGreyCannot) {
   test::print_figure("best_truth_lead_grey_only", best_lead_grey);
   EXPECT_GT(worst_lead_with, 0.4);  // the truth always leads clearly with the chroma ...
   EXPECT_LT(best_lead_grey, 0.2);   // ... and never clearly by the grey levels alone
+  {  // A camera's white balance off (red x1.25, blue x0.75): the truth still leads.
+    const Mat3 R = so3_exp(Vec3(-M_PI / 2 - 0.7, 0, 0)) * so3_exp(Vec3(0, 0, 2.0));
+    const SE3 T(R, Vec3(0.01, -0.01, 0.55));
+    View v = render(mesh, T, &light);
+    for (Rgb8& c : v.color) {
+      c.r = static_cast<std::uint8_t>(std::min(255.0, c.r * 1.25));
+      c.b = static_cast<std::uint8_t>(c.b * 0.75);
+    }
+    const SE3 F = T * SE3(so3_exp(Vec3(M_PI, 0, 0)), Vec3::Zero());
+    const double lead =
+        chroma_agreement(*model.colour, T, v.color, v.depth, v.mask, v.K, with_chroma).ncc -
+        chroma_agreement(*model.colour, F, v.color, v.depth, v.mask, v.K, with_chroma).ncc;
+    test::print_figure("truth_lead_chroma_white_balance_off", lead);
+    EXPECT_GT(lead, 0.8);
+  }
   // A model of one hue (a grey print) has no chroma evidence.
   ModelColour grey_print = *model.colour;
   std::fill(grey_print.chroma.begin(), grey_print.chroma.end(), Eigen::Vector2f(1.0f / 3, 1.0f / 3));

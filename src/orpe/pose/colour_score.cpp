@@ -11,6 +11,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/weighted_correlation.h"
 #include "orpe/pose/model_search.h"
 #include "orpe/pose/object_model.h"
 #include "orpe/pose/single_view.h"
@@ -88,16 +89,11 @@ Eigen::Vector3f box_rgb(const ColorImage& image, int u, int v) {
   return n ? Eigen::Vector3f(sum / static_cast<float>(n)) : Eigen::Vector3f::Zero();
 }
 
-float grey_of_rgb(const Eigen::Vector3f& c) {
-  return (0.299f * c.x() + 0.587f * c.y() + 0.114f * c.z()) / 255.0f;
-}
-
 /// (r, g) / (r + g + b); black: the neutral (1/3, 1/3).
 Eigen::Vector2f chroma_of_rgb(const Eigen::Vector3f& c) {
   const float s = c.sum();
   return s > 1e-3f ? Eigen::Vector2f(c.x() / s, c.y() / s) : Eigen::Vector2f(1.0f / 3, 1.0f / 3);
 }
-
 
 /// Calls f(i, u, v) for every sample facing the camera, projecting inside `mask` (when not empty)
 /// onto a pixel whose observed depth is within `tol` of the sample's depth.
@@ -143,24 +139,6 @@ void principal_frame(const std::vector<Eigen::Vector3f>& pts, Vec3& centre, Mat3
   }
   centre = mean + axes * (0.5 * (lo + hi));
 }
-
-/// Weighted Pearson correlation accumulated pair by pair.
-struct WeightedCorrelation {
-  double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-  void add(double x, double y, double w) {
-    sw += w, sx += w * x, sy += w * y;
-    sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
-  }
-  /// False when there is no weight or either side is flat (variance under 1e-6).
-  bool correlation(double* r) const {
-    if (!(sw > 0)) return false;
-    const double mx = sx / sw, my = sy / sw;
-    const double vx = sxx / sw - mx * mx, vy = syy / sw - my * my, cxy = sxy / sw - mx * my;
-    if (vx < 1e-6 || vy < 1e-6) return false;
-    *r = std::clamp(cxy / std::sqrt(vx * vy), -1.0, 1.0);
-    return true;
-  }
-};
 
 }  // namespace
 
@@ -213,7 +191,7 @@ std::vector<VisibleColourSample> visible_colour_samples(
                    [&](size_t i, int u, int v) {
                      if (colour.weight[i] <= 0) return;
                      const Eigen::Vector3f rgb = box_rgb(image, u, v);
-                     out.push_back({i, grey_of_rgb(rgb), chroma_of_rgb(rgb),
+                     out.push_back({i, grey_of(rgb), chroma_of_rgb(rgb),
                                     R * colour.normals[i], u, v});
                    });
   return out;
@@ -227,7 +205,7 @@ namespace {
 ColourAgreement ncc_of(const std::vector<VisibleColourSample>& vis, const ModelColour& colour,
                        const ColourScoreParams& params) {
   ColourAgreement out;
-  WeightedCorrelation corr;
+  WeightedCorrelation<double> corr;
   for (const VisibleColourSample& s : vis) {
     corr.add(colour.grey[s.index], s.image_grey, colour.weight[s.index]);
     ++out.pixels;
@@ -312,8 +290,18 @@ class SampleBoxSums {
   std::vector<Eigen::Vector3d> sums_;
 };
 
-ColourAgreement lambert_of(const std::vector<VisibleColourSample>& vis, const ModelColour& colour,
-                           const DepthImage& depth, const MaskImage& mask,
+/// Per visible sample, whether its 3x3 pixel box lies on the surface (box_on_surface): the
+/// Lambert fit and the chroma evidence take only those.
+std::vector<char> boxes_on_surface(const std::vector<VisibleColourSample>& vis,
+                                   const DepthImage& depth, const MaskImage& mask, double tol) {
+  std::vector<char> out(vis.size());
+  for (size_t k = 0; k < vis.size(); ++k)
+    out[k] = box_on_surface(depth, mask, vis[k].u, vis[k].v, tol);
+  return out;
+}
+
+ColourAgreement lambert_of(const std::vector<VisibleColourSample>& vis,
+                           const std::vector<char>& on_surface, const ModelColour& colour,
                            const ColourScoreParams& params) {
   ColourAgreement out;
   WeightedLeastSquares<4> shading;
@@ -321,8 +309,9 @@ ColourAgreement lambert_of(const std::vector<VisibleColourSample>& vis, const Mo
   double sw = 0;
   if (vis.empty()) return out;
   const SampleBoxSums sums(vis, colour);
-  for (const VisibleColourSample& s : vis) {
-    if (!box_on_surface(depth, mask, s.u, s.v, params.depth_tolerance_m)) continue;
+  for (size_t k = 0; k < vis.size(); ++k) {
+    const VisibleColourSample& s = vis[k];
+    if (!on_surface[k]) continue;
     // The albedo over the sample's 3x3 pixel box, as the image's grey (its 3x3 mean): a print finer
     // than a pixel (small text) averages alike on both sides instead of aliasing on the model's.
     const Eigen::Vector3d px = sums.box(s.u, s.v, 1);
@@ -359,7 +348,7 @@ ColourAgreement local_contrast_of(const std::vector<VisibleColourSample>& vis,
   const int r =
       std::max(1, static_cast<int>(std::lround(K.fx * radius_m / std::max(z_median, 0.01))));
   const SampleBoxSums sums(vis, colour);
-  WeightedCorrelation corr;
+  WeightedCorrelation<double> corr;
   for (const auto& s : vis) {
     // b(0), px(0) > 0: the sample itself is inside. The model's grey over the 3x3 pixel box, as
     // the image's (its 3x3 mean): a print finer than a pixel averages alike on both sides.
@@ -370,39 +359,23 @@ ColourAgreement local_contrast_of(const std::vector<VisibleColourSample>& vis,
   return out;
 }
 
-ColourAgreement chroma_of(const std::vector<VisibleColourSample>& vis, const ModelColour& colour,
-                          const DepthImage& depth, const MaskImage& mask,
+ColourAgreement chroma_of(const std::vector<VisibleColourSample>& vis,
+                          const std::vector<char>& on_surface, const ModelColour& colour,
                           const ColourScoreParams& params) {
   ColourAgreement out;
   if (!colour.has_chroma()) return out;
-  double sw = 0;
-  Eigen::Vector2d sm = Eigen::Vector2d::Zero(), si = sm;  // weighted sums: model, image
-  double smm = 0, sii = 0, smi = 0;
-  for (const VisibleColourSample& s : vis) {
-    if (s.image_grey < params.chroma_min_grey) continue;
-    if (!box_on_surface(depth, mask, s.u, s.v, params.depth_tolerance_m)) continue;
-    const double w = colour.weight[s.index];
-    const Eigen::Vector2d m = colour.chroma[s.index].cast<double>(), i = s.image_chroma.cast<double>();
-    sw += w, sm += w * m, si += w * i;
-    smm += w * m.squaredNorm(), sii += w * i.squaredNorm(), smi += w * m.dot(i);
+  WeightedCorrelation<Eigen::Vector2d> corr;
+  for (size_t k = 0; k < vis.size(); ++k) {
+    const VisibleColourSample& s = vis[k];
+    if (s.image_grey < params.chroma_min_grey || !on_surface[k]) continue;
+    corr.add(colour.chroma[s.index].cast<double>(), s.image_chroma.cast<double>(),
+             colour.weight[s.index]);
     ++out.pixels;
   }
-  if (out.pixels < params.min_pixels || !(sw > 0)) return out;
-  const Eigen::Vector2d mm = sm / sw, mi = si / sw;
-  const double vm = smm / sw - mm.squaredNorm(), vi = sii / sw - mi.squaredNorm();
-  if (vm < params.chroma_min_spread * params.chroma_min_spread || vi < 1e-8) return out;
-  out.ncc = std::clamp((smi / sw - mm.dot(mi)) / std::sqrt(vm * vi), -1.0, 1.0);
-  out.valid = true;
+  if (out.pixels < params.min_pixels) return out;
+  const double min_spread2 = params.chroma_min_spread * params.chroma_min_spread;
+  out.valid = corr.correlation(&out.ncc, min_spread2, 1e-8);
   return out;
-}
-
-ColourAgreement grey_evidence_of(const std::vector<VisibleColourSample>& vis,
-                                 const ModelColour& colour, const DepthImage& depth,
-                                 const MaskImage& mask, const PinholeIntrinsics& K,
-                                 const ColourScoreParams& params) {
-  if (params.evidence == "lambert") return lambert_of(vis, colour, depth, mask, params);
-  if (params.evidence == "local_contrast") return local_contrast_of(vis, colour, depth, K, params);
-  return ncc_of(vis, colour, params);
 }
 
 }  // namespace
@@ -420,9 +393,10 @@ ColourAgreement lambert_agreement(const ModelColour& colour, const SE3& T_cam_ob
                                   const ColorImage& image, const DepthImage& depth,
                                   const MaskImage& mask, const PinholeIntrinsics& K,
                                   const ColourScoreParams& params) {
-  return lambert_of(
-      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m),
-      colour, depth, mask, params);
+  const auto vis =
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
+  return lambert_of(vis, boxes_on_surface(vis, depth, mask, params.depth_tolerance_m), colour,
+                    params);
 }
 
 ColourAgreement local_contrast_agreement(const ModelColour& colour, const SE3& T_cam_obj,
@@ -439,9 +413,10 @@ ColourAgreement chroma_agreement(const ModelColour& colour, const SE3& T_cam_obj
                                  const MaskImage& mask, const PinholeIntrinsics& K,
                                  const ColourScoreParams& params) {
   if (!colour.has_chroma()) return {};
-  return chroma_of(
-      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m),
-      colour, depth, mask, params);
+  const auto vis =
+      visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
+  return chroma_of(vis, boxes_on_surface(vis, depth, mask, params.depth_tolerance_m), colour,
+                   params);
 }
 
 ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam_obj,
@@ -450,9 +425,21 @@ ColourAgreement pose_colour_evidence(const ModelColour& colour, const SE3& T_cam
                                      const ColourScoreParams& params) {
   const std::vector<VisibleColourSample> vis =
       visible_colour_samples(colour, T_cam_obj, image, depth, mask, K, params.depth_tolerance_m);
-  ColourAgreement grey = grey_evidence_of(vis, colour, depth, mask, K, params);
-  if (!(params.chroma_weight > 0) || !colour.has_chroma()) return grey;
-  const ColourAgreement chroma = chroma_of(vis, colour, depth, mask, params);
+  const bool lambert = params.evidence == "lambert";
+  const bool with_chroma = params.chroma_weight > 0 && colour.has_chroma();
+  // Computed once for the Lambert fit and the chroma evidence.
+  const std::vector<char> on_surface =
+      lambert || with_chroma ? boxes_on_surface(vis, depth, mask, params.depth_tolerance_m)
+                             : std::vector<char>();
+  ColourAgreement grey;
+  if (lambert)
+    grey = lambert_of(vis, on_surface, colour, params);
+  else if (params.evidence == "local_contrast")
+    grey = local_contrast_of(vis, colour, depth, K, params);
+  else
+    grey = ncc_of(vis, colour, params);
+  if (!with_chroma) return grey;
+  const ColourAgreement chroma = chroma_of(vis, on_surface, colour, params);
   if (!chroma.valid) return grey;
   if (!grey.valid) return chroma;
   grey.ncc = (1 - params.chroma_weight) * grey.ncc + params.chroma_weight * chroma.ncc;
@@ -505,7 +492,7 @@ int ModelColourAccumulator::add_view(const SE3& T_cam_obj, const ColorImage& ima
   for_each_visible(colour_.points, colour_.normals, T_cam_obj, depth, mask, K, depth_tolerance_m,
                    [&](size_t i, int u, int v) {
                      const Eigen::Vector3f rgb = box_rgb(image, u, v);
-                     sum_[i] += grey_of_rgb(rgb);
+                     sum_[i] += grey_of(rgb);
                      chroma_sum_[i] += chroma_of_rgb(rgb).cast<double>();
                      count_[i] += 1;
                      ++n;
@@ -651,7 +638,8 @@ std::shared_ptr<ModelColour> read_model_colour(const std::string& path) {
     out->weight.push_back(w);
     if (version == 2) out->chroma.push_back(c);
   }
-  if (!header) throw IoError(path, "empty file (expected '# orpe model colour v1')");
+  if (!header)
+    throw IoError(path, "empty file (expected '# orpe model colour v1' or '# orpe model colour v2')");
   if (out->points.empty()) throw IoError(path, "no samples");
   return out;
 }

@@ -121,10 +121,11 @@ struct ColourAgreement {
   bool valid = false;
 };
 
-/// Grey level in [0, 1] of an RGB8 colour (Rec. 601 luma).
-inline float grey_of(const Rgb8& c) {
-  return (0.299f * c.r + 0.587f * c.g + 0.114f * c.b) / 255.0f;
+/// Grey level in [0, 1] of a colour with channels in [0, 255] (Rec. 601 luma).
+inline float grey_of(const Eigen::Vector3f& rgb) {
+  return (0.299f * rgb.x() + 0.587f * rgb.y() + 0.114f * rgb.z()) / 255.0f;
 }
+inline float grey_of(const Rgb8& c) { return grey_of(Eigen::Vector3f(c.r, c.g, c.b)); }
 
 /// Grey levels of a model colour spanning less than this are one colour (no evidence).
 constexpr float kUniformGreyRange = 2.0f / 255.0f;

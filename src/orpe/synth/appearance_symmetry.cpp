@@ -4,6 +4,8 @@
 #include <limits>
 #include <vector>
 
+#include "orpe/core/weighted_correlation.h"
+
 namespace orpe::synth {
 namespace {
 
@@ -42,16 +44,11 @@ double transformed_correlation(const ColouredSamples& a, const ColouredSamples& 
     }
     y[i] = b.rgb[arg];
   }
-  Eigen::Vector3d sx = Eigen::Vector3d::Zero(), sy = sx;
-  double sxx = 0, syy = 0, sxy = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d& x = a.rgb[i];
-    sx += x, sy += y[i], sxx += x.squaredNorm(), syy += y[i].squaredNorm(), sxy += x.dot(y[i]);
-  }
-  const double m = static_cast<double>(n);
-  const double vx = sxx / m - (sx / m).squaredNorm(), vy = syy / m - (sy / m).squaredNorm();
-  if (vx < 1e-8 || vy < 1e-8) return 1.0;  // flat colour: nothing tells S from the identity
-  return (sxy / m - (sx / m).dot(sy / m)) / std::sqrt(vx * vy);
+  WeightedCorrelation<Eigen::Vector3d> corr;
+  for (size_t i = 0; i < n; ++i) corr.add(a.rgb[i], y[i]);
+  double r = 1.0;  // flat colour: nothing tells S from the identity
+  corr.correlation(&r, 1e-8, 1e-8);
+  return r;
 }
 
 SE3 turn_about(const Vec3& axis, const Vec3& offset, double angle) {

@@ -409,6 +409,7 @@ class PriorModeEstimator final : public SingleViewPoseEstimator {
     std::function<SE3()> T_world_cam;
     std::map<int, SE3> truth_T_world_obj;
     int wrong_globals = 2;
+    bool alternate = false;      // instead: every other global search turned (contested modes)
     std::map<int, int> globals;  // per class
     int from_prior = 0;
     int longest_prior_run = 0;
@@ -432,7 +433,8 @@ class PriorModeEstimator final : public SingleViewPoseEstimator {
     }
     run = 0;
     const SE3 truth = s_->T_world_cam().inverse() * s_->truth_T_world_obj.at(in.class_id);
-    const bool wrong = s_->globals[in.class_id]++ < s_->wrong_globals;
+    const int k = s_->globals[in.class_id]++;
+    const bool wrong = s_->alternate ? k % 2 == 1 : k < s_->wrong_globals;
     out.T_cam_obj = wrong ? truth * SE3(so3_exp(Vec3(0, 0, M_PI)), Vec3::Zero()) : truth;
     return out;
   }
@@ -493,6 +495,49 @@ TEST(AblationWiring, PriorFastPathLeavesAWrongModeBecauseGlobalSearchesRecurAndP
   EXPECT_GT(no_recurring_global.longest_prior_run, 2);
   EXPECT_EQ(no_recurring_global.right_side_at_end, 0);
   EXPECT_EQ(voting.right_side_at_end, 0);
+}
+
+TEST(AblationWiring, GlobalSearchesThatAgreeWithTheFusedModeComeLessOften) {
+  // The back-off (pipeline.prior_max_consecutive_limit): after init, a global search the filter
+  // takes into its reported mode doubles the object's run of prior estimates (2, 4, 8); while the
+  // global searches contradict each other (every other one turned 180 degrees) the run stays short.
+  const std::string dir =
+      test::synthetic_scene("prior_backoff", test::small_scene_params(160, 120, 24, 3, 5));
+  const auto reader = open_dataset(dir, DatasetParams{});
+  struct Run {
+    int globals = 0, longest_prior_run = 0;
+  };
+  auto run = [&](int limit, bool contested) {
+    ObjectRpeParams params = wiring_params({"Object-RPE"});
+    params.pipeline.ekf_init_views = 1;
+    params.pipeline.skip_min_fused_views = 0;
+    params.pipeline.ekf_symmetry = "none";
+    params.pipeline.ekf_prior_hypothesis = true;
+    params.pipeline.prior_max_consecutive = 2;
+    params.pipeline.prior_max_consecutive_limit = limit;
+    ObjectRpePipeline pipeline(params, reader->info());
+    auto shared = std::make_shared<PriorModeEstimator::Shared>();
+    shared->wrong_globals = 0;
+    shared->alternate = contested;
+    shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
+    pipeline.set_single_view_estimator(std::make_unique<PriorModeEstimator>(shared), false);
+    for (size_t i = 0; i < reader->size(); ++i) {
+      const RgbdFrame f = reader->read(i);
+      if (i == 0)
+        for (const auto& g : f.objects_gt)
+          shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
+      pipeline.process(f);
+    }
+    Run r;
+    for (const auto& [c, n] : shared->globals) r.globals += n;
+    r.longest_prior_run = shared->longest_prior_run;
+    return r;
+  };
+  const Run backoff = run(8, false), fixed = run(2, false), contested = run(8, true);
+  EXPECT_EQ(fixed.longest_prior_run, 2);
+  EXPECT_EQ(backoff.longest_prior_run, 8);
+  EXPECT_LT(backoff.globals * 3, fixed.globals * 2);  // 24 frames: 5 against 9 per object
+  EXPECT_LE(contested.longest_prior_run, 4);
 }
 
 TEST(AblationWiring, ProjectedMasksRecoverObjectsTheDetectorMissed) {

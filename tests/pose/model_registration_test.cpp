@@ -225,7 +225,9 @@ TEST_F(ModelRegistrationLShape, PriorFastPathGivesTheGlobalPoseMuchFaster) {
   // fraction of its time (a ratio measured in this run, not an absolute time; the process's CPU
   // time, all threads, so that other processes on the machine do not move it: the wall-time ratio
   // failed once, 0.22, while the suite shared the cores with another job; the CPU ratio measured
-  // 0.155-0.159 both idle and beside two busy loops).
+  // 0.155-0.159 both idle and beside two busy loops, before the fast path compared the prior's
+  // three 180-degree turns (pose_registration.prior_flips, on since session 19): 0.19-0.22 since,
+  // idle, which failed the old bound of 0.2 now and then; hence 0.35).
   const SurfaceSamples& dense = *dense_;
   const ObjectModel& model = *model_;
   std::mt19937 rng(21);
@@ -255,7 +257,7 @@ TEST_F(ModelRegistrationLShape, PriorFastPathGivesTheGlobalPoseMuchFaster) {
     EXPECT_FALSE(ModelRegistrationEstimator(off).estimate(in).from_prior);
   }
   test::print_figure("fast_over_global_cpu", fast_ms / global_ms);
-  EXPECT_LT(fast_ms, 0.2 * global_ms) << fast_ms << " ms vs " << global_ms << " ms CPU";
+  EXPECT_LT(fast_ms, 0.35 * global_ms) << fast_ms << " ms vs " << global_ms << " ms CPU";
 }
 
 TEST_F(ModelRegistrationLShape, PriorThatNoLongerFitsFallsBackToTheGlobalSearch) {
@@ -275,6 +277,39 @@ TEST_F(ModelRegistrationLShape, PriorThatNoLongerFitsFallsBackToTheGlobalSearch)
   ASSERT_TRUE(est.valid) << est.reason;
   EXPECT_FALSE(est.from_prior) << est.report();
   EXPECT_LT(test::add_s(model.points, est.T_cam_obj, T_gt), 0.006) << est.report();
+}
+
+TEST_F(ModelRegistrationLShape, PriorNearTheObjectsOwnReferenceKeepsTheFastPath) {
+  // An object whose right pose scores below the absolute thresholds (emulated: thresholds no pose
+  // reaches): without a reference every prior goes to the global search; with the object's own
+  // reference score (its global estimate's) the refined prior fits (its one ICP lands
+  // 5.7 mm ADD from the global search's pose here, as without the reference), and a prior that no
+  // longer fits (12 cm off, turned) still falls back.
+  const SurfaceSamples& dense = *dense_;
+  const ObjectModel& model = *model_;
+  std::mt19937 rng(23);
+  const SE3 T_gt = random_pose(rng, 0.6);
+  const test::SyntheticView view = test::render_view(dense, T_gt, options());
+  ModelRegistrationParams p;
+  p.prior_min_score = 2.0;
+  SingleViewInput in = input_of(view, model);
+  const SingleViewPose global = ModelRegistrationEstimator(p).estimate(in);
+  ASSERT_TRUE(global.valid) << global.reason;
+  in.T_cam_obj_prior = T_gt * SE3(so3_exp(Vec3(0.04, -0.03, 0.02)), Vec3(0.006, -0.004, 0.004));
+  EXPECT_FALSE(ModelRegistrationEstimator(p).estimate(in).from_prior);
+  in.prior_reference_score = global.score;
+  const SingleViewPose fast = ModelRegistrationEstimator(p).estimate(in);
+  ASSERT_TRUE(fast.valid) << fast.reason;
+  EXPECT_TRUE(fast.from_prior) << fast.report() << " / reference " << global.report();
+  EXPECT_LT(test::add(model.points, fast.T_cam_obj, T_gt), 0.008) << fast.report();
+  ModelRegistrationParams absolute_only = p;
+  absolute_only.prior_relative_fraction = 0;
+  EXPECT_FALSE(ModelRegistrationEstimator(absolute_only).estimate(in).from_prior);
+  in.T_cam_obj_prior = SE3(so3_exp(Vec3(1.2, 0.4, -0.3)) * T_gt.rotation(),
+                           T_gt.translation() + Vec3(0.0, 0.0, 0.12));
+  const SingleViewPose moved = ModelRegistrationEstimator(p).estimate(in);
+  EXPECT_FALSE(moved.from_prior) << moved.report();
+  EXPECT_LT(test::add_s(model.points, moved.T_cam_obj, T_gt), 0.006) << moved.report();
 }
 
 TEST(ModelRegistration, BadInputsGiveInvalidWithReason) {

@@ -18,6 +18,7 @@ ObjectPoseFusion::Outcome ObjectPoseFusion::add(const PoseMeasurement& m, double
     ekf_.predict();
     const PoseEkfStep step = ekf_.update(m, score);
     out.accepted = step.accepted;
+    out.switched = step.reinitialised;
     if (!step.accepted) ++rejected_;
     return out;
   }

@@ -30,6 +30,7 @@ class ObjectPoseFusion {
   struct Outcome {
     bool accepted = false;     ///< fused into the state (or buffered for the initialisation)
     bool initialised = false;  ///< this measurement completed the (consensus) initialisation
+    bool switched = false;     ///< the report moved to another mode (M = 1: the filter restarted)
   };
   /// Adds one valid single-view measurement (`score`: its confidence, averaged into score()).
   Outcome add(const PoseMeasurement& measurement, double score);

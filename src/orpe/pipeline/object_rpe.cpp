@@ -45,6 +45,20 @@ bool skip_estimate(const SkipState& s, int fused_views, const SE3& T_world_cam,
          motion.rotation_angle_deg() < pp.skip_max_rotation_deg;
 }
 
+/// Estimates in a row an object may take from the prior (PipelineParams::prior_max_consecutive*).
+int prior_allowance(int allowance, const PipelineParams& pp) {
+  return allowance < 0 ? pp.prior_max_consecutive : allowance;
+}
+
+/// The allowance after a global search: doubled (up to prior_max_consecutive_limit) when the
+/// filter took the measurement into its reported mode, else back to prior_max_consecutive.
+int backed_off_allowance(int allowance, bool agreed, const PipelineParams& pp) {
+  const int base = pp.prior_max_consecutive;
+  if (!agreed || base <= 0) return base;
+  return std::min(2 * prior_allowance(allowance, pp),
+                  std::max(base, pp.prior_max_consecutive_limit));
+}
+
 /// The single-view estimate's score as the weight of its pose row and of its EKF measurement:
 /// clamped to [0.01, 1] (a registration score can exceed 1; a valid estimate never weighs 0).
 double single_view_weight(const SingleViewPose& sv) {
@@ -153,7 +167,11 @@ struct ObjectRpePipeline::Track {
   int valid_views = 0;
   SkipState skip;                    // EKF variants
   std::int32_t last_slam_time = -1;  // SLAM frame counter of the last view fused (loop closure)
-  int prior_in_a_row = 0;  // estimates in a row from the prior (pipeline.prior_max_consecutive)
+  int prior_in_a_row = 0;    // estimates in a row from the prior (pipeline.prior_max_consecutive)
+  int prior_allowance = -1;  // how many in a row may come from it; -1: prior_max_consecutive
+  // Score of its last global estimate that agreed with the fused mode: the reference a refined
+  // prior's score is held to (pose_registration.prior_relative_fraction); 0 = none.
+  double reference_score = 0;
 };
 
 struct ObjectRpePipeline::VariantState {
@@ -352,6 +370,11 @@ void ObjectRpePipeline::keyframe_fused(const SemanticStep& step, const RgbdFrame
   result_.detections = static_cast<int>(step.detections.size());
   if (step.report.merged_instances > 0) hand_over_merged_tracks();
   ++stats_.keyframes;
+  stats_.semantic_segment_ms += step.segment_ms;
+  stats_.semantic_render_ms += step.report.render_ms;
+  stats_.semantic_associate_ms += step.report.associate_ms;
+  stats_.semantic_update_ms += step.report.update_ms;
+  stats_.semantic_guards_ms += step.report.guards_ms;
   stats_.detections += result_.detections;
   result_.evaluated =
       !variants_.empty() && (stats_.keyframes - 1) % params_.pipeline.pose_every_n_keyframes == 0;
@@ -682,7 +705,7 @@ bool ObjectRpePipeline::estimate_single_view(PoseFrame& f, size_t vi, const Cand
   const PoseVariant& cfg = variants_[vi].config;
   const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
                          track->ekf->has_estimate() &&
-                         track->prior_in_a_row < pp.prior_max_consecutive;
+                         track->prior_in_a_row < prior_allowance(track->prior_allowance, pp);
   const bool learned = track && track->colour && track->colour->model();
   const auto key =
       std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,
@@ -713,13 +736,17 @@ bool ObjectRpePipeline::estimate_single_view(PoseFrame& f, size_t vi, const Cand
     in.intrinsics = f.K;
     in.class_id = c.class_id;
     in.model = learned ? track->colour->model() : &model;
-    if (use_prior) in.T_cam_obj_prior = track->ekf->T_cam_obj(f.T_world_cam);
+    if (use_prior) {
+      in.T_cam_obj_prior = track->ekf->T_cam_obj(f.T_world_cam);
+      in.prior_reference_score = track->reference_score;
+    }
     const auto t0 = Clock::now();
     est.single_view = estimator_->estimate(in);
     f.result.single_view_ms += ms_since(t0);
     ++stats_.single_view_estimates;
     stats_.single_view_valid += est.single_view.valid;
     stats_.single_view_from_prior += est.single_view.from_prior;
+    stats_.single_view_prior_not_fitting += use_prior && !est.single_view.from_prior;
     if (track) track->prior_in_a_row = est.single_view.from_prior ? track->prior_in_a_row + 1 : 0;
     f.cache.emplace(key, est.single_view);
   }
@@ -788,6 +815,9 @@ void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, cons
   const SingleViewPose& sv = est.single_view;
   const double sv_score = single_view_weight(sv);
   ObjectPoseFusion& fusion = *track.ekf;
+  // A global search on an object the filter already holds: a vote on its mode (the back-off).
+  const bool vote = !skip && !c.report_only && !sv.from_prior && fusion.has_estimate();
+  bool agreed = false;
   if (sv.valid) {
     PoseMeasurement m;
     m.frame_index = f.frame.index;
@@ -800,6 +830,7 @@ void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, cons
     // A refined prior that inherited its mode is not an independent vote among modes.
     if (sv.from_prior && !sv.prior_modes_compared) m.mode_weight *= pp.prior_mode_weight;
     const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
+    agreed = o.accepted && !o.switched;
     track.last_slam_time = slam_->last_time();
     est.ekf_accepted = o.accepted;
     ++(o.accepted ? stats_.ekf_accepted : stats_.ekf_rejected);
@@ -808,6 +839,8 @@ void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, cons
                  cfg.projected_depth ? *f.projected_depth : f.frame.depth, *c.mask, f.K);
   }
   if (!skip && !c.report_only) track.skip = {est.ekf_accepted, f.T_world_cam, 0};
+  if (vote) track.prior_allowance = backed_off_allowance(track.prior_allowance, agreed, pp);
+  if (vote && agreed) track.reference_score = sv.score;
   if (fusion.has_estimate()) {
     est.reported = true;
     est.T_cam_obj = fusion.T_cam_obj(f.T_world_cam);

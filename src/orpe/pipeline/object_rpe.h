@@ -164,6 +164,8 @@ struct PipelineStats {
   int detections = 0;
   int single_view_estimates = 0, single_view_valid = 0, single_view_cache_hits = 0;
   int single_view_from_prior = 0;  ///< estimates that were a local refinement of the EKF's prior
+  /// Estimates given the prior that ran the global search (the refined prior did not fit).
+  int single_view_prior_not_fitting = 0;
   int single_view_skipped = 0;     ///< objects not re-estimated (PipelineParams::skip_*)
   int ekf_accepted = 0, ekf_rejected = 0;
   int colour_views_learned = 0;  ///< views that taught an object its colour (learned from the map)
@@ -171,6 +173,10 @@ struct PipelineStats {
   /// (SceneRender; of render_views' frames).
   int projected_scene_reused = 0;
   double slam_ms = 0, semantic_ms = 0, render_ms = 0, single_view_ms = 0, ekf_ms = 0, total_ms = 0;
+  /// The semantic stage's parts (ms, SemanticFrameReport): segmentation back-end, the map's
+  /// instance render, association, surfel updates, segment guards.
+  double semantic_segment_ms = 0, semantic_render_ms = 0, semantic_associate_ms = 0,
+         semantic_update_ms = 0, semantic_guards_ms = 0;
   /// Asynchronous segmentation: time the pipeline waited for a keyframe's detections (ms).
   double segmentation_wait_ms = 0;
   /// Loading object models on their class's first pose estimate (ms; inside total_ms, in no stage).

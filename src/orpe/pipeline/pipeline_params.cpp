@@ -50,6 +50,7 @@ bool PipelineParams::IsValid(std::string* why) const {
     return fail("skip_max_translation_m and skip_max_rotation_deg must be >= 0");
   if (skip_max_consecutive < 0) return fail("skip_max_consecutive must be >= 0");
   if (prior_max_consecutive < 0) return fail("prior_max_consecutive must be >= 0");
+  if (prior_max_consecutive_limit < 0) return fail("prior_max_consecutive_limit must be >= 0");
   if (!(prior_mode_weight >= 0 && prior_mode_weight <= 10))
     return fail("prior_mode_weight must be in [0, 10]");
   if (segmentation_delay_frames < 0 || segmentation_delay_frames > 1000)

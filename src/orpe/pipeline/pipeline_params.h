@@ -74,6 +74,13 @@ struct PipelineParams {
   /// 107 -> 76 ms per frame (docs/PIPELINE.md, docs/BENCHMARKS.md).
   bool ekf_prior_hypothesis = true;
   int prior_max_consecutive = 2;
+  /// Back-off of the recurring global search (session 23): a global search whose measurement the
+  /// filter takes into its reported mode (no switch) doubles the object's allowance of estimates in
+  /// a row from the prior, up to prior_max_consecutive_limit; one that is rejected, invalid or
+  /// makes the report switch sets it back to prior_max_consecutive. Independent votes stay
+  /// frequent while the modes are contested and become rarer while they agree.
+  /// prior_max_consecutive_limit <= prior_max_consecutive: no back-off (sessions 7-22).
+  int prior_max_consecutive_limit = 8;
   double prior_mode_weight = 0.0;
   /// Skip rule (EKF variants; a deviation, docs/PIPELINE.md): an object is not re-estimated on an
   /// evaluated frame when its filter has fused at least skip_min_fused_views views, its last
@@ -144,6 +151,10 @@ struct PipelineParams {
     v("prior_max_consecutive", prior_max_consecutive,
       "Prior fast path: at most this many estimates in a row per object from the prior; the next "
       "is a global search (0 = never from the prior)");
+    v("prior_max_consecutive_limit", prior_max_consecutive_limit,
+      "Prior fast path: a global search that agrees with the fused mode doubles the object's "
+      "allowance of estimates in a row from the prior, up to this; a disagreeing one resets it "
+      "to prior_max_consecutive (<= prior_max_consecutive: no back-off)");
     v("prior_mode_weight", prior_mode_weight,
       "Prior fast path: weight of a prior-refined measurement in the competition of the EKF's "
       "modes, relative to a global search's (0 = refines its mode, never votes)");

@@ -217,11 +217,11 @@ std::string RunSummary::report() const {
     s += fmt::format("poses [{}]: {} rows\n", variants[v], pose_rows[v]);
   if (stats.single_view_estimates)
     s += fmt::format(
-        "single-view: {} estimates ({} valid, {} reused, {} from the prior, {} skipped); EKF: {} "
-        "accepted, {} gated\n",
+        "single-view: {} estimates ({} valid, {} reused, {} from the prior, {} prior not fitting, "
+        "{} skipped); EKF: {} accepted, {} gated\n",
         stats.single_view_estimates, stats.single_view_valid, stats.single_view_cache_hits,
-        stats.single_view_from_prior, stats.single_view_skipped, stats.ekf_accepted,
-        stats.ekf_rejected);
+        stats.single_view_from_prior, stats.single_view_prior_not_fitting,
+        stats.single_view_skipped, stats.ekf_accepted, stats.ekf_rejected);
   const double n = std::max(frames, 1);
   s += fmt::format(
       "time per frame: read {:.0f} ms, slam {:.0f} ms, semantic {:.0f} ms, render {:.0f} ms, "
@@ -540,6 +540,7 @@ void summarise_timing(const RunSummary& summary, JsonSummary& js) {
   js.set("counts.single_view_valid", st.single_view_valid);
   js.set("counts.single_view_reused", st.single_view_cache_hits);
   js.set("counts.single_view_from_prior", st.single_view_from_prior);
+  js.set("counts.single_view_prior_not_fitting", st.single_view_prior_not_fitting);
   js.set("counts.single_view_skipped", st.single_view_skipped);
   js.set("counts.ekf_accepted", st.ekf_accepted);
   js.set("counts.ekf_rejected", st.ekf_rejected);
@@ -549,6 +550,11 @@ void summarise_timing(const RunSummary& summary, JsonSummary& js) {
   js.set("timing_ms.total.read", summary.read_ms);
   js.set("timing_ms.total.slam", st.slam_ms);
   js.set("timing_ms.total.semantic", st.semantic_ms);
+  js.set("timing_ms.total.semantic_segment", st.semantic_segment_ms);
+  js.set("timing_ms.total.semantic_render", st.semantic_render_ms);
+  js.set("timing_ms.total.semantic_associate", st.semantic_associate_ms);
+  js.set("timing_ms.total.semantic_update", st.semantic_update_ms);
+  js.set("timing_ms.total.semantic_guards", st.semantic_guards_ms);
   js.set("timing_ms.total.render_views", st.render_ms);
   js.set("timing_ms.total.single_view", st.single_view_ms);
   js.set("timing_ms.total.ekf", st.ekf_ms);

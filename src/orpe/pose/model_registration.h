@@ -74,6 +74,12 @@ struct ModelRegistrationParams {
   double prior_min_inlier_fraction = 0.7;
   double prior_max_free_space_violation = 0.15;
   double prior_min_score = 0.8;
+  /// The refined prior's score also fits when it reaches this fraction of the object's own
+  /// reference (SingleViewInput::prior_reference_score: in the pipeline its last global estimate
+  /// the filter took into its reported mode): an object whose right pose scores below
+  /// prior_min_score (small, partly seen, little support) keeps the fast path. The inlier and
+  /// free-space thresholds stay absolute. 0 = absolute thresholds only.
+  double prior_relative_fraction = 0.8;
   bool prior_flips = true;
 
   template <class V>
@@ -152,6 +158,10 @@ struct ModelRegistrationParams {
       "choice among those modes is made anew on every view");
     v("prior_min_score", prior_min_score,
       "... and its score reaches this; else the global search runs (prior as one hypothesis)");
+    v("prior_relative_fraction", prior_relative_fraction,
+      "The refined prior's score also fits when it reaches this fraction of the object's "
+      "reference score (its last global estimate that agreed with the fused pose); 0 = "
+      "prior_min_score only");
   }
   bool IsValid(std::string* why) const;
   SegmentedCloudParams segmented_cloud() const;

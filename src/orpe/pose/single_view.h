@@ -30,6 +30,9 @@ struct SingleViewInput {
   /// Optional guess (e.g. the fused world pose moved into this camera): tried as one more
   /// hypothesis.
   std::optional<SE3> T_cam_obj_prior;
+  /// Optional, with the prior: the score of the object's last estimate the caller trusts (0 =
+  /// none); a back-end may accept a refined prior that scores close to it.
+  double prior_reference_score = 0;
 
   /// Pointers set, sizes consistent, intrinsics valid, model non-empty.
   bool IsValid(std::string* why) const;

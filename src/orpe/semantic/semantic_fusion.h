@@ -289,7 +289,10 @@ struct SemanticFrameReport {
   int pixels_behind_edges = 0;  ///< mask pixels dropped by the depth-edge guard
   int surfels_detached = 0;     ///< surfels released by the connectivity guard
   int surfels_on_support = 0;   ///< surfels released by the support-plane guard
-  double render_ms = 0, associate_ms = 0, update_ms = 0, total_ms = 0;
+  /// Time (ms) of the steps: the map's instance masks rendered, detections associated and pixel
+  /// labels fused, the observed surfels updated, the segment guards (connectivity, support
+  /// planes); total includes the pruning.
+  double render_ms = 0, associate_ms = 0, update_ms = 0, guards_ms = 0, total_ms = 0;
   std::string report() const;
 };
 

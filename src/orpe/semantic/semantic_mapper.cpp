@@ -85,6 +85,7 @@ const SemanticStep& SemanticMapper::integrate(const RgbdFrame& frame, const SE3&
                                               double segment_ms) {
   step_ = SemanticStep{};
   step_.keyframe = true;
+  step_.segment_ms = segment_ms;
   ++keyframes_;
   segment_ms_ += segment_ms;
   step_.detections = std::move(detections);

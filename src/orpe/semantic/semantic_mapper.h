@@ -47,6 +47,7 @@ struct SemanticStep {
   bool keyframe = false;
   std::vector<Detection> detections;  ///< this keyframe's detections (empty on other frames)
   SemanticFrameReport report;         ///< meaningful when keyframe
+  double segment_ms = 0;              ///< the back-end's time on this keyframe
 };
 
 class SemanticMapper {

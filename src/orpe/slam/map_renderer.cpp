@@ -106,10 +106,6 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
     const int v0 = std::max(oy, static_cast<int>(std::ceil(v - r_px)));
     const int v1 = std::min(y_end, static_cast<int>(std::floor(v + r_px)));
     const float r2 = r_m * r_m;
-    // Keys of unconfident surfels sort after every confident one (the depth written below is
-    // recomputed from the surfel, so the offset only orders the keys).
-    const float behind =
-        options.confident_first && map.confidence[i] < options.min_confidence ? 1.0e4f : 0.0f;
     // The plane n . X = n . p; along the pixel ray X = d * t with d = ((x - cx)/fx, (y - cy)/fy, 1)
     // the intersection's depth is t = (n . p) / (n . d).
     const float np = facing;
@@ -127,7 +123,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
         const float ex = dx * t - p.x(), ey = dy * t - p.y(), ez = t - z;
         if (ex * ex + ey * ey + ez * ez > r2 || t < options.near_m) continue;
         const float px = static_cast<float>(x) - u;
-        atomic_min(row[x], pack(t * (1.0f + kappa * (px * px + py * py)) + behind, idx));
+        atomic_min(row[x], pack(t * (1.0f + kappa * (px * px + py * py)), idx));
         if (x == uc && y == vc) centre_drawn = true;
       }
     }
@@ -135,7 +131,7 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
     if (!centre_drawn && uc >= ox && vc >= oy && uc <= x_end && vc <= y_end) {
       const float px = static_cast<float>(uc) - u, py = static_cast<float>(vc) - v;
       atomic_min(zbuf[static_cast<size_t>(vc - oy) * W + (uc - ox)],
-                 pack(z * (1.0f + kappa * (px * px + py * py)) + behind, idx));
+                 pack(z * (1.0f + kappa * (px * px + py * py)), idx));
     }
   }
 

@@ -54,10 +54,6 @@ struct RenderOptions {
   /// depth test compares t * (1 + centre_preference * d^2), d = pixel-to-centre distance (px). Without
   /// it, ties between coplanar discs go to the lowest index, which shifts colours systematically.
   float centre_preference = 0.003f;
-  /// Surfels drawn only through `also_seen_since` (below min_confidence) lose every pixel that a
-  /// surfel of at least min_confidence covers, at any depth: they fill the holes of the confident
-  /// map instead of competing with it.
-  bool confident_first = false;
 
   /// A window of K's image (render()): pixels [window_u0, window_u0 + window_width) x
   /// [window_v0, window_v0 + window_height); the outputs are window-sized and equal, bit for bit,

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Eigenvalues>
-
 #include "orpe/core/error.h"
 
 namespace orpe::slam {
@@ -165,49 +163,6 @@ void compute_normal_map(const VertexImage& vertex, double max_depth_jump_per_m, 
       n /= len;
       if (n.dot(c) > 0.0f) n = -n;  // face the camera
       o[u] = n;
-    }
-  }
-}
-
-void fit_normal_map(const VertexImage& points, int radius_px, double max_depth_jump_per_m,
-                    NormalImage* normal, VertexImage* vertex) {
-  const int w = points.width(), h = points.height();
-  const float jump = static_cast<float>(max_depth_jump_per_m);
-#pragma omp parallel for schedule(static)
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      const Vec3f& c = points.at(u, v);
-      if (c.z() <= 0.0f) continue;
-      // Moments about the pixel's own point (numerically better than about the origin).
-      Eigen::Matrix3f S = Eigen::Matrix3f::Zero();
-      Vec3f m = Vec3f::Zero();
-      int n = 0;
-      for (int y = std::max(0, v - radius_px); y <= std::min(h - 1, v + radius_px); ++y)
-        for (int x = std::max(0, u - radius_px); x <= std::min(w - 1, u + radius_px); ++x) {
-          const Vec3f& q = points.at(x, y);
-          const int d = std::max(std::abs(x - u), std::abs(y - v));
-          if (q.z() <= 0.0f || std::fabs(q.z() - c.z()) > jump * c.z() * static_cast<float>(d))
-            continue;
-          const Vec3f e = q - c;
-          S += e * e.transpose();
-          m += e;
-          ++n;
-        }
-      if (n < 4) continue;
-      m /= static_cast<float>(n);
-      const Eigen::Matrix3f C = S / static_cast<float>(n) - m * m.transpose();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> es;
-      es.computeDirect(C);
-      const Eigen::Vector3f ev = es.eigenvalues();  // ascending
-      if (!(ev(1) > 4.0f * ev(0)) || !(ev(1) > 0.0f)) continue;  // collinear or no plane
-      Vec3f nf = es.eigenvectors().col(0).normalized();
-      if (nf.dot(c) > 0.0f) nf = -nf;
-      normal->at(u, v) = nf;
-      if (vertex) {
-        const Vec3f& r = vertex->at(u, v);
-        const float nr = nf.dot(r);
-        if (r.z() > 0.0f && nr < -1e-6f * r.norm()) vertex->at(u, v) = r * (nf.dot(c) / nr);
-      }
     }
   }
 }

@@ -80,15 +80,6 @@ class FramePreprocessor {
 /// Vertex and normal maps from a depth image (used for the frame and for rendered model levels).
 void compute_vertex_map(const DepthImage& depth, const PinholeIntrinsics& K, VertexImage* vertex);
 void compute_normal_map(const VertexImage& vertex, double max_depth_jump_per_m, NormalImage* normal);
-/// Normals of planes fitted (least squares: the covariance's smallest eigenvector) to the points
-/// within `radius_px` pixels (Chebyshev) of each pixel, leaving out neighbours whose depth differs
-/// from the pixel's by more than max_depth_jump_per_m x z x (their pixel distance). Points: camera
-/// frame (m), z <= 0 = none. A pixel without a point, or whose neighbours are fewer than 4 or
-/// collinear, keeps the normal it had in `normal` (its size must match). Normals face the camera.
-/// When `vertex` is non-null, each re-fitted pixel's vertex (a point on its pixel's ray) moves
-/// along the ray onto the fitted plane through its own point.
-void fit_normal_map(const VertexImage& points, int radius_px, double max_depth_jump_per_m,
-                    NormalImage* normal, VertexImage* vertex = nullptr);
 /// 2x2 block average of depth, skipping invalid pixels and pixels far from the block's first depth.
 void downsample_depth(const DepthImage& in, float max_jump_m, DepthImage* out);
 /// 2x2 block average of an intensity image (all pixels valid).

@@ -43,10 +43,6 @@ bool SlamOptions::IsValid(std::string* why) const {
     if (why) *why = "prediction_radius_scale must be in [0.3, 2]";
     return false;
   }
-  if (model_normal_fit_radius_px < 0 || model_normal_fit_radius_px > 8) {
-    if (why) *why = "model_normal_fit_radius_px must be in 0..8";
-    return false;
-  }
   if (!(min_valid_depth_fraction >= 0 && min_valid_depth_fraction <= 1) || min_valid_depth_px < 0) {
     if (why) *why = "need min_valid_depth_fraction in [0, 1] and min_valid_depth_px >= 0";
     return false;
@@ -132,14 +128,9 @@ void SlamSystem::predict(const SE3& T_world_cam, std::int32_t now, std::int32_t 
   opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
   opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
   opt.want_surfel_centre = true;
-  opt.confident_first = params_.options.unstable_fill_only;
   const int pl = std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
   const PinholeIntrinsics K_pred = intrinsics_.scaled(pl);
   predict_renderer_.render(map_, T_world_cam, K_pred, opt, &prediction_);
-  if (params_.options.model_normal_fit_radius_px > 0)
-    fit_normal_map(prediction_.surfel_centre, params_.options.model_normal_fit_radius_px,
-                   params_.preprocess.normal_max_depth_jump_m, &prediction_.normal,
-                   params_.options.model_normal_fit_vertex ? &prediction_.vertex : nullptr);
   build_model_pyramid(prediction_, K_pred, params_.preprocess.pyramid_levels - pl,
                       static_cast<float>(params_.preprocess.pyramid_max_depth_jump_m), &model_, pl);
   if (params_.options.rgb_against_previous_frame && prev_frame_at_pose_) {

@@ -61,14 +61,6 @@ struct SlamOptions {
   /// (SlamFrameResult::no_depth).
   double min_valid_depth_fraction = 0.02;
   int min_valid_depth_px = 100;
-  /// Tracking's model normals re-fitted as planes through the rendered surfel centres within this
-  /// many pixels (of the prediction level; 0 = the surfels' fused normals, ElasticFusion).
-  /// Experimental (issue 19).
-  int model_normal_fit_radius_px = 0;
-  /// With the above: the model vertices moved along their rays onto the fitted planes.
-  bool model_normal_fit_vertex = false;
-  /// Experimental: the recent unstable surfels only fill pixels no stable surfel covers.
-  bool unstable_fill_only = false;
 
   template <class V>
   void visit(V&& v) {
@@ -88,13 +80,6 @@ struct SlamOptions {
       "Frames with less valid depth (in range) than this fraction of their pixels are not tracked "
       "(LOST)");
     v("min_valid_depth_px", min_valid_depth_px, "... or than this many pixels");
-    v("model_normal_fit_radius_px", model_normal_fit_radius_px,
-      "Tracking: model normals re-fitted to the rendered surfel centres within this many pixels "
-      "(0 = fused normals, EF)");
-    v("model_normal_fit_vertex", model_normal_fit_vertex,
-      "With the above: model vertices moved onto the fitted planes");
-    v("unstable_fill_only", unstable_fill_only,
-      "Tracking: recent unstable surfels only fill pixels no stable surfel covers");
   }
   bool IsValid(std::string* why) const;
 };

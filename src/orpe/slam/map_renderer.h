@@ -58,7 +58,8 @@ struct RenderOptions {
   /// this of the nearest one's, the disc whose centre is nearest the pixel (a second splatting
   /// pass). Overlapping discs of one surface then do not compete by depth: with noisy surfels
   /// (few observations) the nearest of several is biased towards the camera, which biases
-  /// tracking (docs/SLAM.md, "The model prediction's surface band"). 0 = the nearest disc wins.
+  /// tracking (docs/SLAM.md, "Session 19: the tracking prediction's surface band"). 0 = the
+  /// nearest disc wins.
   float surface_band_m = 0.0f;
 
   /// A window of K's image (render()): pixels [window_u0, window_u0 + window_width) x

@@ -266,7 +266,7 @@ TEST(MapRenderer, ASurfaceBandShowsNoisyOverlappingSurfelsWithoutBias) {
   opt.surface_band_m = 0.05f;
   renderer.render(map, SE3(), small_camera(), opt, &view);
   EXPECT_NEAR(mean_wall_depth(), 2.0, 0.001);  // 0.3 mm
-  EXPECT_EQ(view.instance_id.at(50, 60), 2);  // the front wall, 0.5 m nearer, still occludes
+  EXPECT_EQ(view.instance_id.at(50, 60), 2);   // the front wall, 0.5 m nearer, still occludes
   EXPECT_NEAR(view.depth.at(50, 60), 1.5f, 1e-4);
 }
 

@@ -87,7 +87,8 @@ bool splat_surfel(const SurfelMap& map, size_t i, const CameraF& cam, const Rend
   if (u + r_px < win.ox - 0.5f || v + r_px < win.oy - 0.5f || u - r_px > x_end + 0.5f ||
       v - r_px > y_end + 0.5f)
     return false;  // nothing of it in the window
-  const int uc = static_cast<int>(std::floor(u + 0.5f)), vc = static_cast<int>(std::floor(v + 0.5f));
+  const int uc = static_cast<int>(std::floor(u + 0.5f)),
+            vc = static_cast<int>(std::floor(v + 0.5f));
   const int u0 = std::max(win.ox, static_cast<int>(std::ceil(u - r_px)));
   const int u1 = std::min(x_end, static_cast<int>(std::floor(u + r_px)));
   const int v0 = std::max(win.oy, static_cast<int>(std::ceil(v - r_px)));

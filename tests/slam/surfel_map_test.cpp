@@ -234,6 +234,42 @@ TEST(MapRenderer, AWindowEqualsThatWindowOfTheWholeImageBitForBit) {
   EXPECT_LT(window.drawn_surfels, whole.drawn_surfels);
 }
 
+// Where noisy surfels of one surface overlap, the nearest disc is biased towards the camera; with
+// a surface band the disc centred nearest the pixel shows, and the surface's depth is unbiased,
+// while a nearer surface beyond the band still occludes (docs/SLAM.md, "Session 19: the tracking
+// prediction's surface band").
+TEST(MapRenderer, ASurfaceBandShowsNoisyOverlappingSurfelsWithoutBias) {
+  SurfelMap map = make_wall(2.0f, 1);  // 1 cm spacing, radius 1 cm: each pixel meets ~3 discs
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.0f, 0.01f);
+  for (Vec3f& p : map.position_world) p.z() += noise(rng);
+  const SurfelMap front = make_wall(1.5f, 2, 0.02f);  // 0.5 m nearer, on the left half only
+  for (size_t i = 0; i < front.size(); ++i)
+    if (front.position_world[i].x() < -0.1f) map.push_back(front.get(i));
+  MapRenderer renderer;
+  RenderedView view;
+  RenderOptions opt;
+  opt.want_instance = true;
+  auto mean_wall_depth = [&] {
+    double sum = 0;
+    int n = 0;
+    for (int v = 30; v < 90; ++v)
+      for (int u = 90; u < 110; ++u) {  // x in [0.07, 0.2] m: the noisy wall only
+        sum += view.depth.at(u, v);
+        ++n;
+      }
+    return sum / n;
+  };
+  renderer.render(map, SE3(), small_camera(), opt, &view);
+  const double nearest = mean_wall_depth();
+  EXPECT_LT(nearest, 1.995);  // the nearest of the overlapping discs: 8 mm in front
+  opt.surface_band_m = 0.05f;
+  renderer.render(map, SE3(), small_camera(), opt, &view);
+  EXPECT_NEAR(mean_wall_depth(), 2.0, 0.001);  // 0.3 mm
+  EXPECT_EQ(view.instance_id.at(50, 60), 2);   // the front wall, 0.5 m nearer, still occludes
+  EXPECT_NEAR(view.depth.at(50, 60), 1.5f, 1e-4);
+}
+
 TEST(MapRenderer, IndexMapHoldsEachSurfelCentreInItsCell) {
   const SurfelMap map = make_wall(2.0f, 1, 0.02f);
   MapRenderer renderer;

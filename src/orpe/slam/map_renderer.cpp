@@ -60,6 +60,66 @@ struct SurfelFilter {
   }
 };
 
+// The pixels of the window [ox, ox + W) x [oy, oy + H) (the whole image's rays).
+struct Window {
+  int ox, oy, W, H;
+};
+
+// Calls visit(x, y, t, d2) for every window pixel (x, y) that surfel i's disc covers, with the
+// depth t of the pixel ray's intersection with the disc and d2 the squared distance (px^2) from
+// the pixel to the projected centre; a splat smaller than a pixel (or missed by every pixel ray)
+// still covers its centre's pixel, at the centre's depth. Returns false when the surfel is not
+// drawn (behind, back-facing, outside the window).
+template <class Visit>
+bool splat_surfel(const SurfelMap& map, size_t i, const CameraF& cam, const RenderOptions& options,
+                  const Window& win, Visit&& visit) {
+  const Vec3f p = cam.T_cam_world(map.position_world[i]);
+  const float z = p.z();
+  if (z < options.near_m || z > options.far_m) return false;
+  const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[i]);
+  const float facing = nrm.dot(p);
+  if (facing >= 0.0f) return false;  // back-facing
+  const float u = cam.fx * p.x() / z + cam.cx;
+  const float v = cam.fy * p.y() / z + cam.cy;
+  const float r_m = map.radius_m[i] * options.radius_scale;
+  const float r_px = std::min(r_m * std::max(cam.fx, cam.fy) / z, options.max_splat_radius_px);
+  const int x_end = win.ox + win.W - 1, y_end = win.oy + win.H - 1;  // the window's last pixel
+  if (u + r_px < win.ox - 0.5f || v + r_px < win.oy - 0.5f || u - r_px > x_end + 0.5f ||
+      v - r_px > y_end + 0.5f)
+    return false;  // nothing of it in the window
+  const int uc = static_cast<int>(std::floor(u + 0.5f)),
+            vc = static_cast<int>(std::floor(v + 0.5f));
+  const int u0 = std::max(win.ox, static_cast<int>(std::ceil(u - r_px)));
+  const int u1 = std::min(x_end, static_cast<int>(std::floor(u + r_px)));
+  const int v0 = std::max(win.oy, static_cast<int>(std::ceil(v - r_px)));
+  const int v1 = std::min(y_end, static_cast<int>(std::floor(v + r_px)));
+  const float r2 = r_m * r_m;
+  const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
+  // The plane n . X = n . p; along the pixel ray X = d * t with d = ((x - cx)/fx, (y - cy)/fy, 1)
+  // the intersection's depth is t = (n . p) / (n . d).
+  bool centre_drawn = false;
+  for (int y = v0; y <= v1; ++y) {
+    const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
+    const float py = static_cast<float>(y) - v;
+    for (int x = u0; x <= u1; ++x) {
+      const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
+      const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
+      if (nd > -1e-4f) continue;  // grazing ray
+      const float t = facing / nd;
+      const float ex = dx * t - p.x(), ey = dy * t - p.y(), ez = t - z;
+      if (ex * ex + ey * ey + ez * ez > r2 || t < options.near_m) continue;
+      const float px = static_cast<float>(x) - u;
+      visit(x, y, t, px * px + py * py);
+      if (x == uc && y == vc) centre_drawn = true;
+    }
+  }
+  if (!centre_drawn && uc >= win.ox && vc >= win.oy && uc <= x_end && vc <= y_end) {
+    const float px = static_cast<float>(uc) - u, py = static_cast<float>(vc) - v;
+    visit(uc, vc, z, px * px + py * py);
+  }
+  return true;
+}
+
 }  // namespace
 
 void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
@@ -67,72 +127,51 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
   const CameraF cam(T_world_cam, K, 1);
   // The window (ox, oy, W, H) in the image's pixels; every ray below is the whole image's.
   const bool windowed = options.window_width > 0 && options.window_height > 0;
-  const int ox = windowed ? options.window_u0 : 0, oy = windowed ? options.window_v0 : 0;
-  const int W = windowed ? options.window_width : cam.width;
-  const int H = windowed ? options.window_height : cam.height;
+  const Window win{windowed ? options.window_u0 : 0, windowed ? options.window_v0 : 0,
+                   windowed ? options.window_width : cam.width,
+                   windowed ? options.window_height : cam.height};
+  const int ox = win.ox, oy = win.oy, W = win.W, H = win.H;
   const size_t npix = static_cast<size_t>(W) * H;
   if (zbuffer_.size() < npix) zbuffer_.resize(npix);
   std::uint64_t* zbuf = zbuffer_.data();
   std::fill(zbuf, zbuf + npix, kEmpty);
+  auto slot = [&](std::uint64_t* buf, int x, int y) -> std::uint64_t& {
+    return buf[static_cast<size_t>(y - oy) * W + (x - ox)];
+  };
 
   const SurfelFilter keep{map, options};
   const long n = static_cast<long>(map.size());
   const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
-  const float f_max = std::max(cam.fx, cam.fy);
-  const int x_end = ox + W - 1, y_end = oy + H - 1;  // the window's last pixel
+  const float kappa = options.centre_preference;
   size_t drawn = 0;
-
 #pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
   for (long i = 0; i < n; ++i) {
     if (!keep(static_cast<size_t>(i))) continue;
-    const Vec3f p = cam.T_cam_world(map.position_world[i]);
-    const float z = p.z();
-    if (z < options.near_m || z > options.far_m) continue;
-    const Vec3f nrm = cam.T_cam_world.rotate(map.normal_world[i]);
-    const float facing = nrm.dot(p);
-    if (facing >= 0.0f) continue;  // back-facing
-    const float u = cam.fx * p.x() / z + cam.cx;
-    const float v = cam.fy * p.y() / z + cam.cy;
-    const float r_m = map.radius_m[i] * options.radius_scale;
-    const float r_px = std::min(r_m * f_max / z, options.max_splat_radius_px);
-    if (u + r_px < ox - 0.5f || v + r_px < oy - 0.5f || u - r_px > x_end + 0.5f ||
-        v - r_px > y_end + 0.5f)
-      continue;  // nothing of it in the window
-    ++drawn;
     const auto idx = static_cast<std::uint32_t>(i);
-    const int uc = static_cast<int>(std::floor(u + 0.5f)), vc = static_cast<int>(std::floor(v + 0.5f));
-    const int u0 = std::max(ox, static_cast<int>(std::ceil(u - r_px)));
-    const int u1 = std::min(x_end, static_cast<int>(std::floor(u + r_px)));
-    const int v0 = std::max(oy, static_cast<int>(std::ceil(v - r_px)));
-    const int v1 = std::min(y_end, static_cast<int>(std::floor(v + r_px)));
-    const float r2 = r_m * r_m;
-    // The plane n . X = n . p; along the pixel ray X = d * t with d = ((x - cx)/fx, (y - cy)/fy, 1)
-    // the intersection's depth is t = (n . p) / (n . d).
-    const float np = facing;
-    bool centre_drawn = false;
-    const float kappa = options.centre_preference;
-    for (int y = v0; y <= v1; ++y) {
-      const float dy = (static_cast<float>(y) - cam.cy) * inv_fy;
-      const float py = static_cast<float>(y) - v;
-      std::uint64_t* row = zbuf + static_cast<size_t>(y - oy) * W - ox;
-      for (int x = u0; x <= u1; ++x) {
-        const float dx = (static_cast<float>(x) - cam.cx) * inv_fx;
-        const float nd = nrm.x() * dx + nrm.y() * dy + nrm.z();
-        if (nd > -1e-4f) continue;  // grazing ray
-        const float t = np / nd;
-        const float ex = dx * t - p.x(), ey = dy * t - p.y(), ez = t - z;
-        if (ex * ex + ey * ey + ez * ez > r2 || t < options.near_m) continue;
-        const float px = static_cast<float>(x) - u;
-        atomic_min(row[x], pack(t * (1.0f + kappa * (px * px + py * py)), idx));
-        if (x == uc && y == vc) centre_drawn = true;
-      }
+    drawn += splat_surfel(map, static_cast<size_t>(i), cam, options, win,
+                          [&](int x, int y, float t, float d2) {
+                            atomic_min(slot(zbuf, x, y), pack(t * (1.0f + kappa * d2), idx));
+                          });
+  }
+  // Second pass: among the discs within surface_band_m behind the nearest, the one whose centre
+  // is nearest the pixel (the first pass's key holds the nearest depth, times at most
+  // 1 + kappa d2).
+  const bool band = options.surface_band_m > 0.0f;
+  if (band) {
+    if (zbuffer2_.size() < npix) zbuffer2_.resize(npix);
+    std::uint64_t* zbuf2 = zbuffer2_.data();
+    std::fill(zbuf2, zbuf2 + npix, kEmpty);
+#pragma omp parallel for schedule(static, 4096)
+    for (long i = 0; i < n; ++i) {
+      if (!keep(static_cast<size_t>(i))) continue;
+      const auto idx = static_cast<std::uint32_t>(i);
+      splat_surfel(map, static_cast<size_t>(i), cam, options, win,
+                   [&](int x, int y, float t, float d2) {
+                     if (t <= unpack_depth(slot(zbuf, x, y)) + options.surface_band_m)
+                       atomic_min(slot(zbuf2, x, y), pack(d2, idx));
+                   });
     }
-    // A splat smaller than a pixel (or missed by every pixel ray) still covers its centre's pixel.
-    if (!centre_drawn && uc >= ox && vc >= oy && uc <= x_end && vc <= y_end) {
-      const float px = static_cast<float>(uc) - u, py = static_cast<float>(vc) - v;
-      atomic_min(zbuf[static_cast<size_t>(vc - oy) * W + (uc - ox)],
-                 pack(z * (1.0f + kappa * (px * px + py * py)), idx));
-    }
+    zbuf = zbuf2;
   }
 
   ensure_size(out->depth, W, H);

@@ -54,6 +54,13 @@ struct RenderOptions {
   /// depth test compares t * (1 + centre_preference * d^2), d = pixel-to-centre distance (px). Without
   /// it, ties between coplanar discs go to the lowest index, which shifts colours systematically.
   float centre_preference = 0.003f;
+  /// Surface band (m): when > 0, a pixel shows, among the discs whose ray intersection lies within
+  /// this of the nearest one's, the disc whose centre is nearest the pixel (a second splatting
+  /// pass). Overlapping discs of one surface then do not compete by depth: with noisy surfels
+  /// (few observations) the nearest of several is biased towards the camera, which biases
+  /// tracking (docs/SLAM.md, "Session 19: the tracking prediction's surface band"). 0 = the
+  /// nearest disc wins.
+  float surface_band_m = 0.0f;
 
   /// A window of K's image (render()): pixels [window_u0, window_u0 + window_width) x
   /// [window_v0, window_v0 + window_height); the outputs are window-sized and equal, bit for bit,
@@ -115,6 +122,7 @@ class MapRenderer {
 
  private:
   std::vector<std::uint64_t> zbuffer_;  // packed (depth bits << 32 | surfel index), min wins
+  std::vector<std::uint64_t> zbuffer2_;  // the surface band's pass: (d^2 bits << 32 | index)
 };
 
 }  // namespace orpe::slam

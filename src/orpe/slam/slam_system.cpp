@@ -43,6 +43,10 @@ bool SlamOptions::IsValid(std::string* why) const {
     if (why) *why = "prediction_radius_scale must be in [0.3, 2]";
     return false;
   }
+  if (!(prediction_surface_band_m >= 0 && prediction_surface_band_m <= 1)) {
+    if (why) *why = "prediction_surface_band_m must be in [0, 1]";
+    return false;
+  }
   if (!(min_valid_depth_fraction >= 0 && min_valid_depth_fraction <= 1) || min_valid_depth_px < 0) {
     if (why) *why = "need min_valid_depth_fraction in [0, 1] and min_valid_depth_px >= 0";
     return false;
@@ -128,6 +132,7 @@ void SlamSystem::predict(const SE3& T_world_cam, std::int32_t now, std::int32_t 
   opt.far_m = static_cast<float>(params_.preprocess.max_depth_m);
   opt.radius_scale = static_cast<float>(params_.options.prediction_radius_scale);
   opt.want_surfel_centre = true;
+  opt.surface_band_m = static_cast<float>(params_.options.prediction_surface_band_m);
   const int pl = std::min(params_.options.prediction_level, params_.preprocess.pyramid_levels - 1);
   const PinholeIntrinsics K_pred = intrinsics_.scaled(pl);
   predict_renderer_.render(map_, T_world_cam, K_pred, opt, &prediction_);

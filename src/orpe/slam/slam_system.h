@@ -61,6 +61,13 @@ struct SlamOptions {
   /// (SlamFrameResult::no_depth).
   double min_valid_depth_fraction = 0.02;
   int min_valid_depth_px = 100;
+  /// The tracking prediction's surface band (m; RenderOptions::surface_band_m): a pixel shows,
+  /// among the discs within this depth of the nearest, the one whose centre is nearest the pixel,
+  /// not the nearest disc, which among noisy recent surfels is biased towards the camera and
+  /// biases tracking (docs/SLAM.md, "Session 19: the tracking prediction's surface band").
+  /// Default: fusion's association window (FusionParams::assoc_max_depth_diff_m, 0.05 m), the
+  /// depth range fusion treats as one surface. 0 = the nearest disc (ElasticFusion).
+  double prediction_surface_band_m = 0.05;
 
   template <class V>
   void visit(V&& v) {
@@ -80,6 +87,10 @@ struct SlamOptions {
       "Frames with less valid depth (in range) than this fraction of their pixels are not tracked "
       "(LOST)");
     v("min_valid_depth_px", min_valid_depth_px, "... or than this many pixels");
+    v("prediction_surface_band_m", prediction_surface_band_m,
+      "Tracking prediction: among discs within this depth (m) of the nearest, the one centred "
+      "nearest the pixel wins (default 0.05, fusion's association window); 0 = the nearest disc "
+      "(EF)");
   }
   bool IsValid(std::string* why) const;
 };

@@ -150,6 +150,8 @@ TEST(Config, PresetsAreValidAndOverridable) {
   EXPECT_EQ(c.slam_tracking.level0_pixel_step, 2);
   EXPECT_EQ(c.slam_fusion.fusion_level, 1);
   EXPECT_FALSE(c.slam_loop.enabled);
+  EXPECT_EQ(c.slam.prediction_surface_band_m, 0);
+  EXPECT_GT(OrpeConfig().slam.prediction_surface_band_m, 0);
   EXPECT_TRUE(OrpeConfig().slam_loop.enabled);  // on by default (docs/SLAM.md "Loop closure")
   apply_config_override(c, "slam_fusion.fusion_level=0");  // overrides come after the preset
   EXPECT_EQ(c.slam_fusion.fusion_level, 0);

@@ -164,6 +164,9 @@ void apply_config_preset(OrpeConfig& config, const std::string& name) {
     config.slam_tracking.iterations_level0 = 5;
     config.slam_fusion.fusion_level = 1;
     config.slam_loop.enabled = false;
+    // The surface band's second splatting pass costs ~20 ms per frame; its half-resolution map's
+    // surfels are less noisy and gain little from it (docs/SLAM.md, session 23).
+    config.slam.prediction_surface_band_m = 0;
   } else {
     throw ConfigError("unknown preset '" + name + "' (known: default, realtime)");
   }

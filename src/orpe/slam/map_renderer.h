@@ -58,7 +58,7 @@ struct RenderOptions {
   /// this of the nearest one's, the disc whose centre is nearest the pixel (a second splatting
   /// pass). Overlapping discs of one surface then do not compete by depth: with noisy surfels
   /// (few observations) the nearest of several is biased towards the camera, which biases
-  /// tracking (docs/SLAM.md, "Session 19: the tracking prediction's surface band"). 0 = the
+  /// tracking (docs/SLAM.md, "Session 23: the tracking prediction's surface band"). 0 = the
   /// nearest disc wins.
   float surface_band_m = 0.0f;
 

@@ -64,7 +64,7 @@ struct SlamOptions {
   /// The tracking prediction's surface band (m; RenderOptions::surface_band_m): a pixel shows,
   /// among the discs within this depth of the nearest, the one whose centre is nearest the pixel,
   /// not the nearest disc, which among noisy recent surfels is biased towards the camera and
-  /// biases tracking (docs/SLAM.md, "Session 19: the tracking prediction's surface band").
+  /// biases tracking (docs/SLAM.md, "Session 23: the tracking prediction's surface band").
   /// Default: fusion's association window (FusionParams::assoc_max_depth_diff_m, 0.05 m), the
   /// depth range fusion treats as one surface. 0 = the nearest disc (ElasticFusion).
   double prediction_surface_band_m = 0.05;

@@ -231,6 +231,22 @@ TEST(SegmentGuard, AnObjectOnATableKeepsNoTableSurfels) {
                                 "average";
 }
 
+TEST(SegmentGuard, ASubsetOfTheMapFindsTheSameSupportPlane) {
+  // The table scene's ~58k background surfels searched on a strided subset of 5000: the same plane
+  // (normal within 0.1 degree, offset within 0.5 mm), the same tolerance, the same surfels released.
+  TableScene all_points, subset;
+  const auto a = find_support_planes(all_points.map, 3, 0.15, 0.35, 0.01);
+  const auto b = find_support_planes(subset.map, 3, 0.15, 0.35, 0.01, 5000);
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_GT(std::abs(a[0].plane.normal.dot(b[0].plane.normal)), std::cos(0.1 * M_PI / 180));
+  EXPECT_NEAR(a[0].plane.d, b[0].plane.d, 5e-4);
+  EXPECT_NEAR(a[0].tolerance_m, b[0].tolerance_m, 1e-4);
+  EXPECT_LT(b[0].inliers, 5001u);
+  EXPECT_EQ(release_support_plane_surfels(all_points.map, a, 30.0, true),
+            release_support_plane_surfels(subset.map, b, 30.0, true));
+}
+
 TEST(SegmentGuard, FinalizeAppliesTheSupportPlaneGuardOnlyWhenOn) {
   for (const bool on : {true, false}) {
     TableScene scene;

@@ -212,10 +212,16 @@ float robust_spread(const std::vector<Eigen::Vector3f>& points, const std::vecto
 
 std::vector<SupportPlane> find_support_planes(const slam::SurfelMap& map, int max_planes,
                                               double min_fraction, double min_extent_m,
-                                              double max_distance_m) {
+                                              double max_distance_m, size_t max_points) {
   std::vector<std::int32_t> background;
   for (size_t i = 0; i < map.size(); ++i)
     if (map.instance_id[i] <= 0) background.push_back(static_cast<std::int32_t>(i));
+  if (max_points > 0 && background.size() > max_points) {
+    const size_t step = (background.size() + max_points - 1) / max_points;
+    size_t kept = 0;
+    for (size_t k = 0; k < background.size(); k += step) background[kept++] = background[k];
+    background.resize(kept);
+  }
   PlaneSearchParams search;
   search.min_inliers = static_cast<size_t>(min_fraction * static_cast<double>(background.size()));
   search.min_extent_m = min_extent_m;

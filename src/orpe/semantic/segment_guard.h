@@ -75,10 +75,12 @@ struct SupportPlane {
 /// Up to `max_planes` large planes among the map's surfels without an instance, largest first:
 /// each holds >= min_fraction of them (within 1.2 cm) spread over >= min_extent_m (plane_extent).
 /// Tolerance of each: 3 x 1.4826 x the median absolute residual of its inliers, clamped to
-/// [3 mm, max_distance_m]. Deterministic (fixed seed).
+/// [3 mm, max_distance_m]. Deterministic (fixed seed). A map with more than `max_points` such
+/// surfels is searched on an evenly strided subset of at most that many (0 = all): the planes are
+/// large, so a subset fits them as well (the fits' noise falls with the square root of the count).
 std::vector<SupportPlane> find_support_planes(const slam::SurfelMap& map, int max_planes,
                                               double min_fraction, double min_extent_m,
-                                              double max_distance_m);
+                                              double max_distance_m, size_t max_points = 0);
 
 /// Per instance: its surfels within a plane's tolerance whose normal is within max_angle_deg of
 /// the plane's normal (either sign) lose the instance, unless they are at least half of its

@@ -75,6 +75,8 @@ bool SemanticParams::IsValid(std::string* why) const {
   if (!(support_plane_min_fraction > 0 && support_plane_min_fraction <= 1))
     return fail("support_plane_min_fraction must be in (0, 1]");
   if (!(support_plane_min_extent_m >= 0)) return fail("support_plane_min_extent_m must be >= 0");
+  if (support_plane_max_points != 0 && support_plane_max_points < 1000)
+    return fail("support_plane_max_points must be 0 (all) or >= 1000");
   if (!(support_plane_max_distance_m >= 0.003))
     return fail("support_plane_max_distance_m must be >= 0.003 (the tolerance's floor)");
   if (!(support_plane_max_normal_angle_deg >= 0 && support_plane_max_normal_angle_deg <= 90))
@@ -637,7 +639,8 @@ int SemanticFusion::release_support_surfels(slam::SurfelMap& map) const {
   if (!params_.support_plane_guard) return 0;
   const auto planes =
       find_support_planes(map, params_.support_plane_max_planes, params_.support_plane_min_fraction,
-                          params_.support_plane_min_extent_m, params_.support_plane_max_distance_m);
+                          params_.support_plane_min_extent_m, params_.support_plane_max_distance_m,
+                          static_cast<size_t>(params_.support_plane_max_points));
   return release_support_plane_surfels(map, planes, params_.support_plane_max_normal_angle_deg,
                                        params_.always_active_objects);
 }
@@ -645,7 +648,8 @@ int SemanticFusion::release_support_surfels(slam::SurfelMap& map) const {
 void SemanticFusion::measure_height(const slam::SurfelMap& map) {
   const auto planes =
       find_support_planes(map, params_.support_plane_max_planes, params_.support_plane_min_fraction,
-                          params_.support_plane_min_extent_m, params_.support_plane_max_distance_m);
+                          params_.support_plane_min_extent_m, params_.support_plane_max_distance_m,
+                          static_cast<size_t>(params_.support_plane_max_points));
   const auto height = segment_height_above_support(map, planes);
   for (auto& [id, info] : instances_) {
     const auto it = height.find(id);

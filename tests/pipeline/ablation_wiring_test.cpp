@@ -443,12 +443,39 @@ class PriorModeEstimator final : public SingleViewPoseEstimator {
   std::shared_ptr<Shared> s_;
 };
 
+/// Object-RPE over a scene with a PriorModeEstimator double: the EKF starts from one view, never
+/// skips, never snaps to a symmetry (the turned pose is another mode) and takes the prior;
+/// `configure` sets the rest. Returns the pipeline after the last frame (`last` gets that frame).
+std::unique_ptr<ObjectRpePipeline> run_with_prior_double(
+    const DatasetReader& reader, const std::function<void(ObjectRpeParams&)>& configure,
+    const std::shared_ptr<PriorModeEstimator::Shared>& shared, RgbdFrame* last) {
+  ObjectRpeParams params = wiring_params({"Object-RPE"});
+  params.pipeline.ekf_init_views = 1;
+  params.pipeline.skip_min_fused_views = 0;
+  params.pipeline.ekf_symmetry = "none";
+  params.pipeline.ekf_prior_hypothesis = true;
+  configure(params);
+  auto pipeline = std::make_unique<ObjectRpePipeline>(params, reader.info());
+  ObjectRpePipeline* p = pipeline.get();
+  shared->T_world_cam = [p] { return p->slam().T_world_cam(); };
+  pipeline->set_single_view_estimator(std::make_unique<PriorModeEstimator>(shared), false);
+  for (size_t i = 0; i < reader.size(); ++i) {
+    *last = reader.read(i);
+    if (i == 0)
+      for (const auto& g : last->objects_gt)
+        shared->truth_T_world_obj[g.class_id] = *last->T_world_cam_gt * g.T_cam_obj;
+    pipeline->process(*last);
+  }
+  return pipeline;
+}
+
 TEST(AblationWiring, PriorFastPathLeavesAWrongModeBecauseGlobalSearchesRecurAndPriorsDoNotVote) {
   // Object-RPE whose first two global searches per object return the object turned 180 degrees,
   // the later ones the truth. With the rule (pipeline.prior_max_consecutive 2, prior_mode_weight 0)
   // every third estimate is a global search and the prior-refined ones do not vote, so the filter
-  // ends in the true mode. Without recurring global searches, or with prior estimates voting for
-  // the mode they were refined from, it stays turned.
+  // ends in the true mode (with the back-off too: those votes disagree with the turned mode, so
+  // the runs of prior estimates do not grow). Without recurring global searches, or with prior
+  // estimates voting for the mode they were refined from, it stays turned.
   const std::string dir =
       test::synthetic_scene("prior_modes", test::small_scene_params(160, 120, 16, 3, 5));
   const auto reader = open_dataset(dir, DatasetParams{});
@@ -456,33 +483,23 @@ TEST(AblationWiring, PriorFastPathLeavesAWrongModeBecauseGlobalSearchesRecurAndP
     int from_prior = 0, longest_prior_run = 0, objects = 0, right_side_at_end = 0;
   };
   auto run = [&](int max_consecutive, double mode_weight) {
-    ObjectRpeParams params = wiring_params({"Object-RPE"});
-    params.pipeline.ekf_init_views = 1;
-    params.pipeline.skip_min_fused_views = 0;
-    params.pipeline.ekf_symmetry = "none";  // the turned pose is another mode, never snapped
-    params.pipeline.ekf_prior_hypothesis = true;
-    params.pipeline.prior_max_consecutive = max_consecutive;
-    params.pipeline.prior_mode_weight = mode_weight;
-    ObjectRpePipeline pipeline(params, reader->info());
     auto shared = std::make_shared<PriorModeEstimator::Shared>();
-    shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
-    pipeline.set_single_view_estimator(std::make_unique<PriorModeEstimator>(shared), false);
     RgbdFrame last;
-    for (size_t i = 0; i < reader->size(); ++i) {
-      last = reader->read(i);
-      if (i == 0)
-        for (const auto& g : last.objects_gt)
-          shared->truth_T_world_obj[g.class_id] = *last.T_world_cam_gt * g.T_cam_obj;
-      pipeline.process(last);
-    }
+    const auto pipeline = run_with_prior_double(
+        *reader,
+        [&](ObjectRpeParams& p) {
+          p.pipeline.prior_max_consecutive = max_consecutive;
+          p.pipeline.prior_mode_weight = mode_weight;
+        },
+        shared, &last);
     Run r;
     r.from_prior = shared->from_prior;
     r.longest_prior_run = shared->longest_prior_run;
-    for (const auto& row : pipeline.pose_rows(0)) {
+    for (const auto& row : pipeline->pose_rows(0)) {
       if (row.im_id != last.index) continue;
       ++r.objects;
       const SE3 truth =
-          pipeline.slam().T_world_cam().inverse() * shared->truth_T_world_obj.at(row.obj_id);
+          pipeline->slam().T_world_cam().inverse() * shared->truth_T_world_obj.at(row.obj_id);
       r.right_side_at_end += (truth.inverse() * row.T_cam_obj).rotation_angle_deg() < 10;
     }
     return r;
@@ -508,26 +525,17 @@ TEST(AblationWiring, GlobalSearchesThatAgreeWithTheFusedModeComeLessOften) {
     int globals = 0, longest_prior_run = 0;
   };
   auto run = [&](int limit, bool contested) {
-    ObjectRpeParams params = wiring_params({"Object-RPE"});
-    params.pipeline.ekf_init_views = 1;
-    params.pipeline.skip_min_fused_views = 0;
-    params.pipeline.ekf_symmetry = "none";
-    params.pipeline.ekf_prior_hypothesis = true;
-    params.pipeline.prior_max_consecutive = 2;
-    params.pipeline.prior_max_consecutive_limit = limit;
-    ObjectRpePipeline pipeline(params, reader->info());
     auto shared = std::make_shared<PriorModeEstimator::Shared>();
     shared->wrong_globals = 0;
     shared->alternate = contested;
-    shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
-    pipeline.set_single_view_estimator(std::make_unique<PriorModeEstimator>(shared), false);
-    for (size_t i = 0; i < reader->size(); ++i) {
-      const RgbdFrame f = reader->read(i);
-      if (i == 0)
-        for (const auto& g : f.objects_gt)
-          shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
-      pipeline.process(f);
-    }
+    RgbdFrame last;
+    run_with_prior_double(
+        *reader,
+        [&](ObjectRpeParams& p) {
+          p.pipeline.prior_max_consecutive = 2;
+          p.pipeline.prior_max_consecutive_limit = limit;
+        },
+        shared, &last);
     Run r;
     for (const auto& [c, n] : shared->globals) r.globals += n;
     r.longest_prior_run = shared->longest_prior_run;

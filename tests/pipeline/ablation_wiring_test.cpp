@@ -377,13 +377,7 @@ TEST(AblationWiring, SkipRuleSkipsConfidentUnchangedObjectsAndStillReportsThem) 
     shared->record_images = false;
     shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
     pipeline.set_single_view_estimator(std::make_unique<test::RecordingEstimator>(shared), false);
-    for (size_t i = 0; i < reader->size(); ++i) {
-      const RgbdFrame f = reader->read(i);
-      if (i == 0)
-        for (const auto& g : f.objects_gt)
-          shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
-      pipeline.process(f);
-    }
+    test::process_frames_with_truth(*reader, pipeline, shared->truth_T_world_obj);
     Run r;
     r.calls = static_cast<int>(shared->calls.size());
     r.skipped = pipeline.stats().single_view_skipped;
@@ -459,13 +453,7 @@ std::unique_ptr<ObjectRpePipeline> run_with_prior_double(
   ObjectRpePipeline* p = pipeline.get();
   shared->T_world_cam = [p] { return p->slam().T_world_cam(); };
   pipeline->set_single_view_estimator(std::make_unique<PriorModeEstimator>(shared), false);
-  for (size_t i = 0; i < reader.size(); ++i) {
-    *last = reader.read(i);
-    if (i == 0)
-      for (const auto& g : last->objects_gt)
-        shared->truth_T_world_obj[g.class_id] = *last->T_world_cam_gt * g.T_cam_obj;
-    pipeline->process(*last);
-  }
+  test::process_frames_with_truth(reader, *pipeline, shared->truth_T_world_obj, last);
   return pipeline;
 }
 

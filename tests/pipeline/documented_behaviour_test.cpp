@@ -87,13 +87,7 @@ SymmetryRun run_flipping(const std::string& ekf_symmetry) {
   shared->rotation_noise_rad = 0.01;
   shared->T_world_cam = [&pipeline] { return pipeline.slam().T_world_cam(); };
   pipeline.set_single_view_estimator(std::make_unique<FlippingEstimator>(shared), false);
-  for (size_t i = 0; i < reader->size(); ++i) {
-    const RgbdFrame f = reader->read(i);
-    if (i == 0)
-      for (const auto& g : f.objects_gt)
-        shared->truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
-    pipeline.process(f);
-  }
+  test::process_frames_with_truth(*reader, pipeline, shared->truth_T_world_obj);
   pipeline.finalize();
   SymmetryRun r;
   for (const auto& o : pipeline.object_poses(0)) {

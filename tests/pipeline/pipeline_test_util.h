@@ -135,4 +135,21 @@ inline void set_truth(RecordingEstimator::Shared& shared, const RgbdFrame& frame
   for (const auto& g : frame.objects_gt) shared.truth_T_cam_obj[g.class_id] = g.T_cam_obj;
 }
 
+/// Processes every frame of `reader` in order; before the first, `truth_T_world_obj` gets the
+/// world pose of each of the first frame's objects, by class (what the estimator doubles answer
+/// from). `last`, when given, gets the last frame.
+inline void process_frames_with_truth(const DatasetReader& reader, ObjectRpePipeline& pipeline,
+                                      std::map<int, SE3>& truth_T_world_obj,
+                                      RgbdFrame* last = nullptr) {
+  RgbdFrame f;
+  for (size_t i = 0; i < reader.size(); ++i) {
+    f = reader.read(i);
+    if (i == 0)
+      for (const auto& g : f.objects_gt)
+        truth_T_world_obj[g.class_id] = *f.T_world_cam_gt * g.T_cam_obj;
+    pipeline.process(f);
+  }
+  if (last) *last = std::move(f);
+}
+
 }  // namespace orpe::test

@@ -45,18 +45,13 @@ bool skip_estimate(const SkipState& s, int fused_views, const SE3& T_world_cam,
          motion.rotation_angle_deg() < pp.skip_max_rotation_deg;
 }
 
-/// Estimates in a row an object may take from the prior (PipelineParams::prior_max_consecutive*).
-int prior_allowance(int allowance, const PipelineParams& pp) {
-  return allowance < 0 ? pp.prior_max_consecutive : allowance;
-}
-
-/// The allowance after a global search: doubled (up to prior_max_consecutive_limit) when the
-/// filter took the measurement into its reported mode, else back to prior_max_consecutive.
+/// An object's allowance of estimates in a row from the prior after a global search: doubled (up
+/// to prior_max_consecutive_limit) when the filter took the measurement into its reported mode,
+/// else back to prior_max_consecutive.
 int backed_off_allowance(int allowance, bool agreed, const PipelineParams& pp) {
   const int base = pp.prior_max_consecutive;
   if (!agreed || base <= 0) return base;
-  return std::min(2 * prior_allowance(allowance, pp),
-                  std::max(base, pp.prior_max_consecutive_limit));
+  return std::min(2 * allowance, std::max(base, pp.prior_max_consecutive_limit));
 }
 
 /// The single-view estimate's score as the weight of its pose row and of its EKF measurement:
@@ -167,8 +162,8 @@ struct ObjectRpePipeline::Track {
   int valid_views = 0;
   SkipState skip;                    // EKF variants
   std::int32_t last_slam_time = -1;  // SLAM frame counter of the last view fused (loop closure)
-  int prior_in_a_row = 0;    // estimates in a row from the prior (pipeline.prior_max_consecutive)
-  int prior_allowance = -1;  // how many in a row may come from it; -1: prior_max_consecutive
+  int prior_in_a_row = 0;   // estimates in a row from the prior (pipeline.prior_max_consecutive)
+  int prior_allowance = 0;   // how many in a row may come from it (track_for starts it)
   // Score of its last global estimate that agreed with the fused mode: the reference a refined
   // prior's score is held to (pose_registration.prior_relative_fraction); 0 = none.
   double reference_score = 0;
@@ -689,6 +684,7 @@ ObjectRpePipeline::Track* ObjectRpePipeline::track_for(VariantState& vs, const C
   if (t.class_id != c.class_id) {  // new, or the instance's argmax class changed: restart
     t = Track{};
     t.class_id = c.class_id;
+    t.prior_allowance = params_.pipeline.prior_max_consecutive;
     if (vs.config.ekf) {
       const PipelineParams& pp = params_.pipeline;
       t.ekf = std::make_unique<ObjectPoseFusion>(
@@ -705,7 +701,7 @@ bool ObjectRpePipeline::estimate_single_view(PoseFrame& f, size_t vi, const Cand
   const PoseVariant& cfg = variants_[vi].config;
   const bool use_prior = cfg.ekf && pp.ekf_prior_hypothesis && track && track->ekf &&
                          track->ekf->has_estimate() &&
-                         track->prior_in_a_row < prior_allowance(track->prior_allowance, pp);
+                         track->prior_in_a_row < track->prior_allowance;
   const bool learned = track && track->colour && track->colour->model();
   const auto key =
       std::make_tuple(cfg.projected_mask ? 1 : 0, c.object_key, cfg.projected_depth ? 1 : 0,

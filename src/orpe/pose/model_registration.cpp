@@ -649,32 +649,28 @@ int rank_by_colour(const ModelRegistrationParams& params, const Registration& re
 // Prior fast path (ModelRegistrationParams::prior_*): an object the caller already knows (its
 // fused pose moved into this camera) needs a local refinement, not the global rotation search.
 
-/// What a refined prior must reach to fit: the absolute thresholds, the score's lowered to
+/// The score a refined prior must reach to fit: prior_min_score, lowered to
 /// prior_relative_fraction of the object's reference score when the caller gives one.
-struct PriorFit {
-  double min_inliers = 0, min_score = 0;
-};
-PriorFit prior_fit(const ModelRegistrationParams& p, const SingleViewInput& in) {
-  PriorFit f{p.prior_min_inlier_fraction, p.prior_min_score};
+double prior_min_score(const ModelRegistrationParams& p, const SingleViewInput& in) {
   if (p.prior_relative_fraction > 0 && in.prior_reference_score > 0)
-    f.min_score = std::min(f.min_score, p.prior_relative_fraction * in.prior_reference_score);
-  return f;
+    return std::min(p.prior_min_score, p.prior_relative_fraction * in.prior_reference_score);
+  return p.prior_min_score;
 }
 
 /// ICP from the prior on a strided subset of the points, scored on that subset. Returns whether
-/// the refined prior fits (inliers and score reach `fit`, free space within its threshold); `out`
-/// gets it either way.
+/// the refined prior fits (inlier fraction and free space within their thresholds, score >=
+/// `min_score`); `out` gets it either way.
 bool refine_from_prior(const ModelRegistrationParams& p, const Registration& reg,
                        const SegmentedCloud& cloud, double diameter, const SE3& T_cam_obj_prior,
-                       const PriorFit& fit, Hypothesis* out) {
+                       double min_score, Hypothesis* out) {
   const std::vector<Vec3f> pts = strided_subset(cloud.points, p.prior_points);
   const double start = std::max(p.refine_max_corr_factor * diameter, p.final_max_corr_m);
   Hypothesis h;
   h.T_cam_obj = reg.icp(pts, T_cam_obj_prior, p.prior_iterations, start, p.final_max_corr_m, false);
   reg.score(pts, h, false);
   *out = h;
-  return h.inliers >= fit.min_inliers && h.violation <= p.prior_max_free_space_violation &&
-         h.score >= fit.min_score;
+  return h.inliers >= p.prior_min_inlier_fraction &&
+         h.violation <= p.prior_max_free_space_violation && h.score >= min_score;
 }
 
 /// prior_flips: the refined prior's three 180-degree turns about the model's principal axes, each
@@ -693,8 +689,8 @@ int compare_prior_modes(const ModelRegistrationParams& p, const Registration& re
   std::vector<Hypothesis> extra(turns.size());
 #pragma omp parallel for schedule(dynamic, 1)
   for (int i = 0; i < static_cast<int>(turns.size()); ++i)
-    refine_from_prior(p, reg, cloud, model.diameter_m, turns[static_cast<size_t>(i)], PriorFit{},
-                      &extra[static_cast<size_t>(i)]);
+    refine_from_prior(p, reg, cloud, model.diameter_m, turns[static_cast<size_t>(i)],
+                      p.prior_min_score, &extra[static_cast<size_t>(i)]);
   hyps.insert(hyps.end(), extra.begin(), extra.end());
   int best = 0;
   for (int i = 1; i < static_cast<int>(hyps.size()); ++i)
@@ -819,7 +815,7 @@ SingleViewPose ModelRegistrationEstimator::run(const SingleViewInput& input,
   } else if (Hypothesis h;
              input.T_cam_obj_prior && params.prior_refinement &&
              refine_from_prior(params, reg, cloud, diameter, *input.T_cam_obj_prior,
-                               prior_fit(params, input), &h)) {
+                               prior_min_score(params, input), &h)) {
     refine.push_back(h);
     out.from_prior = true;
   } else {

@@ -144,26 +144,31 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
   const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
   const float kappa = options.centre_preference;
   size_t drawn = 0;
+  // The surface band's second pass visits only the surfels the first one drew (1 byte each).
+  const bool band = options.surface_band_m > 0.0f;
+  if (band) drawn_.assign(static_cast<size_t>(n), 0);
+  std::uint8_t* drawn_flag = band ? drawn_.data() : nullptr;
 #pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
   for (long i = 0; i < n; ++i) {
     if (!keep(static_cast<size_t>(i))) continue;
     const auto idx = static_cast<std::uint32_t>(i);
-    drawn += splat_surfel(map, static_cast<size_t>(i), cam, options, win,
-                          [&](int x, int y, float t, float d2) {
-                            atomic_min(slot(zbuf, x, y), pack(t * (1.0f + kappa * d2), idx));
-                          });
+    const bool d = splat_surfel(map, static_cast<size_t>(i), cam, options, win,
+                                [&](int x, int y, float t, float d2) {
+                                  atomic_min(slot(zbuf, x, y), pack(t * (1.0f + kappa * d2), idx));
+                                });
+    drawn += d;
+    if (drawn_flag) drawn_flag[i] = d;
   }
   // Second pass: among the discs within surface_band_m behind the nearest, the one whose centre
   // is nearest the pixel (the first pass's key holds the nearest depth, times at most
   // 1 + kappa d2).
-  const bool band = options.surface_band_m > 0.0f;
   if (band) {
     if (zbuffer2_.size() < npix) zbuffer2_.resize(npix);
     std::uint64_t* zbuf2 = zbuffer2_.data();
     std::fill(zbuf2, zbuf2 + npix, kEmpty);
 #pragma omp parallel for schedule(static, 4096)
     for (long i = 0; i < n; ++i) {
-      if (!keep(static_cast<size_t>(i))) continue;
+      if (!drawn_flag[i]) continue;
       const auto idx = static_cast<std::uint32_t>(i);
       splat_surfel(map, static_cast<size_t>(i), cam, options, win,
                    [&](int x, int y, float t, float d2) {

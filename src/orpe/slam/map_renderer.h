@@ -123,6 +123,7 @@ class MapRenderer {
  private:
   std::vector<std::uint64_t> zbuffer_;  // packed (depth bits << 32 | surfel index), min wins
   std::vector<std::uint64_t> zbuffer2_;  // the surface band's pass: (d^2 bits << 32 | index)
+  std::vector<std::uint8_t> drawn_;      // the surface band's pass: 1 = drawn by the first pass
 };
 
 }  // namespace orpe::slam

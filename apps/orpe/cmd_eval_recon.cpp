@@ -16,6 +16,7 @@
 #include "orpe/io/point_cloud_io.h"
 #include "orpe/io/trajectory_io.h"
 #include "orpe/pipeline/reconstruction_error.h"
+#include "orpe/render/mesh_io.h"
 
 namespace orpe::cli {
 namespace {
@@ -101,6 +102,45 @@ CommandRegistrar reg(71, [](CLI::App& root) {
   add_config_options(*r, c->options);
   add_dataset_options(*r, c->options);
   r->callback([c] { run_recon(*c); });
+});
+
+struct MapCommand {
+  std::string map_path, mesh_path, json_path;
+  double min_confidence = 0;
+};
+
+void run_map(const MapCommand& c) {
+  namespace fs = std::filesystem;
+  for (const auto& [p, what] : {std::pair{c.map_path, "map"}, {c.mesh_path, "scene mesh"}})
+    if (!fs::is_regular_file(p)) throw IoError(p, fmt::format("{} does not exist", what));
+  const PointCloudData map = read_point_cloud_ply(c.map_path);
+  const ModelSurface surface = ModelSurface::from_mesh(load_mesh(c.mesh_path));
+  ReconstructionErrorParams params;
+  params.min_confidence = static_cast<float>(c.min_confidence);
+  MapSurfaceError e;
+  try {
+    e = evaluate_map_surface(map, surface, params);
+  } catch (const std::invalid_argument& ex) {
+    throw IoError(c.map_path, ex.what());
+  }
+  std::cout << e.report();
+  if (!c.json_path.empty()) write_text_atomic(c.json_path, e.to_json());
+}
+
+CommandRegistrar reg_map(72, [](CLI::App& root) {
+  CLI::App* eval = root.get_subcommand("eval");  // created by cmd_eval.cpp (order 70)
+  auto c = std::make_shared<MapCommand>();
+  CLI::App* m = eval->add_subcommand(
+      "map",
+      "Error (mm) of a whole map against the scene's true surface: distance of every surfel to the "
+      "mesh (no alignment: both in the world frame), shares beyond 1 / 2 cm (doubled or shifted "
+      "surfaces); `orpe synth` writes the mesh as test/000000/scene_mesh.ply");
+  m->add_option("map", c->map_path, "Map PLY of `orpe run` (map.ply)")->required();
+  m->add_option("mesh", c->mesh_path, "The scene's mesh, metres, world frame (OBJ, PLY, ...)")
+      ->required();
+  m->add_option("--min-confidence", c->min_confidence, "Ignore surfels below this confidence");
+  m->add_option("--json", c->json_path, "Also write the figures as JSON to this file");
+  m->callback([c] { run_map(*c); });
 });
 
 }  // namespace

@@ -41,6 +41,43 @@ TEST(ReconstructionError, ClosestPointOnTriangleMatchesDenseSampling) {
   }
 }
 
+TEST(MapSurfaceError, ADoubledShiftedSurfaceShowsInTheFarShares) {
+  // A 2 x 2 m wall (the plane x = 0) scanned once, then a second copy of it 3 cm off (a loop that
+  // was not closed): half the surfels lie beyond 2 cm. Low-confidence surfels are left out.
+  const TriangleMesh wall = make_box(V3(0.001f, 2.0f, 2.0f), 1.0f);
+  const ModelSurface s = ModelSurface::from_mesh(wall);
+  PointCloudData map;
+  for (int i = 0; i < 50; ++i)
+    for (int j = 0; j < 50; ++j) {
+      map.positions_m.emplace_back(0.0005f, -0.9f + 0.036f * i, -0.9f + 0.036f * j);
+      map.confidences.push_back(20.0f);
+    }
+  const MapSurfaceError single = evaluate_map_surface(map, s);
+  EXPECT_EQ(single.surfels, 2500);
+  EXPECT_LT(single.mean_m, 1e-4);
+  EXPECT_EQ(single.far_fraction, 0.0);
+  PointCloudData doubled = map;
+  for (size_t k = 0; k < map.size(); ++k) {
+    doubled.positions_m.push_back(map.positions_m[k] + V3(0.03f, 0.0f, 0.0f));
+    doubled.confidences.push_back(20.0f);
+  }
+  const MapSurfaceError two = evaluate_map_surface(doubled, s);
+  EXPECT_NEAR(two.far_fraction, 0.5, 1e-9);
+  EXPECT_NEAR(two.far_near_fraction, 0.5, 1e-9);
+  EXPECT_NEAR(two.median_m, 0.03, 1e-4);  // nth_element at n / 2: the copy's smallest
+  // The copy at confidence 1 is not counted at min_confidence 10.
+  for (size_t k = map.size(); k < doubled.size(); ++k) doubled.confidences[k] = 1.0f;
+  ReconstructionErrorParams params;
+  params.min_confidence = 10.0f;
+  const MapSurfaceError stable = evaluate_map_surface(doubled, s, params);
+  EXPECT_EQ(stable.surfels, 2500);
+  EXPECT_EQ(stable.far_fraction, 0.0);
+  params.min_confidence = 50.0f;
+  EXPECT_THROW(evaluate_map_surface(doubled, s, params), std::invalid_argument);
+  const auto j = nlohmann::json::parse(two.to_json());
+  EXPECT_NEAR(j["far_fraction"].get<double>(), 0.5, 1e-9);
+}
+
 TEST(ReconstructionError, BoxSurfaceDistancesAreExact) {
   const TriangleMesh box = make_box(V3(0.2f, 0.1f, 0.3f), 0.05f);
   const ModelSurface s = ModelSurface::from_mesh(box);

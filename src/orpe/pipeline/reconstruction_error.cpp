@@ -642,4 +642,56 @@ PointCloudData read_semantic_map_ply(const std::string& path) {
   return cloud;
 }
 
+MapSurfaceError evaluate_map_surface(const PointCloudData& map, const ModelSurface& surface,
+                                     const ReconstructionErrorParams& params) {
+  std::vector<Eigen::Vector3f> pts;
+  pts.reserve(map.size());
+  const bool conf = map.confidences.size() == map.size();
+  for (size_t i = 0; i < map.size(); ++i)
+    if (!conf || map.confidences[i] >= params.min_confidence) pts.push_back(map.positions_m[i]);
+  if (pts.empty())
+    throw std::invalid_argument(
+        fmt::format("map error: none of the {} surfels has confidence >= {}", map.size(),
+                    params.min_confidence));
+  const std::vector<double> d = surface_distances(pts, SE3(), surface);
+  const auto share = [&](double limit) {
+    return static_cast<double>(
+               std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) /
+           static_cast<double>(d.size());
+  };
+  MapSurfaceError e;
+  e.surfels = static_cast<int>(pts.size());
+  e.min_confidence = params.min_confidence;
+  e.far_near_m = params.far_near_m;
+  e.far_m = params.far_m;
+  e.far_near_fraction = share(params.far_near_m);
+  e.far_fraction = share(params.far_m);
+  const Stats st = distance_stats(d);
+  e.mean_m = st.mean;
+  e.median_m = st.median;
+  e.rms_m = st.rms;
+  return e;
+}
+
+std::string MapSurfaceError::report() const {
+  return fmt::format(
+      "map against the scene surface: {} surfels (confidence >= {}), distance mean {:.2f} mm, "
+      "median {:.2f} mm, RMS {:.2f} mm; beyond {:.0f} mm: {:.2f} %, beyond {:.0f} mm: {:.2f} %\n",
+      surfels, min_confidence, mean_m * 1000, median_m * 1000, rms_m * 1000, far_near_m * 1000,
+      far_near_fraction * 100, far_m * 1000, far_fraction * 100);
+}
+
+std::string MapSurfaceError::to_json() const {
+  nlohmann::ordered_json j = {{"surfels", surfels},
+                              {"min_confidence", min_confidence},
+                              {"mean_mm", mean_m * 1000},
+                              {"median_mm", median_m * 1000},
+                              {"rms_mm", rms_m * 1000},
+                              {"far_near_mm", far_near_m * 1000},
+                              {"far_near_fraction", far_near_fraction},
+                              {"far_mm", far_m * 1000},
+                              {"far_fraction", far_fraction}};
+  return j.dump(2) + "\n";
+}
+
 }  // namespace orpe

@@ -138,6 +138,27 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
                                                  const std::map<int, std::string>& class_names,
                                                  const ReconstructionErrorParams& params = {});
 
+/// The error of a whole map against the scene's true surface (issue 19: a loop that is not closed
+/// leaves doubled, shifted surfaces): the distance of every surfel to the surface, in the frame both
+/// are given in (no alignment; `orpe run` starts the map at the first frame's ground-truth camera
+/// pose, so its map and `orpe synth`'s scene_mesh.ply share the world frame).
+struct MapSurfaceError {
+  int surfels = 0;  ///< surfels measured (confidence >= min_confidence)
+  double min_confidence = 0;
+  double mean_m = 0, median_m = 0, rms_m = 0;
+  double far_near_m = 0.01, far_m = 0.02;
+  double far_near_fraction = 0;  ///< share of the surfels farther than far_near_m
+  double far_fraction = 0;       ///< share farther than far_m
+  std::string report() const;
+  std::string to_json() const;
+};
+
+/// Scores every surfel of `map` with confidence >= params.min_confidence (all when the map has no
+/// confidences) against `surface` (params.far_near_m / far_m for the far shares). Throws
+/// std::invalid_argument when no surfel is left.
+MapSurfaceError evaluate_map_surface(const PointCloudData& map, const ModelSurface& surface,
+                                     const ReconstructionErrorParams& params = {});
+
 /// Reads a semantic map PLY: read_point_cloud_ply, plus the semantic stage's property names
 /// (`instance`, `class`; io's reader expects `instance_id`, `class_id`). Throws IoError.
 PointCloudData read_semantic_map_ply(const std::string& path);

@@ -19,6 +19,7 @@
 #include "orpe/core/error.h"
 #include "orpe/core/params_io.h"
 #include "orpe/io/image_io.h"
+#include "orpe/render/mesh_io.h"
 #include "orpe/render/rasterizer.h"
 #include "orpe/synth/appearance_symmetry.h"
 #include "orpe/synth/bop_writer.h"
@@ -474,6 +475,13 @@ SynthReport SyntheticSceneGenerator::write_bop(const std::string& dir) const {
   write_bop_scene_json(scene, K_, kDepthScaleMm, records);
   if (nd > 0) write_distractor_json(scene, records);
   write_tum_trajectory(scene + "/groundtruth.txt", records);
+  // The scene's true surface in the world frame (metres), for `orpe eval map`.
+  PlyWriteOptions mesh_options;
+  mesh_options.units_per_metre = 1.0;
+  mesh_options.write_normals = false;
+  mesh_options.write_colors = false;
+  mesh_options.binary = true;
+  write_ply(scene + "/scene_mesh.ply", scene_mesh_world(scene_), mesh_options);
   write_bop_targets(dir + "/test_targets_bop19.json", kBopSceneId, records, kBopTargetMinVisib);
   // BOP's dataset-level camera file, and what this scene is made of.
   nlohmann::ordered_json cam = {{"cx", K_.cx},      {"cy", K_.cy}, {"depth_scale", kDepthScaleMm},

@@ -394,4 +394,21 @@ void place_distractors(SynthScene& s, std::vector<ObjectModel> types, const Scen
   s.distractor_types = std::move(used);
 }
 
+TriangleMesh scene_mesh_world(const SynthScene& s) {
+  TriangleMesh out;
+  out.name = "scene";
+  auto add = [&out](const TriangleMesh& mesh, const SE3& T_world_mesh) {
+    TriangleMesh m;
+    m.vertices = mesh.vertices;
+    m.triangles = mesh.triangles;
+    m.transform(T_world_mesh);
+    out.append(m);
+  };
+  for (const EnvironmentPart& p : s.environment) add(*p.mesh, p.T_world_part);
+  for (const ObjectInstance& o : s.objects) add(*s.types[o.type].mesh, o.T_world_obj);
+  for (const ObjectInstance& d : s.distractors)
+    add(*s.distractor_types[d.type].mesh, d.T_world_obj);
+  return out;
+}
+
 }  // namespace orpe::synth

@@ -80,6 +80,11 @@ SynthScene build_scene(std::vector<ObjectModel> types, const std::vector<int>& i
 void place_distractors(SynthScene& s, std::vector<ObjectModel> types,
                        const SceneLayoutParams& params, std::mt19937_64& rng);
 
+/// The whole static scene as one mesh in the world frame (metres): the environment's parts, the
+/// objects and the distractors, each moved by its pose. `orpe synth` writes it as scene_mesh.ply,
+/// the ground truth of the map's geometry (`orpe eval map`).
+TriangleMesh scene_mesh_world(const SynthScene& s);
+
 /// True when two convex polygons are closer than `gap` (separating-axis test).
 bool polygons_overlap(const std::vector<Eigen::Vector2d>& a, const std::vector<Eigen::Vector2d>& b,
                       double gap);

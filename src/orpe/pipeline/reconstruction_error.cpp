@@ -228,6 +228,13 @@ Stats distance_stats(std::vector<double> d) {
   return s;
 }
 
+/// The share of the distances `d` (not empty) above `limit`.
+double far_share(const std::vector<double>& d, double limit) {
+  return static_cast<double>(
+             std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) /
+         static_cast<double>(d.size());
+}
+
 std::vector<double> surface_distances(const std::vector<Eigen::Vector3f>& points_world,
                                       const SE3& T_world_obj, const ModelSurface& surface) {
   const SE3 T_obj_world = T_world_obj.inverse();
@@ -358,13 +365,8 @@ void measure_object(const GroundTruthObjectPose& o, const std::vector<Eigen::Vec
                     const ModelSurface& surface, const ReconstructionErrorParams& params,
                     ObjectReconstructionError& e) {
   const std::vector<double> d = surface_distances(pts, o.T_world_obj, surface);
-  const auto share = [&](double limit) {
-    return static_cast<double>(
-               std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) /
-           static_cast<double>(d.size());
-  };
-  e.far_near_fraction = share(params.far_near_m);
-  e.far_fraction = share(params.far_m);
+  e.far_near_fraction = far_share(d, params.far_near_m);
+  e.far_fraction = far_share(d, params.far_m);
   if (!o.seen_surface_obj.empty()) {
     e.completeness =
         covered_share(pts, o.T_world_obj, o.seen_surface_obj, params.completeness_distance_m);
@@ -654,18 +656,13 @@ MapSurfaceError evaluate_map_surface(const PointCloudData& map, const ModelSurfa
         fmt::format("map error: none of the {} surfels has confidence >= {}", map.size(),
                     params.min_confidence));
   const std::vector<double> d = surface_distances(pts, SE3(), surface);
-  const auto share = [&](double limit) {
-    return static_cast<double>(
-               std::count_if(d.begin(), d.end(), [&](double x) { return x > limit; })) /
-           static_cast<double>(d.size());
-  };
   MapSurfaceError e;
   e.surfels = static_cast<int>(pts.size());
   e.min_confidence = params.min_confidence;
   e.far_near_m = params.far_near_m;
   e.far_m = params.far_m;
-  e.far_near_fraction = share(params.far_near_m);
-  e.far_fraction = share(params.far_m);
+  e.far_near_fraction = far_share(d, params.far_near_m);
+  e.far_fraction = far_share(d, params.far_m);
   const Stats st = distance_stats(d);
   e.mean_m = st.mean;
   e.median_m = st.median;

@@ -139,9 +139,9 @@ ReconstructionEvaluation evaluate_reconstruction(const PointCloudData& map,
                                                  const ReconstructionErrorParams& params = {});
 
 /// The error of a whole map against the scene's true surface (issue 19: a loop that is not closed
-/// leaves doubled, shifted surfaces): the distance of every surfel to the surface, in the frame both
-/// are given in (no alignment; `orpe run` starts the map at the first frame's ground-truth camera
-/// pose, so its map and `orpe synth`'s scene_mesh.ply share the world frame).
+/// leaves doubled, shifted surfaces): the distance of every surfel to the surface, in the frame
+/// both are given in (no alignment; `orpe run` starts the map at the first frame's ground-truth
+/// camera pose, so its map and `orpe synth`'s scene_mesh.ply share the world frame).
 struct MapSurfaceError {
   int surfels = 0;  ///< surfels measured (confidence >= min_confidence)
   double min_confidence = 0;

@@ -28,8 +28,6 @@ bool RelocaliserParams::IsValid(std::string* why) const {
     return fail("inlier_distance_m must be in (0, 1) m");
   if (ransac_iterations < 1 || ransac_iterations > 100000)
     return fail("ransac_iterations must be in [1, 1e5]");
-  if (ransac_local_refits < 0 || ransac_local_refits > 100)
-    return fail("ransac_local_refits must be in [0, 100]");
   if (verify_rounds < 1 || verify_rounds > 10) return fail("verify_rounds must be in [1, 10]");
   return true;
 }
@@ -86,66 +84,7 @@ std::vector<std::pair<int, int>> match(const Features& q, const Features& t, dou
   return out;
 }
 
-/// Pairs within `tol` of T (indices into a and b); their count.
-int rigid_inliers(const std::vector<Vec3>& a, const std::vector<Vec3>& b, const SE3& T, double tol,
-                  std::vector<int>* idx) {
-  const double tol2 = tol * tol;
-  int n = 0;
-  for (size_t k = 0; k < a.size(); ++k)
-    if ((a[k] - T * b[k]).squaredNorm() < tol2) {
-      ++n;
-      if (idx) idx->push_back(static_cast<int>(k));
-    }
-  return n;
-}
-
-/// T refitted on its inliers (T itself when they are fewer than three).
-SE3 refit_on_inliers(const std::vector<Vec3>& a, const std::vector<Vec3>& b, const SE3& T,
-                     double tol) {
-  std::vector<int> idx;
-  if (rigid_inliers(a, b, T, tol, &idx) < 3) return T;
-  std::vector<Vec3> ai, bi;
-  for (const int k : idx) {
-    ai.push_back(a[static_cast<size_t>(k)]);
-    bi.push_back(b[static_cast<size_t>(k)]);
-  }
-  return fit_rigid(ai, bi);
-}
-
 }  // namespace
-
-RigidRansac ransac_rigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b,
-                         const RelocaliserParams& p) {
-  RigidRansac out;
-  if (a.size() < 3 || a.size() != b.size()) return out;
-  const double tol = p.inlier_distance_m;
-  std::mt19937 rng(12345u);
-  std::uniform_int_distribution<size_t> pick(0, a.size() - 1);
-  SE3 best_T;
-  int best_n = 0;
-  for (int it = 0; it < p.ransac_iterations; ++it) {
-    const size_t i = pick(rng), j = pick(rng), k = pick(rng);
-    if (i == j || j == k || i == k) continue;
-    if ((a[j] - a[i]).cross(a[k] - a[i]).norm() < 1e-4) continue;  // near-collinear sample
-    const SE3 T = fit_rigid({a[i], a[j], a[k]}, {b[i], b[j], b[k]});
-    const int n = rigid_inliers(a, b, T, tol, nullptr);
-    if (n <= best_n) continue;
-    best_n = n, best_T = T;
-    // Local optimisation: refit on the inliers while that gathers more of them.
-    for (int r = 0; r < p.ransac_local_refits; ++r) {
-      const SE3 T_refit = refit_on_inliers(a, b, best_T, tol);
-      const int n_refit = rigid_inliers(a, b, T_refit, tol, nullptr);
-      if (n_refit < best_n) break;
-      const bool grew = n_refit > best_n;
-      best_n = n_refit, best_T = T_refit;
-      if (!grew) break;
-    }
-  }
-  if (best_n < 3) return out;
-  out.T_a_b = refit_on_inliers(a, b, best_T, tol);
-  out.inliers = rigid_inliers(a, b, out.T_a_b, tol, nullptr);
-  return out;
-}
 
 TrackingVerification verify_by_tracking(const SE3& T_world_guess, int rounds,
                                         const TrackerParams& gates, const TrackFrom& track_from) {
@@ -192,16 +131,45 @@ RelocCandidate Relocaliser::Impl::estimate(const Features& cur, const Keyframe& 
   best.keyframe_frame_index = kf.frame_index;
   best.keyframe_time = kf.time;
   best.matches = static_cast<int>(m.size());
-  std::vector<Vec3> a, b;
-  for (const auto& [q, t] : m) {
-    a.push_back(kf.features.points[t]);
-    b.push_back(cur.points[q]);
+  const double tol2 = p.inlier_distance_m * p.inlier_distance_m;
+  auto inliers_of = [&](const SE3& T, std::vector<int>* idx) {
+    int n = 0;
+    for (size_t k = 0; k < m.size(); ++k)
+      if ((kf.features.points[m[k].second] - T * cur.points[m[k].first]).squaredNorm() < tol2) {
+        ++n;
+        if (idx) idx->push_back(static_cast<int>(k));
+      }
+    return n;
+  };
+  std::mt19937 rng(12345u);
+  std::uniform_int_distribution<size_t> pick(0, m.size() - 1);
+  SE3 best_T;
+  int best_n = 0;
+  for (int it = 0; it < p.ransac_iterations; ++it) {
+    const size_t i = pick(rng), j = pick(rng), k = pick(rng);
+    if (i == j || j == k || i == k) continue;
+    std::vector<Vec3> a, b;
+    for (size_t s : {i, j, k}) {
+      a.push_back(kf.features.points[m[s].second]);
+      b.push_back(cur.points[m[s].first]);
+    }
+    if ((a[1] - a[0]).cross(a[2] - a[0]).norm() < 1e-4) continue;  // near-collinear sample
+    const SE3 T = fit_rigid(a, b);
+    const int n = inliers_of(T, nullptr);
+    if (n > best_n) best_n = n, best_T = T;
   }
-  const RigidRansac r = ransac_rigid(a, b, p);
-  if (r.inliers < 3) return best;
-  best.inliers = r.inliers;
-  best.T_kf_cam = r.T_a_b;
-  best.T_world_cam = kf.T_world_cam * r.T_a_b;
+  if (best_n < 3) return best;
+  std::vector<int> idx;
+  inliers_of(best_T, &idx);
+  std::vector<Vec3> a, b;
+  for (int k : idx) {
+    a.push_back(kf.features.points[m[k].second]);
+    b.push_back(cur.points[m[k].first]);
+  }
+  const SE3 T_kf_cam = fit_rigid(a, b);
+  best.inliers = inliers_of(T_kf_cam, nullptr);
+  best.T_kf_cam = T_kf_cam;
+  best.T_world_cam = kf.T_world_cam * T_kf_cam;
   return best;
 }
 

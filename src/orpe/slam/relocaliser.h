@@ -39,12 +39,6 @@ struct RelocaliserParams {
   /// RANSAC inlier distance between a keyframe point and the frame's point moved into it (m).
   double inlier_distance_m = 0.03;
   int ransac_iterations = 300;  ///< fixed seed: deterministic
-  /// Local optimisation of the RANSAC (LO-RANSAC, Chum et al. 2003): each hypothesis that beats
-  /// the best so far is refitted on its inliers, and again on the new inliers, while their count
-  /// grows, up to this many refits. The minimal three-point fit of noisy depth (Kinect: cm at
-  /// ORB corners) is off by several cm; the refit on all its inliers is what gathers the rest.
-  /// 0 = only the best hypothesis is refitted once, at the end (before session 24).
-  int ransac_local_refits = 5;
   /// Tracking rounds that verify a candidate: the frame is tracked against the map rendered at the
   /// candidate; when that alignment is not OK, the map is rendered again at its estimate and the
   /// frame tracked again, up to this many rounds in all (fewer when a round moves the pose by less
@@ -71,9 +65,6 @@ struct RelocaliserParams {
     v("min_inliers", min_inliers, "3D-3D RANSAC inliers a candidate pose needs");
     v("inlier_distance_m", inlier_distance_m, "RANSAC inlier distance (m)");
     v("ransac_iterations", ransac_iterations, "RANSAC iterations per candidate (fixed seed)");
-    v("ransac_local_refits", ransac_local_refits,
-      "LO-RANSAC: refits of a new best hypothesis on its inliers while their count grows (0 = "
-      "one refit of the final hypothesis only)");
     v("verify_rounds", verify_rounds,
       "Tracking rounds verifying a candidate: a round that is not OK is followed by one against "
       "the map rendered at its estimate; the last round's gates decide (1 = one round)");
@@ -125,17 +116,6 @@ class Relocaliser {
 /// T_a_b minimising sum |a_i - T_a_b b_i|^2 (Kabsch / Umeyama without scale); needs >= 3
 /// non-collinear pairs. Exposed for tests.
 SE3 fit_rigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b);
-
-/// A rigid transform from 3D-3D pairs by RANSAC.
-struct RigidRansac {
-  SE3 T_a_b;
-  int inliers = 0;  ///< pairs with |a_i - T_a_b b_i| < params.inlier_distance_m; < 3: no estimate
-};
-/// T_a_b from pairs (a_i, b_i) with outliers: `ransac_iterations` three-pair samples (fixed seed),
-/// the local optimisation (`ransac_local_refits`), then a refit on the best hypothesis' inliers.
-/// Deterministic. Exposed for tests.
-RigidRansac ransac_rigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b,
-                         const RelocaliserParams& params);
 
 /// A candidate pose verified by tracking (RelocaliserParams::verify_rounds).
 struct TrackingVerification {

@@ -28,6 +28,7 @@ bool RelocaliserParams::IsValid(std::string* why) const {
     return fail("inlier_distance_m must be in (0, 1) m");
   if (ransac_iterations < 1 || ransac_iterations > 100000)
     return fail("ransac_iterations must be in [1, 1e5]");
+  if (verify_rounds < 1 || verify_rounds > 10) return fail("verify_rounds must be in [1, 10]");
   return true;
 }
 
@@ -84,6 +85,29 @@ std::vector<std::pair<int, int>> match(const Features& q, const Features& t, dou
 }
 
 }  // namespace
+
+TrackingVerification verify_by_tracking(const SE3& T_world_guess, int rounds,
+                                        const TrackerParams& gates, const TrackFrom& track_from) {
+  TrackingVerification v;
+  SE3 T_world_ref = T_world_guess;
+  for (v.rounds = 1;; ++v.rounds) {
+    v.alignment = track_from(T_world_ref);
+    v.T_world_cam = T_world_ref * v.alignment.T_ref_cam;
+    if (v.ok() || v.rounds >= rounds) break;
+    // Render again at the estimate only when it moved the reference (else the round repeats
+    // itself) and stays within the tracker's jump limits of the guess.
+    const SE3& step = v.alignment.T_ref_cam;
+    const double step_norm =
+        std::hypot(step.translation().norm(), step.rotation_angle_deg() * M_PI / 180.0);
+    const SE3 total = T_world_guess.inverse() * v.T_world_cam;
+    if (step_norm <= gates.max_final_step ||
+        total.translation().norm() > gates.max_translation_update_m ||
+        total.rotation_angle_deg() > gates.max_rotation_update_deg)
+      break;
+    T_world_ref = v.T_world_cam;
+  }
+  return v;
+}
 
 struct Relocaliser::Impl {
   struct Keyframe {

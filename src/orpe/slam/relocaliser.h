@@ -18,6 +18,7 @@
 
 #include "orpe/core/se3.h"
 #include "orpe/slam/preprocess.h"
+#include "orpe/slam/tracker.h"
 
 namespace orpe::slam {
 
@@ -38,6 +39,15 @@ struct RelocaliserParams {
   /// RANSAC inlier distance between a keyframe point and the frame's point moved into it (m).
   double inlier_distance_m = 0.03;
   int ransac_iterations = 300;  ///< fixed seed: deterministic
+  /// Tracking rounds that verify a candidate: the frame is tracked against the map rendered at the
+  /// candidate; when that alignment is not OK, the map is rendered again at its estimate and the
+  /// frame tracked again, up to this many rounds in all (fewer when a round moves the pose by less
+  /// than the tracker's max_final_step, or when the estimate leaves the tracker's jump limits of
+  /// the candidate). The last round's gates decide, every one as for a tracked frame. A candidate
+  /// several cm off is verified against a view rendered there, whose occlusions and silhouettes
+  /// are not the camera's: the round from the corrected pose is the one to judge. 1 = one round
+  /// (before session 24).
+  int verify_rounds = 3;
 
   template <class V>
   void visit(V&& v) {
@@ -55,6 +65,9 @@ struct RelocaliserParams {
     v("min_inliers", min_inliers, "3D-3D RANSAC inliers a candidate pose needs");
     v("inlier_distance_m", inlier_distance_m, "RANSAC inlier distance (m)");
     v("ransac_iterations", ransac_iterations, "RANSAC iterations per candidate (fixed seed)");
+    v("verify_rounds", verify_rounds,
+      "Tracking rounds verifying a candidate: a round that is not OK is followed by one against "
+      "the map rendered at its estimate; the last round's gates decide (1 = one round)");
   }
   bool IsValid(std::string* why) const;
 };
@@ -62,11 +75,11 @@ struct RelocaliserParams {
 /// A candidate camera pose for a lost frame.
 struct RelocCandidate {
   SE3 T_world_cam;
-  int keyframe_frame_index = -1;  ///< RgbdFrame::index of the keyframe it came from
+  int keyframe_frame_index = -1;    ///< RgbdFrame::index of the keyframe it came from
   std::int32_t keyframe_time = -1;  ///< the keyframe's time stamp (maybe_add's `time`)
   SE3 T_kf_cam;                     ///< the RANSAC estimate: the camera in the keyframe's frame
-  int matches = 0;                ///< descriptor matches with that keyframe
-  int inliers = 0;                ///< RANSAC inliers among them
+  int matches = 0;                  ///< descriptor matches with that keyframe
+  int inliers = 0;                  ///< RANSAC inliers among them
 };
 
 class Relocaliser {
@@ -103,5 +116,21 @@ class Relocaliser {
 /// T_a_b minimising sum |a_i - T_a_b b_i|^2 (Kabsch / Umeyama without scale); needs >= 3
 /// non-collinear pairs. Exposed for tests.
 SE3 fit_rigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b);
+
+/// A candidate pose verified by tracking (RelocaliserParams::verify_rounds).
+struct TrackingVerification {
+  SE3 T_world_cam;            ///< the last round's estimate
+  AlignmentResult alignment;  ///< the last round's (its gates are the verdict)
+  int rounds = 0;             ///< rounds run
+  bool ok() const { return !alignment.failed && !alignment.weak; }
+};
+/// One round: the frame tracked against the map rendered at T_world_ref (T_ref_cam: the estimate
+/// in that reference's frame).
+using TrackFrom = std::function<AlignmentResult(const SE3& T_world_ref)>;
+/// Verifies `T_world_guess` in up to `rounds` rounds of `track_from` (RelocaliserParams::
+/// verify_rounds; `gates` gives the no-progress step and the jump limits). Stops at the first OK
+/// round.
+TrackingVerification verify_by_tracking(const SE3& T_world_guess, int rounds,
+                                        const TrackerParams& gates, const TrackFrom& track_from);
 
 }  // namespace orpe::slam

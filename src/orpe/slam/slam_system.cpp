@@ -173,16 +173,26 @@ bool SlamSystem::try_relocalise(std::int32_t now, SlamFrameResult& res) {
   // The photometric reference of the previous frame is not at a candidate pose.
   const bool prev_at_pose = prev_frame_at_pose_;
   prev_frame_at_pose_ = false;
+  std::string rejected;  // why each candidate failed its verification
   for (const RelocCandidate& c : candidates) {
-    predict(c.T_world_cam, now);
-    const AlignmentResult a = align_into(SE3(), res);
-    if (a.failed || a.weak) continue;
-    T_world_cam_ = c.T_world_cam * a.T_ref_cam;
+    const TrackingVerification v = verify_by_tracking(c.T_world_cam, params_.reloc.verify_rounds,
+                                                      params_.tracker, [&](const SE3& T_world_ref) {
+                                                        predict(T_world_ref, now);
+                                                        return align_into(SE3(), res);
+                                                      });
+    if (!v.ok()) {
+      rejected +=
+          fmt::format("; keyframe {} ({} of {} matches inliers, {} rounds): {}",
+                      c.keyframe_frame_index, c.inliers, c.matches, v.rounds, v.alignment.reason);
+      continue;
+    }
+    T_world_cam_ = v.T_world_cam;
     res.tracked_T_world_cam = T_world_cam_;
     res.relocalised = true;
     res.reloc_keyframe = c.keyframe_frame_index;
-    res.reason = fmt::format("relocalised against keyframe {} ({} of {} matches inliers)",
-                             c.keyframe_frame_index, c.inliers, c.matches);
+    res.reason =
+        fmt::format("relocalised against keyframe {} ({} of {} matches inliers, {} rounds)",
+                    c.keyframe_frame_index, c.inliers, c.matches, v.rounds);
     status_ = TrackingStatus::kOk;
     bad_frames_ = 0;
     res.reloc_ms += ms_since(t);
@@ -193,7 +203,8 @@ bool SlamSystem::try_relocalise(std::int32_t now, SlamFrameResult& res) {
   res = lost;
   res.reloc_candidates = tried;
   if (tried > 0)
-    res.reason += fmt::format(" | relocalisation: none of {} candidate poses verified", tried);
+    res.reason +=
+        fmt::format(" | relocalisation: none of {} candidate poses verified{}", tried, rejected);
   res.reloc_ms += ms_since(t);
   return false;
 }

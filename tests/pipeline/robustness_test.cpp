@@ -12,6 +12,7 @@
 #include "orpe/core/error.h"
 #include "orpe/io/bop_results.h"
 #include "orpe/io/dataset.h"
+#include "orpe/pipeline/frame_log.h"
 #include "orpe/pipeline/run.h"
 #include "orpe/slam/slam_system.h"
 #include "pipeline/pipeline_test_util.h"
@@ -136,6 +137,52 @@ TEST(TrackingSelfCheck, FullModeWritesNoPoseFromAnUntrackedCamera) {
   EXPECT_GE(summary["counts"]["tracking_lost"].get<int>(), 5) << summary.dump();
   const auto rows = read_bop_results(out + "/poses.csv");
   for (const auto& r : rows) EXPECT_EQ(r.im_id, 0) << "a pose from frame " << r.im_id;
+}
+
+// summary.json scores the trajectory over every row (trajectory_eval) and, when frames were LOST,
+// also without their rows (trajectory_eval_tracked): a LOST row holds the last good pose, not the
+// camera's (docs/SLAM.md, "Tracking states and loss").
+TEST(TrackingSelfCheck, TheAteIsAlsoReportedWithoutTheLostFramesHeldPoses) {
+  SynthParams p = test::small_scene_params(320, 240, 8, 3, 1);
+  p.span_deg = 140;
+  const std::string scene = test::synthetic_scene("jump", p);
+  const std::string out = test::scratch_dir("jump_tracked_ate") + "/run";
+  const RunSummary rs = run_object_rpe(OrpeConfig{}, slam_run(scene, out));
+  const auto summary = read_json(out + "/summary.json");
+  const int lost = summary["counts"]["tracking_lost"].get<int>();
+  ASSERT_GE(lost, 5) << summary.dump();
+  EXPECT_EQ(summary["trajectory_eval"]["pairs"].get<int>(), 8);
+  ASSERT_TRUE(summary.contains("trajectory_eval_tracked")) << summary.dump();
+  const auto& tracked = summary["trajectory_eval_tracked"];
+  EXPECT_EQ(tracked["lost_rows_left_out"].get<int>(), lost);
+  EXPECT_EQ(tracked["pairs"].get<int>(), 8 - lost);
+  // The held poses are far from where the camera jumped to; the tracked rows are not.
+  const double all = summary["trajectory_eval"]["ate"]["translation_m"]["rmse"].get<double>();
+  const double kept = tracked["ate"]["translation_m"]["rmse"].get<double>();
+  EXPECT_LT(kept, 0.5 * all);
+  ASSERT_TRUE(rs.ate_tracked_rmse_m.has_value());
+  EXPECT_DOUBLE_EQ(*rs.ate_tracked_rmse_m, kept);
+  EXPECT_NE(rs.report().find("without the " + std::to_string(lost) + " LOST frames' rows"),
+            std::string::npos);
+  // Without LOST frames there is nothing to leave out.
+  SynthParams smooth = test::small_scene_params(320, 240, 6, 3, 1);
+  smooth.span_deg = 28;
+  const std::string out2 = test::scratch_dir("smooth_tracked_ate") + "/run";
+  run_object_rpe(OrpeConfig{}, slam_run(test::synthetic_scene("smooth_ate", smooth), out2));
+  EXPECT_FALSE(read_json(out2 + "/summary.json").contains("trajectory_eval_tracked"));
+}
+
+TEST(FrameLog, TrackedRowsLeaveOutTheLostFramesOnly) {
+  std::vector<StampedPose> traj(4);
+  std::vector<FrameLogRecord> recs(4);
+  for (int i = 0; i < 4; ++i) traj[i].timestamp_s = i, recs[i].frame = i;
+  recs[1].status = "LOST";
+  recs[2].status = "DEGRADED";
+  const auto kept = tracked_rows(traj, recs);
+  ASSERT_EQ(kept.size(), 3u);
+  EXPECT_EQ(kept[1].timestamp_s, 2.0);
+  recs.pop_back();
+  EXPECT_THROW(tracked_rows(traj, recs), std::invalid_argument);
 }
 
 TEST(NoDepth, ARunWithoutUsableDepthIsAnErrorAndWritesNothing) {

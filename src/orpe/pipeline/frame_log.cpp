@@ -85,6 +85,17 @@ void FrameLog::write(const std::string& path) const {
   });
 }
 
+std::vector<StampedPose> tracked_rows(const std::vector<StampedPose>& trajectory,
+                                      const std::vector<FrameLogRecord>& records) {
+  if (trajectory.size() != records.size())
+    throw std::invalid_argument(fmt::format("tracked_rows: {} trajectory rows for {} frames",
+                                            trajectory.size(), records.size()));
+  std::vector<StampedPose> out;
+  for (size_t i = 0; i < records.size(); ++i)
+    if (records[i].status != "LOST") out.push_back(trajectory[i]);
+  return out;
+}
+
 std::vector<FrameLogRecord> read_frame_log(const std::string& path) {
   std::ifstream is(path);
   if (!is) throw IoError(path, "cannot open the frame log");

@@ -45,6 +45,13 @@ class FrameLog {
 /// Reads a frames.csv. Throws IoError naming the file and line for a malformed line.
 std::vector<FrameLogRecord> read_frame_log(const std::string& path);
 
+/// The rows of `trajectory` (one per processed frame, in the log's order) whose frame was not LOST.
+/// A LOST frame's row holds the last good pose (docs/SLAM.md), which says nothing about where the
+/// camera was; summary.json scores the trajectory with and without those rows. Throws
+/// std::invalid_argument when the two differ in length.
+std::vector<StampedPose> tracked_rows(const std::vector<StampedPose>& trajectory,
+                                      const std::vector<FrameLogRecord>& records);
+
 /// Resident memory of this process now (MB), from /proc/self/statm; 0 when unavailable.
 double resident_memory_mb();
 

@@ -236,6 +236,9 @@ std::string RunSummary::report() const {
   if (ate_rmse_m)
     s += fmt::format("camera ATE RMSE {:.4f} m (rigid alignment to the ground truth)\n",
                      *ate_rmse_m);
+  if (ate_tracked_rmse_m)
+    s += fmt::format("camera ATE RMSE {:.4f} m without the {} LOST frames' rows (held poses)\n",
+                     *ate_tracked_rmse_m, lost_rows);
   s += "outputs in " + out_dir + ":";
   for (const auto& f : files) s += " " + f;
   return s + "\n";
@@ -502,6 +505,24 @@ void summarise_inputs(const ObjectRpePipeline& pipeline, const RunOptions& optio
   }
 }
 
+/// summary.json's trajectory_eval_tracked: the camera ATE without the rows of LOST frames (their
+/// held poses), next to trajectory_eval's over every row; only when some frame was LOST.
+void summarise_tracked_ate(const std::vector<StampedPose>& gt,
+                           const std::vector<StampedPose>& trajectory,
+                           const std::vector<FrameLogRecord>& records, const OrpeConfig& config,
+                           RunSummary& summary, JsonSummary& js) {
+  if (records.size() != trajectory.size()) return;  // an interrupted run's partial frame
+  const std::vector<StampedPose> tracked = tracked_rows(trajectory, records);
+  summary.lost_rows = static_cast<int>(trajectory.size() - tracked.size());
+  if (summary.lost_rows == 0 || tracked.empty()) return;
+  const TrajectoryEvaluation ev = evaluate_trajectory(gt, tracked, config.eval_trajectory);
+  if (ev.matches.empty()) return;
+  nlohmann::json j = nlohmann::json::parse(ev.to_json());
+  j["lost_rows_left_out"] = summary.lost_rows;
+  js.set_json("trajectory_eval_tracked", j.dump());
+  summary.ate_tracked_rmse_m = ev.ate.translation_m.rmse;
+}
+
 /// summary.json's counts, tracking events and memory.
 void summarise_counts(const ObjectRpePipeline& pipeline, RunSummary& summary, JsonSummary& js) {
   const PipelineStats& st = summary.stats;
@@ -633,6 +654,7 @@ RunSummary run_object_rpe(const OrpeConfig& config, const RunOptions& options) {
       js.set_json("trajectory_eval", ev.to_json());
       summary.ate_rmse_m = ev.ate.translation_m.rmse;
     }
+    summarise_tracked_ate(gt, pipeline.trajectory(), loop.frame_log.records(), config, summary, js);
   }
   summarise_timing(summary, js);
   js.set_json("config", config_to_json(config));

@@ -77,6 +77,9 @@ struct RunSummary {
   double peak_rss_mb = 0;
   size_t map_bytes = 0;
   std::optional<double> ate_rmse_m;  ///< when the dataset has camera ground truth
+  /// The same without the rows of LOST frames (their held poses), when there were any.
+  std::optional<double> ate_tracked_rmse_m;
+  int lost_rows = 0;  ///< trajectory rows of LOST frames
   std::vector<std::string> files;    ///< written, relative to out_dir
   bool interrupted = false;          ///< stopped early by RunOptions::stop_requested
   int no_depth_frames = 0;           ///< frames with too little valid depth (not tracked)

@@ -558,12 +558,13 @@ bool ObjectRpePipeline::render_projected(PoseFrame& f) {
     f.views = split_instance_views(images, semantic_->fusion().instances(), min_view_px);
     f.view.depth = std::move(images.scene_depth);
     f.view.color = std::move(images.scene_color);
-    for (const InstanceView& iv : f.views)
-      for (size_t k = 0; k < iv.projected_mask.size(); ++k)
-        if (iv.projected_mask[k]) {
-          f.view.depth[k] = iv.projected_depth[k];
-          f.view.color[k] = iv.projected_color[k];
-        }
+    for (const InstanceView& iv : f.views)  // the mask lies inside its box
+      for (int v = iv.box.v_min; v <= iv.box.v_max; ++v)
+        for (int u = iv.box.u_min; u <= iv.box.u_max; ++u)
+          if (iv.projected_mask.at(u, v)) {
+            f.view.depth.at(u, v) = iv.projected_depth.at(u, v);
+            f.view.color.at(u, v) = iv.projected_color.at(u, v);
+          }
   }
   f.result.render_ms = ms_since(t0);
   return need_projected;

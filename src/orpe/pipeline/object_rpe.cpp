@@ -545,6 +545,7 @@ bool ObjectRpePipeline::render_projected(PoseFrame& f) {
     ro.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
     ro.splat_radius_scale = static_cast<float>(params_.semantic.mask_splat_radius_scale);
     ro.depth_tolerance_m = params_.semantic.mask_depth_tolerance_m;
+    ro.one_pass = params_.semantic.mask_render_one_pass;
     ro.want_color = true;
     ro.scene_margin_px = pp.render_margin_px;  // the scene around the instances (windowed)
     if (semantic_) ro.reuse_scene = &semantic_->fusion().kept_scene();

@@ -81,6 +81,7 @@ void InstanceRenderer::render(const slam::SurfelMap& map, const SE3& T_world_cam
   out->scene_color = want_scene ? ColorImage(W, H, Rgb8{}) : ColorImage();
   out->window_u_min = u0, out->window_v_min = v0, out->window_u_max = u1, out->window_v_max = v1;
   out->scene_reused = false;
+  out->map_passes = 0;
   if (u1 < u0 || v1 < v0) return;  // no labelled surfel in view
   const Renders r = render_window(map, T_world_cam, K, o, {u0, v0, u1, v1}, out);
   compose(r, o, {u0, v0, u1, v1}, want_scene, out);
@@ -95,13 +96,16 @@ InstanceRenderer::Renders InstanceRenderer::render_window(
   options.radius_scale = o.splat_radius_scale;
   options.want_vertex = options.want_normal = false;
   options.want_instance = false;
-  const auto set_window = [&options](int wu0, int wv0, int wu1, int wv1) {
-    options.window_u0 = wu0, options.window_v0 = wv0;
-    options.window_width = wu1 - wu0 + 1, options.window_height = wv1 - wv0 + 1;
+  slam::RenderOptions labelled = options;  // the labelled view's outputs (and filter, alone)
+  labelled.want_instance = true;
+  labelled.want_color = o.want_color;
+  labelled.only_labelled = true;
+  const auto set_window = [&options, &labelled](int wu0, int wv0, int wu1, int wv1) {
+    for (slam::RenderOptions* ro : {&options, &labelled}) {
+      ro->window_u0 = wu0, ro->window_v0 = wv0;
+      ro->window_width = wu1 - wu0 + 1, ro->window_height = wv1 - wv0 + 1;
+    }
   };
-  slam::RenderOptions labelled_wants = options;
-  labelled_wants.want_instance = true;
-  labelled_wants.want_color = o.want_color;
   Renders r;
   if (o.reuse_scene && o.reuse_scene->matches(map, T_world_cam, K, o.max_splat_radius_px,
                                               o.splat_radius_scale, u0, v0, u1, v1)) {
@@ -110,20 +114,24 @@ InstanceRenderer::Renders InstanceRenderer::render_window(
     r.sx = u0 - o.reuse_scene->u0, r.sy = v0 - o.reuse_scene->v0;
     out->scene_reused = true;
     set_window(u0, v0, u1, v1);
-    labelled_wants.only_labelled = true;
-    labelled_wants.window_u0 = options.window_u0, labelled_wants.window_v0 = options.window_v0;
-    labelled_wants.window_width = options.window_width;
-    labelled_wants.window_height = options.window_height;
-    renderer_.render(map, T_world_cam, K, labelled_wants, &objects_);
+    renderer_.render(map, T_world_cam, K, labelled, &objects_);
+    out->map_passes = 1;
     return r;
   }
-  // Both views in one pass over the map: over the kept window (this one grown by
-  // keep_margin_px: a later render's window may be larger) or over this window only.
+  // Both views (in one pass over the map unless one_pass is off): over the kept window (this one
+  // grown by keep_margin_px: a later render's window may be larger) or over this window only.
   const int m = o.keep_scene ? std::max(0, o.keep_margin_px) : 0;
   const int ku0 = std::max(0, u0 - m), kv0 = std::max(0, v0 - m);
   set_window(ku0, kv0, std::min(K.width - 1, u1 + m), std::min(K.height - 1, v1 + m));
   options.want_color = o.keep_scene || o.scene_margin_px >= 0;
-  renderer_.render_with_labelled(map, T_world_cam, K, options, labelled_wants, &all_, &objects_);
+  if (o.one_pass) {
+    renderer_.render_with_labelled(map, T_world_cam, K, options, labelled, &all_, &objects_);
+    out->map_passes = 1;
+  } else {
+    renderer_.render(map, T_world_cam, K, options, &all_);
+    renderer_.render(map, T_world_cam, K, labelled, &objects_);
+    out->map_passes = 2;
+  }
   r.sx = r.ox = u0 - ku0, r.sy = r.oy = v0 - kv0;
   if (o.keep_scene) {
     SceneRender& kept = *o.keep_scene;

@@ -43,6 +43,10 @@ struct InstanceImages {
   int window_u_min = 0, window_v_min = 0, window_u_max = -1, window_v_max = -1;
   /// The render of every surfel came from InstanceRenderOptions::reuse_scene (not rendered again).
   bool scene_reused = false;
+  /// Splatting passes over the map's surfels this render made: 1 (both views in one pass, or the
+  /// labelled surfels alone with a reused scene), 2 (InstanceRenderOptions::one_pass off), 0 (no
+  /// labelled surfel in view).
+  int map_passes = 0;
 };
 
 /// The render of every surfel over a window of the image (depth and colour), kept by one render so
@@ -82,6 +86,10 @@ struct InstanceRenderOptions {
   /// render of every surfel is taken from it instead of rendered again. The outputs are as without
   /// it, bit for bit (every render is a window of the same image's pixel rays).
   const SceneRender* reuse_scene = nullptr;
+  /// Both views (every surfel; the labelled ones) from one pass over the map
+  /// (slam::MapRenderer::render_with_labelled); false: one render each (same images, the cost
+  /// before session 24; SemanticParams::mask_render_one_pass).
+  bool one_pass = true;
 };
 
 class InstanceRenderer {

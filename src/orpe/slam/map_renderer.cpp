@@ -147,7 +147,8 @@ inline std::uint64_t splat_key(float t, float d2, float kappa, std::uint32_t ind
   return pack(t * (1.0f + kappa * d2), index);
 }
 
-// The images of `out` (the outputs `options` asks for) from the window's z-buffer `zbuf`.
+// The images of `out` (the outputs `options` asks for) from the window's z-buffer `zbuf`. Reads
+// only the want_* flags and radius_scale of `options`.
 void resolve(const SurfelMap& map, const CameraF& cam, const RenderOptions& options,
              const Window& win, const std::uint64_t* zbuf, size_t drawn, RenderedView* out) {
   const int ox = win.ox, oy = win.oy, W = win.W, H = win.H;
@@ -273,13 +274,8 @@ void MapRenderer::render_with_labelled(const SurfelMap& map, const SE3& T_world_
     drawn_labelled += d && has_instance;
   }
   resolve(map, cam, options, win, zbuf, drawn, out);
-  RenderOptions lo = options;
-  lo.only_labelled = true;
-  lo.want_vertex = labelled_wants.want_vertex;
-  lo.want_normal = labelled_wants.want_normal;
-  lo.want_color = labelled_wants.want_color;
-  lo.want_instance = labelled_wants.want_instance;
-  lo.want_surfel_centre = labelled_wants.want_surfel_centre;
+  RenderOptions lo = labelled_wants;  // its outputs, the splats' geometry of `options`
+  lo.radius_scale = options.radius_scale;
   resolve(map, cam, lo, win, zlab, drawn_labelled, labelled);
 }
 

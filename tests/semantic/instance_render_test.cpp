@@ -84,6 +84,31 @@ TEST(InstanceRender, AKeptSceneIsReusedByALaterRenderWithTheSameImages) {
   EXPECT_EQ(reused.instance_id.at(28, 26), 3);
 }
 
+TEST(InstanceRender, BothViewsComeFromOnePassOverTheMapWithTheImagesOfTwo) {
+  PatchScene s;
+  InstanceRenderer renderer;
+  InstanceRenderOptions o = pose_stage_options();
+  InstanceImages one, two;
+  SceneRender kept;
+  o.keep_scene = &kept;  // the semantic stage's render: the kept window is larger
+  o.keep_margin_px = 6;
+  renderer.render(s.map, SE3(), s.K, o, &one);
+  EXPECT_EQ(one.map_passes, 1);
+  o.one_pass = false;
+  renderer.render(s.map, SE3(), s.K, o, &two);
+  EXPECT_EQ(two.map_passes, 2);
+  expect_same_images(one, two);
+  EXPECT_EQ(one.instance_id.at(40, 26), 3);
+  EXPECT_EQ(one.instance_id.at(46, 26), 0);  // the occluder
+  // With the scene reused, the labelled surfels alone: one pass.
+  o.keep_scene = nullptr;
+  o.reuse_scene = &kept;
+  renderer.render(s.map, SE3(), s.K, o, &two);
+  EXPECT_TRUE(two.scene_reused);
+  EXPECT_EQ(two.map_passes, 1);
+  expect_same_images(one, two);
+}
+
 TEST(InstanceRender, AKeptSceneIsNotReusedForAnotherMapCameraOrALargerWindow) {
   PatchScene s;
   InstanceRenderer semantic, pose;

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <stdexcept>
 
 #include "orpe/io/point_cloud_io.h"
 #include "orpe/slam/map_io.h"
@@ -232,6 +233,67 @@ TEST(MapRenderer, AWindowEqualsThatWindowOfTheWholeImageBitForBit) {
   EXPECT_GT(covered, 61 * 45 / 2);
   // Fewer surfels reach the window than the whole image.
   EXPECT_LT(window.drawn_surfels, whole.drawn_surfels);
+}
+
+// The label-aware instance render's two views in one pass: every surfel, and the labelled ones
+// (some hidden by unlabelled ones in the first), equal to two render() calls bit for bit.
+TEST(MapRenderer, RenderWithLabelledEqualsTwoRendersBitForBit) {
+  SurfelMap map = make_wall(2.0f, 0);
+  const SurfelMap object = make_wall(1.5f, 4, 0.02f);
+  for (size_t i = 0; i < object.size(); i += 3) {  // a sparse front, half of it unlabelled
+    Surfel sf = object.get(i);
+    sf.instance_id = i % 2 == 0 ? 4 : 0;
+    map.push_back(sf);
+  }
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> jitter(-0.2f, 0.2f);
+  for (size_t i = 0; i < map.size(); ++i) {
+    map.normal_world[i] = Vec3f(jitter(rng), jitter(rng), -1.0f).normalized();
+    map.color[i] = Rgb8{static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(i / 5), 3};
+    if (map.instance_id[i] == 0 && i % 7 == 0) map.instance_id[i] = 2;  // labelled in the back
+  }
+  const SE3 T_world_cam(so3_exp(Vec3(0.04, -0.06, 0.02)), Vec3(0.02, -0.01, 0.05));
+  RenderOptions opt;
+  opt.max_splat_radius_px = 2.0f;
+  opt.want_vertex = opt.want_normal = false;
+  opt.window_u0 = 21, opt.window_v0 = 17, opt.window_width = 97, opt.window_height = 71;
+  RenderOptions wants = opt;
+  wants.want_instance = true;
+  wants.want_color = false;
+  MapRenderer renderer;
+  RenderedView all, labelled, all_ref, labelled_ref;
+  renderer.render_with_labelled(map, T_world_cam, small_camera(), opt, wants, &all, &labelled);
+  renderer.render(map, T_world_cam, small_camera(), opt, &all_ref);
+  wants.only_labelled = true;
+  renderer.render(map, T_world_cam, small_camera(), wants, &labelled_ref);
+  ASSERT_EQ(labelled.instance_id.size(), labelled_ref.instance_id.size());
+  EXPECT_TRUE(labelled.color.empty());
+  int front = 0, back = 0, hidden = 0;
+  for (size_t k = 0; k < all.depth.size(); ++k) {
+    ASSERT_EQ(all.surfel_index[k], all_ref.surfel_index[k]) << k;
+    ASSERT_EQ(all.depth[k], all_ref.depth[k]) << k;
+    ASSERT_EQ(all.color[k], all_ref.color[k]) << k;
+    ASSERT_EQ(labelled.surfel_index[k], labelled_ref.surfel_index[k]) << k;
+    ASSERT_EQ(labelled.depth[k], labelled_ref.depth[k]) << k;
+    ASSERT_EQ(labelled.instance_id[k], labelled_ref.instance_id[k]) << k;
+    if (labelled.surfel_index[k] >= 0) {
+      ASSERT_GT(labelled.instance_id[k], 0) << k;
+    }
+    front += labelled.instance_id[k] == 4;
+    back += labelled.instance_id[k] == 2;
+    // A labelled surfel behind an unlabelled one.
+    hidden += labelled.instance_id[k] > 0 && map.instance_id[all.surfel_index[k]] == 0;
+  }
+  EXPECT_GT(front, 100);
+  EXPECT_GT(back, 100);
+  EXPECT_GT(hidden, 0);
+  EXPECT_EQ(labelled.drawn_surfels, labelled_ref.drawn_surfels);
+  EXPECT_LT(labelled.drawn_surfels, all.drawn_surfels);
+  // The surface band is one z-buffer pass more: not in one pass.
+  opt.surface_band_m = 0.05f;
+  EXPECT_THROW(
+      renderer.render_with_labelled(map, T_world_cam, small_camera(), opt, wants, &all, &labelled),
+      std::invalid_argument);
 }
 
 // Where noisy surfels of one surface overlap, the nearest disc is biased towards the camera; with

@@ -545,6 +545,7 @@ bool ObjectRpePipeline::render_projected(PoseFrame& f) {
     ro.max_splat_radius_px = static_cast<float>(params_.semantic.mask_splat_radius_px);
     ro.splat_radius_scale = static_cast<float>(params_.semantic.mask_splat_radius_scale);
     ro.depth_tolerance_m = params_.semantic.mask_depth_tolerance_m;
+    ro.one_pass = params_.semantic.mask_render_one_pass;
     ro.want_color = true;
     ro.scene_margin_px = pp.render_margin_px;  // the scene around the instances (windowed)
     if (semantic_) ro.reuse_scene = &semantic_->fusion().kept_scene();
@@ -558,12 +559,13 @@ bool ObjectRpePipeline::render_projected(PoseFrame& f) {
     f.views = split_instance_views(images, semantic_->fusion().instances(), min_view_px);
     f.view.depth = std::move(images.scene_depth);
     f.view.color = std::move(images.scene_color);
-    for (const InstanceView& iv : f.views)
-      for (size_t k = 0; k < iv.projected_mask.size(); ++k)
-        if (iv.projected_mask[k]) {
-          f.view.depth[k] = iv.projected_depth[k];
-          f.view.color[k] = iv.projected_color[k];
-        }
+    for (const InstanceView& iv : f.views)  // the mask lies inside its box
+      for (int v = iv.box.v_min; v <= iv.box.v_max; ++v)
+        for (int u = iv.box.u_min; u <= iv.box.u_max; ++u)
+          if (iv.projected_mask.at(u, v)) {
+            f.view.depth.at(u, v) = iv.projected_depth.at(u, v);
+            f.view.color.at(u, v) = iv.projected_color.at(u, v);
+          }
   }
   f.result.render_ms = ms_since(t0);
   return need_projected;

@@ -13,6 +13,10 @@
 // rendered as a window of the image (slam::RenderOptions' window: the whole image's pixel rays) and
 // pasted into full-size images. Outside the window there is no instance by construction, so the
 // outputs equal, bit for bit, those of a full-image render; the cost scales with the window's area.
+//
+// One pass: the render of every surfel and that of the labelled ones come from one pass over the
+// map (slam::MapRenderer::render_with_labelled: each surfel transformed and splatted once, into
+// two z-buffers), unless the render of every surfel is reused (then the labelled surfels only).
 #pragma once
 
 #include <array>
@@ -39,6 +43,10 @@ struct InstanceImages {
   int window_u_min = 0, window_v_min = 0, window_u_max = -1, window_v_max = -1;
   /// The render of every surfel came from InstanceRenderOptions::reuse_scene (not rendered again).
   bool scene_reused = false;
+  /// Splatting passes over the map's surfels this render made: 1 (both views in one pass, or the
+  /// labelled surfels alone with a reused scene), 2 (InstanceRenderOptions::one_pass off), 0 (no
+  /// labelled surfel in view).
+  int map_passes = 0;
 };
 
 /// The render of every surfel over a window of the image (depth and colour), kept by one render so
@@ -78,6 +86,10 @@ struct InstanceRenderOptions {
   /// render of every surfel is taken from it instead of rendered again. The outputs are as without
   /// it, bit for bit (every render is a window of the same image's pixel rays).
   const SceneRender* reuse_scene = nullptr;
+  /// Both views (every surfel; the labelled ones) from one pass over the map
+  /// (slam::MapRenderer::render_with_labelled); false: one render each (same images, the cost
+  /// before session 24; SemanticParams::mask_render_one_pass).
+  bool one_pass = true;
 };
 
 class InstanceRenderer {
@@ -91,15 +103,23 @@ class InstanceRenderer {
               const InstanceRenderOptions& options, InstanceImages* out);
 
  private:
-  /// Gathers the labelled surfels into labelled_ and returns the window their splats reach
-  /// (inclusive bounds u0, v0, u1, v1; u1 < u0 when none is in view).
-  std::array<int, 4> gather_labelled(const slam::SurfelMap& map, const SE3& T_world_cam,
-                                     const PinholeIntrinsics& K, float max_splat_radius_px,
-                                     float splat_radius_scale);
+  /// Where compose() reads: the render of every surfel (null: all_) from pixel (sx, sy) on, the
+  /// labelled view (objects_) from (ox, oy) on, for the window's first pixel.
+  struct Renders {
+    const DepthImage* scene_depth = nullptr;
+    const ColorImage* scene_color = nullptr;
+    int sx = 0, sy = 0, ox = 0, oy = 0;
+  };
+  /// The two views over the window (inclusive bounds u0, v0, u1, v1): the render of every surfel
+  /// reused, or rendered with the labelled view in one pass (kept when asked).
+  Renders render_window(const slam::SurfelMap& map, const SE3& T_world_cam,
+                        const PinholeIntrinsics& K, const InstanceRenderOptions& o,
+                        const std::array<int, 4>& window, InstanceImages* out);
+  /// The label-aware images of the window from the two views.
+  void compose(const Renders& r, const InstanceRenderOptions& o, const std::array<int, 4>& window,
+               bool want_scene, InstanceImages* out) const;
 
   slam::MapRenderer renderer_;
-  slam::SurfelMap labelled_;  // scratch: the labelled surfels only
-  std::vector<std::uint32_t> selected_;
   slam::RenderedView all_, objects_;
 };
 

@@ -353,6 +353,7 @@ SemanticFrameReport SemanticFusion::integrate(const RgbdFrame& frame,
     o.max_splat_radius_px = static_cast<float>(params_.mask_splat_radius_px);
     o.splat_radius_scale = static_cast<float>(params_.mask_splat_radius_scale);
     o.depth_tolerance_m = params_.mask_depth_tolerance_m;
+    o.one_pass = params_.mask_render_one_pass;
     o.keep_scene = keep_scene_margin_px_ >= 0 ? &scene_ : nullptr;
     o.keep_margin_px = keep_scene_margin_px_;
     scene_.clear();

@@ -14,6 +14,7 @@ std::vector<InstanceView> split_instance_views(const InstanceImages& images,
   for (const auto id : images.instance_id)
     if (id > 0) ++area[id];
   std::vector<InstanceView> out;
+  std::map<int, size_t> view_of;  // instance id -> its view in `out`
   for (const auto& [id, pixels] : area) {
     const auto it = instances.find(id);
     if (it == instances.end() || pixels < min_area_px) continue;
@@ -25,16 +26,22 @@ std::vector<InstanceView> split_instance_views(const InstanceImages& images,
     iv.projected_mask = MaskImage(W, H, 0);
     iv.projected_depth = DepthImage(W, H, 0.0f);
     iv.projected_color = ColorImage(W, H, Rgb8{});
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u) {
-        if (images.instance_id.at(u, v) != id) continue;
-        iv.projected_mask.at(u, v) = 1;
-        iv.projected_depth.at(u, v) = images.depth.at(u, v);
-        if (have_color) iv.projected_color.at(u, v) = images.color.at(u, v);
-        iv.box.include(u, v);
-      }
+    view_of[id] = out.size();
     out.push_back(std::move(iv));
   }
+  // One pass over the image fills every view.
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const int id = images.instance_id.at(u, v);
+      if (id <= 0) continue;
+      const auto it = view_of.find(id);
+      if (it == view_of.end()) continue;
+      InstanceView& iv = out[it->second];
+      iv.projected_mask.at(u, v) = 1;
+      iv.projected_depth.at(u, v) = images.depth.at(u, v);
+      if (have_color) iv.projected_color.at(u, v) = images.color.at(u, v);
+      iv.box.include(u, v);
+    }
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "orpe/slam/rigid_f.h"
 
@@ -53,6 +54,7 @@ struct SurfelFilter {
   const RenderOptions& o;
   bool operator()(size_t i) const {
     if (o.only_instance > 0 && map.instance_id[i] != o.only_instance) return false;
+    if (o.only_labelled && map.instance_id[i] <= 0) return false;
     if (!map.is_active(i, o.now, o.active_window_frames)) return false;
     if (map.last_seen_time[i] > o.seen_until) return false;
     if (map.confidence[i] >= o.min_confidence) return true;
@@ -122,63 +124,35 @@ bool splat_surfel(const SurfelMap& map, size_t i, const CameraF& cam, const Rend
 
 }  // namespace
 
-void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
-                         const RenderOptions& options, RenderedView* out) {
-  const CameraF cam(T_world_cam, K, 1);
-  // The window (ox, oy, W, H) in the image's pixels; every ray below is the whole image's.
+namespace {
+
+// The window of `options` (the whole image when it has none).
+Window window_of(const RenderOptions& options, const CameraF& cam) {
   const bool windowed = options.window_width > 0 && options.window_height > 0;
-  const Window win{windowed ? options.window_u0 : 0, windowed ? options.window_v0 : 0,
-                   windowed ? options.window_width : cam.width,
-                   windowed ? options.window_height : cam.height};
+  return {windowed ? options.window_u0 : 0, windowed ? options.window_v0 : 0,
+          windowed ? options.window_width : cam.width,
+          windowed ? options.window_height : cam.height};
+}
+
+// A z-buffer of the window's size, emptied.
+std::uint64_t* empty_zbuffer(std::vector<std::uint64_t>& buffer, const Window& win) {
+  const size_t npix = static_cast<size_t>(win.W) * win.H;
+  if (buffer.size() < npix) buffer.resize(npix);
+  std::fill(buffer.data(), buffer.data() + npix, kEmpty);
+  return buffer.data();
+}
+
+// The key of a splatted pixel: depth with the centre preference, then the surfel index.
+inline std::uint64_t splat_key(float t, float d2, float kappa, std::uint32_t index) {
+  return pack(t * (1.0f + kappa * d2), index);
+}
+
+// The images of `out` (the outputs `options` asks for) from the window's z-buffer `zbuf`. Reads
+// only the want_* flags and radius_scale of `options`.
+void resolve(const SurfelMap& map, const CameraF& cam, const RenderOptions& options,
+             const Window& win, const std::uint64_t* zbuf, size_t drawn, RenderedView* out) {
   const int ox = win.ox, oy = win.oy, W = win.W, H = win.H;
-  const size_t npix = static_cast<size_t>(W) * H;
-  if (zbuffer_.size() < npix) zbuffer_.resize(npix);
-  std::uint64_t* zbuf = zbuffer_.data();
-  std::fill(zbuf, zbuf + npix, kEmpty);
-  auto slot = [&](std::uint64_t* buf, int x, int y) -> std::uint64_t& {
-    return buf[static_cast<size_t>(y - oy) * W + (x - ox)];
-  };
-
-  const SurfelFilter keep{map, options};
-  const long n = static_cast<long>(map.size());
   const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
-  const float kappa = options.centre_preference;
-  size_t drawn = 0;
-  // The surface band's second pass visits only the surfels the first one drew (1 byte each).
-  const bool band = options.surface_band_m > 0.0f;
-  if (band) drawn_.assign(static_cast<size_t>(n), 0);
-  std::uint8_t* drawn_flag = band ? drawn_.data() : nullptr;
-#pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
-  for (long i = 0; i < n; ++i) {
-    if (!keep(static_cast<size_t>(i))) continue;
-    const auto idx = static_cast<std::uint32_t>(i);
-    const bool d = splat_surfel(map, static_cast<size_t>(i), cam, options, win,
-                                [&](int x, int y, float t, float d2) {
-                                  atomic_min(slot(zbuf, x, y), pack(t * (1.0f + kappa * d2), idx));
-                                });
-    drawn += d;
-    if (drawn_flag) drawn_flag[i] = d;
-  }
-  // Second pass: among the discs within surface_band_m behind the nearest, the one whose centre
-  // is nearest the pixel (the first pass's key holds the nearest depth, times at most
-  // 1 + kappa d2).
-  if (band) {
-    if (zbuffer2_.size() < npix) zbuffer2_.resize(npix);
-    std::uint64_t* zbuf2 = zbuffer2_.data();
-    std::fill(zbuf2, zbuf2 + npix, kEmpty);
-#pragma omp parallel for schedule(static, 4096)
-    for (long i = 0; i < n; ++i) {
-      if (!drawn_flag[i]) continue;
-      const auto idx = static_cast<std::uint32_t>(i);
-      splat_surfel(map, static_cast<size_t>(i), cam, options, win,
-                   [&](int x, int y, float t, float d2) {
-                     if (t <= unpack_depth(slot(zbuf, x, y)) + options.surface_band_m)
-                       atomic_min(slot(zbuf2, x, y), pack(d2, idx));
-                   });
-    }
-    zbuf = zbuf2;
-  }
-
   ensure_size(out->depth, W, H);
   ensure_size(out->surfel_index, W, H);
   if (options.want_vertex) ensure_size(out->vertex, W, H);
@@ -221,6 +195,94 @@ void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const Pin
       if (options.want_surfel_centre) out->surfel_centre[k] = p;
     }
   }
+}
+
+}  // namespace
+
+void MapRenderer::render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
+                         const RenderOptions& options, RenderedView* out) {
+  const CameraF cam(T_world_cam, K, 1);
+  // The window (ox, oy, W, H) in the image's pixels; every ray below is the whole image's.
+  const Window win = window_of(options, cam);
+  const int ox = win.ox, oy = win.oy, W = win.W;
+  std::uint64_t* zbuf = empty_zbuffer(zbuffer_, win);
+  auto slot = [&](std::uint64_t* buf, int x, int y) -> std::uint64_t& {
+    return buf[static_cast<size_t>(y - oy) * W + (x - ox)];
+  };
+
+  const SurfelFilter keep{map, options};
+  const long n = static_cast<long>(map.size());
+  const float kappa = options.centre_preference;
+  size_t drawn = 0;
+  // The surface band's second pass visits only the surfels the first one drew (1 byte each).
+  const bool band = options.surface_band_m > 0.0f;
+  if (band) drawn_.assign(static_cast<size_t>(n), 0);
+  std::uint8_t* drawn_flag = band ? drawn_.data() : nullptr;
+#pragma omp parallel for schedule(static, 4096) reduction(+ : drawn)
+  for (long i = 0; i < n; ++i) {
+    if (!keep(static_cast<size_t>(i))) continue;
+    const auto idx = static_cast<std::uint32_t>(i);
+    const bool d = splat_surfel(map, static_cast<size_t>(i), cam, options, win,
+                                [&](int x, int y, float t, float d2) {
+                                  atomic_min(slot(zbuf, x, y), splat_key(t, d2, kappa, idx));
+                                });
+    drawn += d;
+    if (drawn_flag) drawn_flag[i] = d;
+  }
+  // Second pass: among the discs within surface_band_m behind the nearest, the one whose centre
+  // is nearest the pixel (the first pass's key holds the nearest depth, times at most
+  // 1 + kappa d2).
+  if (band) {
+    std::uint64_t* zbuf2 = empty_zbuffer(zbuffer2_, win);
+#pragma omp parallel for schedule(static, 4096)
+    for (long i = 0; i < n; ++i) {
+      if (!drawn_flag[i]) continue;
+      const auto idx = static_cast<std::uint32_t>(i);
+      splat_surfel(map, static_cast<size_t>(i), cam, options, win,
+                   [&](int x, int y, float t, float d2) {
+                     if (t <= unpack_depth(slot(zbuf, x, y)) + options.surface_band_m)
+                       atomic_min(slot(zbuf2, x, y), pack(d2, idx));
+                   });
+    }
+    zbuf = zbuf2;
+  }
+  resolve(map, cam, options, win, zbuf, drawn, out);
+}
+
+void MapRenderer::render_with_labelled(const SurfelMap& map, const SE3& T_world_cam,
+                                       const PinholeIntrinsics& K, const RenderOptions& options,
+                                       const RenderOptions& labelled_wants, RenderedView* out,
+                                       RenderedView* labelled) {
+  if (options.surface_band_m > 0.0f)
+    throw std::invalid_argument("MapRenderer::render_with_labelled: no surface band");
+  const CameraF cam(T_world_cam, K, 1);
+  const Window win = window_of(options, cam);
+  const int ox = win.ox, oy = win.oy, W = win.W;
+  std::uint64_t* zbuf = empty_zbuffer(zbuffer_, win);
+  std::uint64_t* zlab = empty_zbuffer(zbuffer_labelled_, win);
+  const SurfelFilter keep{map, options};
+  const long n = static_cast<long>(map.size());
+  const float kappa = options.centre_preference;
+  size_t drawn = 0, drawn_labelled = 0;
+#pragma omp parallel for schedule(static, 4096) reduction(+ : drawn, drawn_labelled)
+  for (long i = 0; i < n; ++i) {
+    if (!keep(static_cast<size_t>(i))) continue;
+    const auto idx = static_cast<std::uint32_t>(i);
+    const bool has_instance = map.instance_id[static_cast<size_t>(i)] > 0;
+    const bool d = splat_surfel(map, static_cast<size_t>(i), cam, options, win,
+                                [&](int x, int y, float t, float d2) {
+                                  const size_t k = static_cast<size_t>(y - oy) * W + (x - ox);
+                                  const std::uint64_t key = splat_key(t, d2, kappa, idx);
+                                  atomic_min(zbuf[k], key);
+                                  if (has_instance) atomic_min(zlab[k], key);
+                                });
+    drawn += d;
+    drawn_labelled += d && has_instance;
+  }
+  resolve(map, cam, options, win, zbuf, drawn, out);
+  RenderOptions lo = labelled_wants;  // its outputs, the splats' geometry of `options`
+  lo.radius_scale = options.radius_scale;
+  resolve(map, cam, lo, win, zlab, drawn_labelled, labelled);
 }
 
 void MapRenderer::render_index_map(const SurfelMap& map, const SE3& T_world_cam,

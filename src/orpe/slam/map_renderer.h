@@ -43,6 +43,8 @@ struct RenderOptions {
   std::int32_t seen_until = std::numeric_limits<std::int32_t>::max();
   /// Only surfels of this instance (> 0), e.g. to render one object's mask/depth/colour; 0 = all.
   std::int32_t only_instance = 0;
+  /// Only surfels with an instance (instance_id > 0): the map's objects.
+  bool only_labelled = false;
   float near_m = 0.1f;   ///< surfels closer than this are skipped
   float far_m = 10.0f;   ///< surfels farther than this are skipped
   /// Cap of a splat's radius on screen (pixels), bounding the cost of surfels close to the camera.
@@ -113,6 +115,16 @@ class MapRenderer {
   /// reallocated only when the size changes): the whole image, or RenderOptions' window of it.
   void render(const SurfelMap& map, const SE3& T_world_cam, const PinholeIntrinsics& K,
               const RenderOptions& options, RenderedView* out);
+  /// render() into `out` and, in the same pass over the map, into `labelled` the view of the
+  /// surfels that `options` draws and that have an instance (instance_id > 0), with the outputs
+  /// `labelled_wants` asks for (its want_* flags; the rest as `options`): both equal, bit for bit,
+  /// what render() gives, `labelled` with only_labelled set (the label-aware instance render's two
+  /// views for the price of one transform and splat per surfel). Precondition:
+  /// options.surface_band_m == 0.
+  void render_with_labelled(const SurfelMap& map, const SE3& T_world_cam,
+                            const PinholeIntrinsics& K, const RenderOptions& options,
+                            const RenderOptions& labelled_wants, RenderedView* out,
+                            RenderedView* labelled);
 
   /// Renders surfel centres as points into a supersampled index map (fusion's data association).
   /// Uses the filters of `options` (confidence, active window, instance, near/far).
@@ -124,6 +136,7 @@ class MapRenderer {
   std::vector<std::uint64_t> zbuffer_;  // packed (depth bits << 32 | surfel index), min wins
   std::vector<std::uint64_t> zbuffer2_;  // the surface band's pass: (d^2 bits << 32 | index)
   std::vector<std::uint8_t> drawn_;      // the surface band's pass: 1 = drawn by the first pass
+  std::vector<std::uint64_t> zbuffer_labelled_;  // render_with_labelled's second view
 };
 
 }  // namespace orpe::slam

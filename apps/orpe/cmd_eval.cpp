@@ -24,11 +24,6 @@
 namespace orpe::cli {
 namespace {
 
-void require_file(const std::string& path, const char* what) {
-  if (!std::filesystem::is_regular_file(path))
-    throw IoError(path, fmt::format("{} does not exist or is not a file", what));
-}
-
 struct TrajCommand {
   ConfigOptions options;
   std::string gt_path, est_path, json_path;

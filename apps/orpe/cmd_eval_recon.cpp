@@ -39,8 +39,8 @@ void run_recon(const ReconCommand& c) {
                                     : (fs::path(c.run_dir) / "trajectory.txt").string();
   if (c.run_dir.empty() && (c.map_path.empty() || c.trajectory_path.empty()))
     throw ConfigError("eval recon: give --run OUT, or both --map and --trajectory");
-  for (const auto& [p, what] : {std::pair{map_path, "semantic map"}, {traj_path, "trajectory"}})
-    if (!fs::is_regular_file(p)) throw IoError(p, fmt::format("{} does not exist", what));
+  require_file(map_path, "semantic map");
+  require_file(traj_path, "trajectory");
   const PointCloudData map = read_semantic_map_ply(map_path);
   const auto trajectory = read_tum_trajectory(traj_path);
   const auto reader = open_dataset(c.dataset, config.dataset);
@@ -110,9 +110,8 @@ struct MapCommand {
 };
 
 void run_map(const MapCommand& c) {
-  namespace fs = std::filesystem;
-  for (const auto& [p, what] : {std::pair{c.map_path, "map"}, {c.mesh_path, "scene mesh"}})
-    if (!fs::is_regular_file(p)) throw IoError(p, fmt::format("{} does not exist", what));
+  require_file(c.map_path, "map");
+  require_file(c.mesh_path, "scene mesh");
   const PointCloudData map = read_point_cloud_ply(c.map_path);
   const ModelSurface surface = ModelSurface::from_mesh(load_mesh(c.mesh_path));
   ReconstructionErrorParams params;
@@ -127,7 +126,7 @@ void run_map(const MapCommand& c) {
   if (!c.json_path.empty()) write_text_atomic(c.json_path, e.to_json());
 }
 
-CommandRegistrar reg_map(72, [](CLI::App& root) {
+CommandRegistrar reg_map(73, [](CLI::App& root) {
   CLI::App* eval = root.get_subcommand("eval");  // created by cmd_eval.cpp (order 70)
   auto c = std::make_shared<MapCommand>();
   CLI::App* m = eval->add_subcommand(

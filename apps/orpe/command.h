@@ -42,5 +42,8 @@ OrpeConfig resolve_config(const ConfigOptions& options);
 
 /// Writes `text` and a newline to `path` atomically (the commands' --json outputs).
 void write_text_atomic(const std::string& path, const std::string& text);
+/// Throws IoError naming `path` when it is not an existing regular file ("<what> does not exist
+/// or is not a file").
+void require_file(const std::string& path, const char* what);
 
 }  // namespace orpe::cli

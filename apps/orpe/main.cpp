@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <mutex>
 
@@ -84,6 +85,11 @@ OrpeConfig resolve_config(const ConfigOptions& options) {
 
 void write_text_atomic(const std::string& path, const std::string& text) {
   write_file_atomic(path, [&](std::ostream& os) { os << text << "\n"; });
+}
+
+void require_file(const std::string& path, const char* what) {
+  if (!std::filesystem::is_regular_file(path))
+    throw IoError(path, std::string(what) + " does not exist or is not a file");
 }
 
 /// Log sink writing warnings and errors to stderr, everything else (progress, results) to stdout.

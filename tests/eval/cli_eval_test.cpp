@@ -16,7 +16,10 @@
 #include "orpe/io/bop_results.h"
 #include "orpe/io/dataset.h"
 #include "orpe/io/model_io.h"
+#include "orpe/io/point_cloud_io.h"
 #include "orpe/io/trajectory_io.h"
+#include "orpe/render/mesh_io.h"
+#include "orpe/render/primitives.h"
 #include "support/test_data.h"
 
 namespace orpe {
@@ -196,6 +199,41 @@ TEST(CliEvalPoses, MissingResultFileIsNamed) {
   const auto r2 = run_cli("eval poses --dataset " + dir + " --result " + dir + "/bad.csv");
   EXPECT_NE(r2.exit_code, 0);
   EXPECT_NE(r2.output.find("bad.csv"), std::string::npos) << r2.output;
+}
+
+TEST(CliEvalMap, ScoresAMapAgainstAMeshAndNamesBadInput) {
+  // A wall (the plane x = 0.05 of a 0.1 m thick box) and a map of surfels on it plus one 3 cm off.
+  const std::string dir = test::scratch_dir("eval_map");
+  PlyWriteOptions mesh_options;
+  mesh_options.units_per_metre = 1.0;
+  write_ply(dir + "/scene.ply", make_box(Eigen::Vector3f(0.1f, 2.0f, 2.0f), 0.5f), mesh_options);
+  PointCloudData map;
+  for (int i = 0; i < 3; ++i) map.positions_m.emplace_back(0.05f, 0.1f * i, 0.0f);
+  map.positions_m.emplace_back(0.08f, 0.0f, 0.0f);
+  map.confidences = {20.0f, 20.0f, 20.0f, 1.0f};
+  write_point_cloud_ply(dir + "/map.ply", map);
+  const auto ok =
+      run_cli("eval map " + dir + "/map.ply " + dir + "/scene.ply --json " + dir + "/map.json");
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  const auto j = nlohmann::json::parse(std::ifstream(dir + "/map.json"));
+  EXPECT_EQ(j["surfels"].get<int>(), 4);
+  EXPECT_NEAR(j["far_fraction"].get<double>(), 0.25, 1e-9);
+  const auto stable = run_cli("eval map " + dir + "/map.ply " + dir +
+                              "/scene.ply --min-confidence 10 --json " + dir + "/stable.json");
+  ASSERT_EQ(stable.exit_code, 0) << stable.output;
+  EXPECT_EQ(
+      nlohmann::json::parse(std::ifstream(dir + "/stable.json"))["far_fraction"].get<double>(),
+      0.0);
+  // A missing file, and a threshold no surfel reaches: errors naming the file.
+  const auto missing = run_cli("eval map " + dir + "/none.ply " + dir + "/scene.ply");
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.output.find("none.ply: map does not exist"), std::string::npos)
+      << missing.output;
+  const auto empty =
+      run_cli("eval map " + dir + "/map.ply " + dir + "/scene.ply --min-confidence 50");
+  EXPECT_NE(empty.exit_code, 0);
+  EXPECT_NE(empty.output.find("map.ply"), std::string::npos) << empty.output;
+  EXPECT_NE(empty.output.find("confidence >= 50"), std::string::npos) << empty.output;
 }
 
 TEST(CliEvalPoses, RealYcbVideoScene) {

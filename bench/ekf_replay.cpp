@@ -178,7 +178,8 @@ int main(int argc, char** argv) {
       if (t.cls != r.cls) {
         t.cls = r.cls;
         t.fusion = std::make_unique<orpe::ObjectPoseFusion>(
-            config.pose_ekf, models.ekf_symmetry(r.cls, pp.ekf_symmetry), pp.ekf_init_views);
+            config.pose_ekf, models.ekf_symmetry(r.cls, pp.ekf_symmetry), pp.ekf_init_views,
+            pp.ekf_init_majority_stop);
       }
       const double sv_score = std::clamp(r.score, 0.01, 1.0);
       if (r.valid) {

@@ -101,6 +101,43 @@ TEST(ObjectFusion, NoEstimateWhileCollectingInitialViews) {
   EXPECT_EQ(few.accepted(), 2);
 }
 
+TEST(ObjectFusion, AMajorityOfTheStartsViewsStartsTheFilterEarly) {
+  // init_views 5, majority 3: a flipped view and two agreeing ones are no majority yet; the third
+  // agreeing view is, and the filter starts there, in the agreeing mode, without views 5 and 6.
+  // Only when every view so far was decisive (its estimator told the modes apart).
+  const SE3 truth(so3_exp(Vec3(0.3, -0.2, 0.1)), Vec3(0.2, 0.1, 0.9));
+  auto views_to_start = [&](bool majority_stop, bool flipped_second, bool decisive = true) {
+    ObjectPoseFusion fusion(PoseEkfParams{}, ObjectSymmetry{}, 5, majority_stop);
+    std::mt19937 rng(5);
+    for (int f = 0; f < 8; ++f) {
+      const SE3 cam(so3_exp(Vec3(0, 0.02 * f, 0)), Vec3(0.01 * f, 0, 0));
+      Vec6 noise = pose_noise(rng, 0.002, 0.01);
+      if (f == 1 && flipped_second) noise.tail<3>() = Vec3(M_PI, 0, 0);
+      if (fusion.add(measure(f, truth, cam, noise), 0.8, decisive || f != 2).initialised) {
+        EXPECT_LT(rotation_distance_rad(fusion.T_world_obj().rotation(), truth.rotation()), 0.05);
+        EXPECT_EQ(fusion.accepted(), f + 1 - (flipped_second ? 1 : 0));
+        return f + 1;
+      }
+      EXPECT_FALSE(fusion.has_estimate());
+    }
+    return -1;
+  };
+  EXPECT_EQ(views_to_start(true, false), 3) << "three agreeing views of five";
+  EXPECT_EQ(views_to_start(true, true), 4) << "the flip is no part of the majority";
+  EXPECT_EQ(views_to_start(false, false), 5) << "without the stop: all five views";
+  EXPECT_EQ(views_to_start(false, true), 5);
+  EXPECT_EQ(views_to_start(true, false, /*decisive=*/false), 5)
+      << "one view that could not tell the modes apart: all five views vote";
+
+  // Three mutually disagreeing views (each turned elsewhere) are no majority: keep collecting.
+  ObjectPoseFusion scatter(PoseEkfParams{}, ObjectSymmetry{}, 5, true);
+  for (int f = 0; f < 3; ++f) {
+    const Vec6 noise = (Vec6() << 0, 0, 0, 0, 0, 0.8 * f).finished();
+    scatter.add(measure(f, truth, SE3(), noise), 0.8);
+  }
+  EXPECT_FALSE(scatter.has_estimate());
+}
+
 TEST(ObjectFusion, HypothesesRecoverFromAWrongConsensusStart) {
   // All of the first 5 views in a wrong mode (turned 75 degrees about the axis), then the right
   // mode in 3 of every 5 views, interleaved: the consensus starts wrong and one filter stays wrong;

@@ -689,8 +689,9 @@ ObjectRpePipeline::Track* ObjectRpePipeline::track_for(VariantState& vs, const C
     t.prior_allowance = params_.pipeline.prior_max_consecutive;
     if (vs.config.ekf) {
       const PipelineParams& pp = params_.pipeline;
-      t.ekf = std::make_unique<ObjectPoseFusion>(
-          params_.pose_ekf, models_.ekf_symmetry(c.class_id, pp.ekf_symmetry), pp.ekf_init_views);
+      t.ekf = std::make_unique<ObjectPoseFusion>(params_.pose_ekf,
+                                                 models_.ekf_symmetry(c.class_id, pp.ekf_symmetry),
+                                                 pp.ekf_init_views, pp.ekf_init_majority_stop);
     }
   }
   return &t;
@@ -827,7 +828,12 @@ void ObjectRpePipeline::fuse_into_ekf(PoseFrame& f, const PoseVariant& cfg, cons
           mode_weight_from_colour(sv.colour_margin, params_.pose_ekf.colour_evidence_gain);
     // A refined prior that inherited its mode is not an independent vote among modes.
     if (sv.from_prior && !sv.prior_modes_compared) m.mode_weight *= pp.prior_mode_weight;
-    const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score);
+    // Decisive: the estimator singled the pose out among the modes geometry confuses, by the
+    // colour-learning rule's thresholds (pose/colour_score.h, ColourLearningParams).
+    const ColourLearningParams& cl = params_.pose_registration.colour_learning;
+    const bool decisive = sv.geometry_margin >= cl.min_geometry_margin ||
+                          (sv.colour_used && sv.colour_margin >= cl.min_colour_margin);
+    const ObjectPoseFusion::Outcome o = fusion.add(m, sv_score, decisive);
     agreed = o.accepted && !o.switched;
     track.last_slam_time = slam_->last_time();
     est.ekf_accepted = o.accepted;

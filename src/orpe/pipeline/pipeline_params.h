@@ -59,6 +59,13 @@ struct PipelineParams {
   /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
   /// object_fusion.h); 1 = from the first measurement (the paper).
   int ekf_init_views = 5;
+  /// Stop collecting the start's views as soon as a strict majority of ekf_init_views agree (one
+  /// view and floor(ekf_init_views / 2) others pass the gate against it) and each view so far was
+  /// decisive (geometry or colour singled its pose out: pose_registration.colour_learn_min_*
+  /// margins): the rest could not outvote them, so they are fused as later views and estimated
+  /// from the fused pose (prior fast path) instead of by global searches. false = always collect
+  /// all ekf_init_views (session 24). Measured: docs/PIPELINE.md, "EKF: consensus start".
+  bool ekf_init_majority_stop = true;
   /// Prior fast path (EKF variants; a deviation, docs/PIPELINE.md): an object whose filter has a
   /// state gives the single-view estimator its fused pose, moved into the camera, as the prior;
   /// with pose_registration.prior_refinement the estimator refines it locally and runs the global
@@ -145,6 +152,10 @@ struct PipelineParams {
       "own colour; empty = none");
     v("ekf_init_views", ekf_init_views,
       "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
+    v("ekf_init_majority_stop", ekf_init_majority_stop,
+      "Start the EKF as soon as a strict majority of ekf_init_views agree and each view so far "
+      "was decisive (the rest could not outvote them); false = always collect all "
+      "ekf_init_views");
     v("ekf_prior_hypothesis", ekf_prior_hypothesis,
       "Give the single-view estimator the EKF pose as a prior: refined locally, the global "
       "search only when it does not fit (pose_registration.prior_*; paper: off)");

@@ -18,7 +18,7 @@ bool parse_integer(std::string_view text, long long min, long long max, long lon
 /// optional leading '+'). `finite`: refuse inf and nan. Returns false and sets `why` otherwise.
 bool parse_real(std::string_view text, bool finite, double* out, std::string* why);
 
-/// Splits `line` at blanks (spaces, tabs, a trailing '\r') and parses each field as parse_real
+/// Splits `line` at blanks (spaces, tabs, carriage returns) and parses each field as parse_real
 /// does (non-finite values included: the caller checks), read straight into the field's type so
 /// that append_exact's text reads back bit for bit. True when `line` has exactly `n` fields, all
 /// numbers in the type's range.

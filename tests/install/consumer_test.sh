@@ -7,6 +7,7 @@ set -euo pipefail
 build=$1
 src=$2
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/orpe_consumer.XXXXXX")
+export ORPE_CACHE_DIR="$tmp/model_cache"  # the pipeline's model cache: not the user's ~/.cache
 cmake --install "$build" --prefix "$tmp/prefix" > "$tmp/install.log"
 test -f "$tmp/prefix/include/orpe/pipeline/object_rpe.h"
 test -f "$tmp/prefix/include/orpe/core/version.h"

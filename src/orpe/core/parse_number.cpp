@@ -16,7 +16,46 @@ bool fail(std::string* why, const std::string& message) {
   return false;
 }
 
+bool is_blank(char c) {
+  return c == ' ' || c == '\t' || c == '\r';
+}
+
+template <class T>
+bool parse_fields(std::string_view line, T* out, size_t n) {
+  const char* p = line.data();
+  const char* const end = p + line.size();
+  for (size_t i = 0;; ++i) {
+    while (p != end && is_blank(*p)) ++p;
+    if (p == end) return i == n;
+    if (i == n) return false;  // an extra field
+    if (*p == '+' && end - p > 1 && p[1] != '-') ++p;
+    const auto r = std::from_chars(p, end, out[i]);
+    if (r.ec != std::errc() || (r.ptr != end && !is_blank(*r.ptr))) return false;
+    p = r.ptr;
+  }
+}
+
+template <class T>
+void append_shortest(std::string& out, T v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+  out.append(buf, r.ptr);
+}
+
 }  // namespace
+
+bool parse_number_fields(std::string_view line, float* out, size_t n) {
+  return parse_fields(line, out, n);
+}
+bool parse_number_fields(std::string_view line, double* out, size_t n) {
+  return parse_fields(line, out, n);
+}
+void append_exact(std::string& out, float v) {
+  append_shortest(out, v);
+}
+void append_exact(std::string& out, double v) {
+  append_shortest(out, v);
+}
 
 bool parse_integer(std::string_view text, long long min, long long max, long long* out,
                    std::string* why) {

@@ -14,11 +14,17 @@
 
 #include "orpe/core/error.h"
 #include "orpe/io/model_io.h"
+#include "orpe/pipeline/model_cache.h"
 #include "orpe/pose/colour_score.h"
 #include "orpe/render/mesh_io.h"
 
 namespace orpe {
 namespace {
+
+std::string class_name_of(const DatasetInfo& info, int class_id) {
+  const auto it = info.class_names.find(class_id);
+  return it != info.class_names.end() ? it->second : fmt::format("class {}", class_id);
+}
 
 std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
@@ -128,52 +134,104 @@ ObjectSymmetry symmetry_from_spec(const ModelSymmetrySpec& spec) {
 
 }  // namespace
 
-ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int surface_points) {
-  const auto points = info.model_points_paths.find(class_id);
-  if (points == info.model_points_paths.end())
-    throw IoError(info.root, fmt::format("the dataset has no model for class {}", class_id));
+namespace {
+
+/// What the class's model files give (points, normals, diameter, spacing, detected symmetry,
+/// colour); the paths of the files read or looked for go to `files_read`.
+ObjectModel load_model_files(const DatasetInfo& info, int class_id, int surface_points,
+                             std::vector<std::string>* files_read) {
+  const std::string& points = info.model_points_paths.at(class_id);
   const auto mesh = info.model_mesh_paths.find(class_id);
-  const auto name_it = info.class_names.find(class_id);
-  const std::string name =
-      name_it != info.class_names.end() ? name_it->second : fmt::format("class {}", class_id);
-  ObjectModel model;
-  if (lower_extension(points->second) != ".xyz") {  // a mesh: BOP / orpe synth PLY, a models folder
-    MeshLoadOptions mo;
-    mo.metres_per_unit = 1.0 / info.model_units_per_m;
-    mo.warn_missing_texture = false;
-    const TriangleMesh m = load_mesh(points->second, mo);
-    model.colour = model_colour_from_mesh(m);
-    model.class_id = class_id;
-    model.name = name;
-    if (!m.triangles.empty()) sample_mesh_surface(m, surface_points, model);
-    if (model.points.empty()) {  // a point cloud PLY: its vertices, PCA normals
-      model.points = m.vertices;
-      model.normals.clear();
-    }
-    try {
-      prepare_object_model(model);
-    } catch (const std::invalid_argument& e) {
-      throw IoError(points->second, e.what());
-    }
-    model.symmetry = detect_symmetry(model);
-  } else {
+  const std::string name = class_name_of(info, class_id);
+  if (lower_extension(points) == ".xyz") {
     ModelLoadOptions mo;
     mo.units_per_m = info.model_units_per_m;
     if (mesh != info.model_mesh_paths.end() && lower_extension(mesh->second) != ".xyz")
       mo.mesh_path = mesh->second;
-    model = load_object_model(points->second, mo, class_id, name);
+    mo.files_read = files_read;
+    return load_object_model(points, mo, class_id, name);
   }
+  // A mesh: BOP / orpe synth PLY, a models folder.
+  MeshLoadOptions mo;
+  mo.metres_per_unit = 1.0 / info.model_units_per_m;
+  mo.warn_missing_texture = false;
+  mo.files_read = files_read;
+  const TriangleMesh m = load_mesh(points, mo);
+  ObjectModel model;
+  model.colour = model_colour_from_mesh(m);
+  model.class_id = class_id;
+  model.name = name;
+  if (!m.triangles.empty()) sample_mesh_surface(m, surface_points, model);
+  if (model.points.empty()) {  // a point cloud PLY: its vertices, PCA normals
+    model.points = m.vertices;
+    model.normals.clear();
+  }
+  try {
+    prepare_object_model(model);
+  } catch (const std::invalid_argument& e) {
+    throw IoError(points, e.what());
+  }
+  model.symmetry = detect_symmetry(model);
+  return model;
+}
+
+/// What the dataset says of the class beyond its files: name, metric symmetry, stated symmetry.
+void apply_dataset_annotations(const DatasetInfo& info, int class_id, ObjectModel& model) {
+  model.class_id = class_id;
+  model.name = class_name_of(info, class_id);
   model.symmetric_for_metric =
       std::count(info.symmetric_classes.begin(), info.symmetric_classes.end(), class_id) > 0;
   if (const auto spec = info.model_symmetry.find(class_id);
       spec != info.model_symmetry.end() && !spec->second.detected)
     model.symmetry = symmetry_from_spec(spec->second);
-  return model;
+}
+
+std::string absolute_or_empty(const std::string& path) {
+  return path.empty() ? path : std::filesystem::absolute(path).lexically_normal().string();
+}
+
+/// The model's files, as the cache tells models apart: its points file (first line) and mesh.
+std::string model_identity(const DatasetInfo& info, int class_id) {
+  const auto mesh = info.model_mesh_paths.find(class_id);
+  return absolute_or_empty(info.model_points_paths.at(class_id)) + "\n" +
+         absolute_or_empty(mesh != info.model_mesh_paths.end() ? mesh->second : "");
+}
+
+/// Every option of load_model_files that changes its result.
+std::uint64_t model_options_hash(const DatasetInfo& info, int surface_points) {
+  return fnv1a64(fmt::format("version {} units_per_m {:a} surface_points {}", kModelCacheVersion,
+                             info.model_units_per_m, surface_points));
+}
+
+}  // namespace
+
+ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id, int surface_points,
+                                      const ModelCache* cache) {
+  if (!info.model_points_paths.count(class_id))
+    throw IoError(info.root, fmt::format("the dataset has no model for class {}", class_id));
+  std::optional<ObjectModel> model;
+  const bool cached = cache && cache->enabled();
+  const std::string identity = cached ? model_identity(info, class_id) : "";
+  const std::uint64_t options = model_options_hash(info, surface_points);
+  if (cached) model = cache->load(identity, options);
+  if (!model) {
+    std::vector<std::string> files;
+    model = load_model_files(info, class_id, surface_points, cached ? &files : nullptr);
+    if (cached) cache->store(identity, options, files, *model);
+  }
+  apply_dataset_annotations(info, class_id, *model);
+  return std::move(*model);
+}
+
+ObjectModelLibrary::~ObjectModelLibrary() = default;
+
+void ObjectModelLibrary::set_cache_dir(std::string dir) {
+  cache_ = std::make_unique<ModelCache>(std::move(dir));
 }
 
 std::unique_ptr<ObjectModel> ObjectModelLibrary::load(int class_id) const {
-  auto model =
-      std::make_unique<ObjectModel>(load_dataset_object_model(info_, class_id, surface_points_));
+  auto model = std::make_unique<ObjectModel>(
+      load_dataset_object_model(info_, class_id, surface_points_, cache_.get()));
   if (!colour_dir_.empty()) {
     const std::string path = colour_dir_ + "/" + class_name(class_id) + ".colour";
     if (std::filesystem::is_regular_file(path)) model->colour = read_model_colour(path);
@@ -233,8 +291,7 @@ ObjectSymmetry ObjectModelLibrary::ekf_symmetry(int class_id, const std::string&
 }
 
 std::string ObjectModelLibrary::class_name(int class_id) const {
-  const auto it = info_.class_names.find(class_id);
-  return it != info_.class_names.end() ? it->second : fmt::format("class {}", class_id);
+  return class_name_of(info_, class_id);
 }
 
 namespace {

@@ -21,14 +21,17 @@
 #include <vector>
 
 #include "orpe/io/dataset.h"
+#include "orpe/pipeline/model_cache.h"
 #include "orpe/pose/object_model.h"
 
 namespace orpe {
 
 /// Loads one class's model as above. Throws IoError naming the file (or the dataset) when the class
-/// has no model or the file is bad.
+/// has no model or the file is bad. With an enabled `cache` (pipeline/model_cache.h) the model
+/// comes from its entry when that is valid, else is loaded and stored there: the same model either
+/// way, bit for bit.
 ObjectModel load_dataset_object_model(const DatasetInfo& info, int class_id,
-                                      int surface_points = 2620);
+                                      int surface_points = 2620, const ModelCache* cache = nullptr);
 
 /// The model's minimal width (m): the smallest extent of its points over all directions (1000
 /// directions spread evenly on the sphere, then a local search around the best; a box: its
@@ -39,6 +42,7 @@ class ObjectModelLibrary {
  public:
   explicit ObjectModelLibrary(DatasetInfo info, int surface_points = 2620)
       : info_(std::move(info)), surface_points_(surface_points) {}
+  ~ObjectModelLibrary();
   /// True when the dataset lists a model file for the class.
   bool has(int class_id) const { return info_.model_points_paths.count(class_id) > 0; }
   /// The prepared model (loaded on the first call). Throws IoError (see above). Thread-safe.
@@ -52,6 +56,9 @@ class ObjectModelLibrary {
   /// Colour models to load with the models (pipeline.model_colour_dir): `<dir>/<class name>.colour`
   /// replaces a model's own colour when the file exists. Call before the first get().
   void set_colour_dir(std::string dir) { colour_dir_ = std::move(dir); }
+  /// The folder of the on-disk model cache (pipeline/model_cache.h; resolve_model_cache_dir() of
+  /// pipeline.model_cache_dir); "" = none (the default). Call before the first get().
+  void set_cache_dir(std::string dir);
   /// Class name for messages and outputs ("class <id>" when the dataset has none).
   std::string class_name(int class_id) const;
   /// The symmetry group the EKF uses for the class, by pipeline.ekf_symmetry `mode`: "none" = no
@@ -64,6 +71,7 @@ class ObjectModelLibrary {
   DatasetInfo info_;
   int surface_points_;
   std::string colour_dir_;
+  std::unique_ptr<ModelCache> cache_;                     // null = no cache
   std::unique_ptr<ObjectModel> load(int class_id) const;  // the model as get() stores it
 
   mutable std::mutex mutex_;  // the cache fills lazily behind a const interface

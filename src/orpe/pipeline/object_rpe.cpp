@@ -14,6 +14,7 @@
 #include "orpe/nets/densefusion_estimator.h"
 #include "orpe/nets/maskrcnn.h"
 #include "orpe/pipeline/instance_tracks.h"
+#include "orpe/pipeline/model_cache.h"
 #include "orpe/pipeline/object_fusion.h"
 #include "orpe/pose/colour_score.h"
 #include "orpe/semantic/detection.h"
@@ -203,6 +204,7 @@ struct ObjectRpePipeline::Candidate {
 ObjectRpePipeline::ObjectRpePipeline(const ObjectRpeParams& params, const DatasetInfo& dataset)
     : params_(params), dataset_(dataset), models_(dataset) {
   models_.set_colour_dir(params_.pipeline.model_colour_dir);
+  models_.set_cache_dir(resolve_model_cache_dir(params_.pipeline.model_cache_dir));
   std::string why;
   if (!params_.IsValid(&why)) throw ConfigError("pipeline: " + why);
   slam_ = std::make_unique<slam::SlamSystem>(params_.slam);

@@ -56,6 +56,13 @@ struct PipelineParams {
   /// in place of its mesh's own colour. Empty = none. Never colour a model from the frames it is
   /// then scored on.
   std::string model_colour_dir;
+  /// Folder of the on-disk cache of prepared object models (pipeline/model_cache.h): a run reads a
+  /// model it prepared before from there instead of parsing, sampling and analysing its files
+  /// again; the same model bit for bit, so outputs do not depend on it. "auto" = $ORPE_CACHE_DIR
+  /// when set (set and empty: off), else $XDG_CACHE_HOME/orpe/models, else
+  /// $HOME/.cache/orpe/models; "" or "none" = off. A folder that cannot be written: one warning,
+  /// the run goes on uncached.
+  std::string model_cache_dir = "auto";
   /// EKF initialisation from a consensus of this many first valid measurements (pipeline/
   /// object_fusion.h); 1 = from the first measurement (the paper).
   int ekf_init_views = 5;
@@ -150,6 +157,10 @@ struct PipelineParams {
     v("model_colour_dir", model_colour_dir,
       "Folder of colour models (<class name>.colour, from `orpe colour`) that replace the models' "
       "own colour; empty = none");
+    v("model_cache_dir", model_cache_dir,
+      "Folder of the cache of prepared object models (same models bit for bit, loaded faster): "
+      "auto = $ORPE_CACHE_DIR, else $XDG_CACHE_HOME/orpe/models, else ~/.cache/orpe/models; "
+      "empty or none = off");
     v("ekf_init_views", ekf_init_views,
       "Start each object's EKF from the consensus of this many first measurements (1 = the first)");
     v("ekf_init_majority_stop", ekf_init_majority_stop,

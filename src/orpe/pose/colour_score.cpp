@@ -11,6 +11,7 @@
 
 #include "orpe/core/atomic_file.h"
 #include "orpe/core/error.h"
+#include "orpe/core/parse_number.h"
 #include "orpe/core/weighted_correlation.h"
 #include "orpe/pose/model_search.h"
 #include "orpe/pose/object_model.h"
@@ -574,40 +575,80 @@ bool ColourLearner::observe(const SingleViewPose& sv, bool accepted, int fused_v
   return true;
 }
 
+void write_model_colour(std::ostream& os, const ModelColour& colour) {
+  const bool chroma = colour.has_chroma();
+  os << "# orpe model colour " << (chroma ? "v2" : "v1") << "\nsource " << colour.source << "\n";
+  std::string line;
+  for (size_t i = 0; i < colour.size(); ++i) {
+    line.clear();
+    const float values[] = {colour.points[i].x(),  colour.points[i].y(),  colour.points[i].z(),
+                            colour.normals[i].x(), colour.normals[i].y(), colour.normals[i].z(),
+                            colour.grey[i],        colour.weight[i]};
+    for (float v : values) append_exact(line, v), line += ' ';
+    if (chroma) {
+      append_exact(line, colour.chroma[i].x());
+      line += ' ';
+      append_exact(line, colour.chroma[i].y());
+    } else {
+      line.pop_back();
+    }
+    line += '\n';
+    os << line;
+  }
+}
+
 void write_model_colour(const std::string& path, const ModelColour& colour) {
   std::string why;
   if (!colour.IsValid(&why))
     throw IoError(path, "refusing to write an invalid colour model: " + why);
-  write_file_atomic(path, [&](std::ostream& os) {
-    const bool chroma = colour.has_chroma();
-    os << "# orpe model colour " << (chroma ? "v2" : "v1") << "\nsource " << colour.source << "\n"
-       << std::setprecision(7);
-    for (size_t i = 0; i < colour.size(); ++i) {
-      const auto& p = colour.points[i];
-      const auto& n = colour.normals[i];
-      os << p.x() << ' ' << p.y() << ' ' << p.z() << ' ' << n.x() << ' ' << n.y() << ' ' << n.z()
-         << ' ' << colour.grey[i] << ' ' << colour.weight[i];
-      if (chroma) os << ' ' << colour.chroma[i].x() << ' ' << colour.chroma[i].y();
-      os << '\n';
-    }
-  });
+  write_file_atomic(path, [&](std::ostream& os) { write_model_colour(os, colour); });
 }
 
-std::shared_ptr<ModelColour> read_model_colour(const std::string& path) {
-  std::ifstream is(path);
-  if (!is) throw IoError(path, "cannot open the colour model");
+namespace {
+
+/// One sample line of a colour model file (version 1: 8 numbers, 2: 10) into `out`.
+void read_colour_sample(const std::string& line, int version, const std::string& name, int line_no,
+                        ModelColour& out) {
+  float v[10];
+  v[8] = v[9] = 1.0f / 3;
+  if (!parse_number_fields(line, v, version == 1 ? 8 : 10))
+    throw IoError(name,
+                  "line " + std::to_string(line_no) +
+                      (version == 1 ? ": expected 8 numbers 'x y z nx ny nz grey weight'"
+                                    : ": expected 10 numbers 'x y z nx ny nz grey weight r g'"));
+  const Eigen::Vector3f p(v[0], v[1], v[2]);
+  Eigen::Vector3f n(v[3], v[4], v[5]);
+  const Eigen::Vector2f c(v[8], v[9]);
+  const float g = v[6], w = v[7];
+  if (!p.allFinite() || !n.allFinite() || !(n.norm() > 0.5f) || !(g >= 0 && g <= 1) || !(w >= 0) ||
+      !std::isfinite(w) || !(c.x() >= 0 && c.y() >= 0 && c.sum() <= 1.0001f))
+    throw IoError(name, "line " + std::to_string(line_no) +
+                            ": non-finite value, zero normal, grey outside [0, 1], negative "
+                            "weight or chromaticity outside r, g >= 0, r + g <= 1");
+  // A normal of unit length to float precision is kept as written: a written model reads back
+  // bit for bit (normalising again may move the last bit).
+  if (std::abs(n.squaredNorm() - 1.0f) > 4 * std::numeric_limits<float>::epsilon()) n.normalize();
+  out.points.push_back(p);
+  out.normals.push_back(n);
+  out.grey.push_back(g);
+  out.weight.push_back(w);
+  if (version == 2) out.chroma.push_back(c);
+}
+
+}  // namespace
+
+std::shared_ptr<ModelColour> read_model_colour(std::istream& is, const std::string& name) {
   auto out = std::make_shared<ModelColour>();
   std::string line;
   int line_no = 0;
-  bool header = false;
   int version = 0;
   while (std::getline(is, line)) {
     ++line_no;
     if (line_no == 1) {
       version = line == "# orpe model colour v1" ? 1 : line == "# orpe model colour v2" ? 2 : 0;
-      header = version > 0;
-      if (!header)
-        throw IoError(path, "line 1: expected '# orpe model colour v1' or '# orpe model colour v2'");
+      if (version == 0)
+        throw IoError(name,
+                      "line 1: expected '# orpe model colour v1' or '# orpe model colour v2'");
       continue;
     }
     if (line.empty() || line[0] == '#') continue;
@@ -615,33 +656,19 @@ std::shared_ptr<ModelColour> read_model_colour(const std::string& path) {
       out->source = line.substr(7);
       continue;
     }
-    std::istringstream ls(line);
-    Eigen::Vector3f p, n;
-    Eigen::Vector2f c(1.0f / 3, 1.0f / 3);
-    float g = 0, w = 0;
-    std::string extra;
-    const bool read = (ls >> p.x() >> p.y() >> p.z() >> n.x() >> n.y() >> n.z() >> g >> w) &&
-                      (version == 1 || (ls >> c.x() >> c.y()));
-    if (!read || (ls >> extra))
-      throw IoError(path, "line " + std::to_string(line_no) +
-                              (version == 1
-                                   ? ": expected 8 numbers 'x y z nx ny nz grey weight'"
-                                   : ": expected 10 numbers 'x y z nx ny nz grey weight r g'"));
-    if (!p.allFinite() || !n.allFinite() || !(n.norm() > 0.5f) || !(g >= 0 && g <= 1) ||
-        !(w >= 0) || !std::isfinite(w) || !(c.x() >= 0 && c.y() >= 0 && c.sum() <= 1.0001f))
-      throw IoError(path, "line " + std::to_string(line_no) +
-                              ": non-finite value, zero normal, grey outside [0, 1], negative "
-                              "weight or chromaticity outside r, g >= 0, r + g <= 1");
-    out->points.push_back(p);
-    out->normals.push_back(n.normalized());
-    out->grey.push_back(g);
-    out->weight.push_back(w);
-    if (version == 2) out->chroma.push_back(c);
+    read_colour_sample(line, version, name, line_no, *out);
   }
-  if (!header)
-    throw IoError(path, "empty file (expected '# orpe model colour v1' or '# orpe model colour v2')");
-  if (out->points.empty()) throw IoError(path, "no samples");
+  if (version == 0)
+    throw IoError(name,
+                  "empty file (expected '# orpe model colour v1' or '# orpe model colour v2')");
+  if (out->points.empty()) throw IoError(name, "no samples");
   return out;
+}
+
+std::shared_ptr<ModelColour> read_model_colour(const std::string& path) {
+  std::ifstream is(path);
+  if (!is) throw IoError(path, "cannot open the colour model");
+  return read_model_colour(is, path);
 }
 
 }  // namespace orpe

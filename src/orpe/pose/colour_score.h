@@ -18,6 +18,7 @@
 // on the visible pixels and correlates near 0.
 #pragma once
 
+#include <iosfwd>
 #include <memory>
 #include <string>
 #include <vector>
@@ -323,8 +324,15 @@ class ColourLearner {
 /// Text file of a colour model: "# orpe model colour v2" then "source <text>" then one line per
 /// sample "x y z nx ny nz grey weight r g" (r, g: its chromaticity). Version 1 files (written
 /// before session 22: 8 numbers per line, no chromaticity) are read too, and written for a colour
-/// without chromaticity. Throws IoError naming the file (and line) on failure.
+/// without chromaticity. Numbers are written with the fewest digits that read back to the same
+/// float (7 significant digits before session 25), and a normal of unit length is read as written,
+/// so a model written and read back is bit for bit the same (the model cache relies on it:
+/// pipeline/model_cache.h). Throws IoError naming the file (and line) on failure.
 void write_model_colour(const std::string& path, const ModelColour& colour);
 std::shared_ptr<ModelColour> read_model_colour(const std::string& path);
+/// The same text on a stream (a part of a larger file); `name` names it in errors. The writer does
+/// not check the colour (write_model_colour(path, ...) refuses an invalid one).
+void write_model_colour(std::ostream& os, const ModelColour& colour);
+std::shared_ptr<ModelColour> read_model_colour(std::istream& is, const std::string& name);
 
 }  // namespace orpe

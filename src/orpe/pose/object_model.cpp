@@ -143,6 +143,7 @@ ObjectModel load_object_model(const std::string& points_path, const ModelLoadOpt
   model.class_id = class_id;
   model.name = name;
   if (!(options.units_per_m > 0)) throw IoError(points_path, "model units_per_m must be > 0");
+  if (options.files_read) options.files_read->push_back(points_path);
   for (const Vec3& p : read_xyz_points(points_path, options.units_per_m))
     model.points.push_back(p.cast<float>());
   // The mesh is read once (assimp parses a YCB-Video OBJ in ~100 ms): its vertices' normals and,
@@ -153,6 +154,7 @@ ObjectModel load_object_model(const std::string& points_path, const ModelLoadOpt
     mo.metres_per_unit = 1.0 / options.units_per_m;
     mo.load_texture = options.load_colour;
     mo.warn_missing_texture = false;
+    mo.files_read = options.files_read;
     mesh = load_mesh(options.mesh_path, mo);
     // Keep only vertices with a normal (faces reference them).
     std::vector<Eigen::Vector3f> verts, norms;

@@ -82,6 +82,8 @@ struct ModelLoadOptions {
   bool detect_symmetry = true;
   /// Take the model's colour (colour_score.h) from the mesh's texture or vertex colours.
   bool load_colour = true;
+  /// When set, receives the path of every file read or looked for (MeshLoadOptions::files_read).
+  std::vector<std::string>* files_read = nullptr;
 };
 
 /// Loads an ASCII point file (io/model_io.h read_xyz_points), normals from the mesh when given,

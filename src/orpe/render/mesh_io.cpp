@@ -51,10 +51,16 @@ std::shared_ptr<const ColorImage> bgr_to_texture(const cv::Mat& m, const std::st
   return tex;
 }
 
+void note_file(const MeshLoadOptions& options, const std::string& path) {
+  if (options.files_read) options.files_read->push_back(path);
+}
+
 /// Reads a texture file. Returns nullptr (with a warning) when missing or unreadable.
 std::shared_ptr<const ColorImage> load_texture_image(const std::string& path,
                                                      const std::string& mesh_path,
-                                                     bool warn_missing) {
+                                                     const MeshLoadOptions& options) {
+  note_file(options, path);
+  const bool warn_missing = options.warn_missing_texture;
   std::error_code ec;  // fs::exists(path) threw for a name too long (fuzz mesh_ply finding 33)
   const bool exists = fs::exists(path, ec);
   if (ec) {
@@ -114,7 +120,7 @@ std::shared_ptr<const ColorImage> material_texture(const aiScene& scene, const a
   std::string name = rel.C_Str();
   std::replace(name.begin(), name.end(), '\\', '/');
   const std::string path = (fs::path(mesh_path).parent_path() / name).string();
-  return load_texture_image(path, mesh_path, options.warn_missing_texture);
+  return load_texture_image(path, mesh_path, options);
 }
 
 /// An 8-bit channel of a colour in [0, 1]. A channel that is not a number (assimp passes a file's
@@ -216,13 +222,22 @@ void assign_colours(const std::vector<PlacedMesh>& placed, const aiScene& scene,
   }
 }
 
-/// assimp's file access while it reads an OBJ: every file it opens (the mesh and its material
-/// libraries, wherever its path search finds them) is checked by detail::mtl_problem first; after
-/// a problem it opens nothing more, and read_with_assimp throws the problem.
-class CheckedObjFiles : public Assimp::DefaultIOSystem {
+/// assimp's file access while it reads a mesh: every file it looks for or opens is noted in
+/// `files_read` (when set). For an OBJ (`check_mtl`), every file it opens (the mesh and its
+/// material libraries, wherever its path search finds them) is checked by detail::mtl_problem
+/// first; after a problem it opens nothing more, and read_with_assimp throws the problem.
+class CheckedMeshFiles : public Assimp::DefaultIOSystem {
  public:
+  CheckedMeshFiles(bool check_mtl, std::vector<std::string>* files_read)
+      : check_mtl_(check_mtl), files_read_(files_read) {}
+  bool Exists(const char* file) const override {
+    if (files_read_) files_read_->push_back(file);
+    return DefaultIOSystem::Exists(file);
+  }
   Assimp::IOStream* Open(const char* file, const char* mode) override {
     if (problem) return nullptr;
+    if (files_read_) files_read_->push_back(file);
+    if (!check_mtl_) return DefaultIOSystem::Open(file, mode);
     if (std::ifstream is{file, std::ios::binary}) {
       const std::string text{std::istreambuf_iterator<char>(is), std::istreambuf_iterator<char>()};
       if (const auto why = detail::mtl_problem(text)) {
@@ -233,9 +248,14 @@ class CheckedObjFiles : public Assimp::DefaultIOSystem {
     return DefaultIOSystem::Open(file, mode);
   }
   std::optional<IoError> problem;
+
+ private:
+  bool check_mtl_;
+  std::vector<std::string>* files_read_;
 };
 
 TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& options) {
+  note_file(options, path);
   if (!fs::exists(path)) throw IoError(path, "file not found");
   if (fs::is_directory(path)) throw IoError(path, "is a folder, expected a mesh file");
   if (!(options.metres_per_unit > 0) || !std::isfinite(options.metres_per_unit))
@@ -247,11 +267,10 @@ TriangleMesh read_with_assimp(const std::string& path, const MeshLoadOptions& op
                   "unsupported mesh format '" + ext +
                       "' (expected .obj, .ply, .stl, .gltf, .glb, .dae, ... as assimp reads)");
   if (ext == ".ply") detail::check_ply_structure(path);
-  CheckedObjFiles* obj_files = nullptr;
-  if (ext == ".obj") {
-    detail::check_obj_structure(path);
-    importer.SetIOHandler(obj_files = new CheckedObjFiles);  // the importer owns it
-  }
+  if (ext == ".obj") detail::check_obj_structure(path);
+  CheckedMeshFiles* obj_files = nullptr;
+  if (ext == ".obj" || options.files_read)  // the importer owns the handler
+    importer.SetIOHandler(obj_files = new CheckedMeshFiles(ext == ".obj", options.files_read));
   // Points and lines are dropped; polygons are fan-triangulated; corners with the same position,
   // normal, uv and colour share one vertex (as an indexed OBJ/PLY file means them).
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,

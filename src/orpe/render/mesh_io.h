@@ -14,6 +14,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "orpe/render/mesh.h"
 
@@ -24,6 +25,10 @@ struct MeshLoadOptions {
   double metres_per_unit = 1.0;
   bool load_texture = true;  ///< read the texture image referenced by the file, when present
   bool warn_missing_texture = true;  ///< warn when the referenced texture file does not exist
+  /// When set, receives the path of every file the load read or looked for: the mesh, its material
+  /// libraries and texture image, also those that did not exist (a cache of what the mesh gives
+  /// must know all its inputs: pipeline/model_cache.h). In the order met; may repeat a path.
+  std::vector<std::string>* files_read = nullptr;
 };
 
 /// Loads an OBJ or PLY file (by extension, case-insensitive). Normals are computed when the file

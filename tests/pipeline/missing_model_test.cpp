@@ -2,7 +2,6 @@
 // warning per class on stderr (not one per frame) and the reason on each of its estimates; the
 // other objects are estimated as usual.
 #include <gtest/gtest.h>
-#include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
 #include <map>
@@ -10,28 +9,12 @@
 
 #include "orpe/io/dataset.h"
 #include "pipeline/pipeline_test_util.h"
+#include "support/captured_log.h"
 
 namespace orpe {
 namespace {
 
-/// Routes the default logger into a buffer for the lifetime of the object.
-class CapturedLog {
- public:
-  CapturedLog() : sink_(std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256)) {
-    previous_ = spdlog::default_logger();
-    spdlog::set_default_logger(std::make_shared<spdlog::logger>("captured", sink_));
-  }
-  ~CapturedLog() { spdlog::set_default_logger(previous_); }
-  int count(const std::string& text) const {
-    int n = 0;
-    for (const auto& line : sink_->last_formatted()) n += line.find(text) != std::string::npos;
-    return n;
-  }
-
- private:
-  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_;
-  std::shared_ptr<spdlog::logger> previous_;
-};
+using test::CapturedLog;
 
 TEST(MissingModel, ObjectsOfAClassWithoutAModelGetNoPoseAndOneWarning) {
   const auto reader =

@@ -4,7 +4,6 @@
 // corrupt entry is a warning and is rebuilt; an unwritable folder is one warning; off writes
 // nothing; the CLI's poses are the same with and without it.
 #include <gtest/gtest.h>
-#include <spdlog/sinks/ringbuffer_sink.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -22,31 +21,14 @@
 #include "orpe/pose/colour_score.h"
 #include "orpe/pose/model_search.h"
 #include "pipeline/pipeline_test_util.h"
+#include "support/captured_log.h"
 #include "support/cli_run.h"
 
 namespace orpe {
 namespace {
 namespace fs = std::filesystem;
 
-/// Routes the default logger into a buffer for the lifetime of the object.
-class CapturedLog {
- public:
-  CapturedLog() : sink_(std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(256)) {
-    previous_ = spdlog::default_logger();
-    spdlog::set_default_logger(std::make_shared<spdlog::logger>("captured", sink_));
-  }
-  ~CapturedLog() { spdlog::set_default_logger(previous_); }
-  int count(const std::string& text) const {
-    int n = 0;
-    for (const auto& line : sink_->last_formatted()) n += line.find(text) != std::string::npos;
-    return n;
-  }
-  size_t size() const { return sink_->last_formatted().size(); }
-
- private:
-  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_;
-  std::shared_ptr<spdlog::logger> previous_;
-};
+using test::CapturedLog;
 
 /// A YCB-Video style model in `dir`: points.xyz on a box, a textured box OBJ with its MTL and PNG.
 struct BoxModel {

@@ -90,11 +90,10 @@ std::string SlamFrameResult::report() const {
       "overlap {:4.2f} agree {:4.2f} front {:5.3f} behind {:5.3f} step {:.1e} | +{} ~{} -{} "
       "merged {} surfels {} | {:5.1f} ms (pre {:4.1f} pred {:4.1f} track {:5.1f} fuse {:5.1f}){}{}",
       frame_index, to_string(status), icp_inliers, inlier_fraction, icp_rms_m, rgb_rms, rgb_gain,
-      iterations,
-      overlap_fraction, consistent_fraction, in_front_fraction, behind_fraction, final_step,
-      fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space,
-      fusion.merged, fusion.surfels, total_ms, preprocess_ms, predict_ms, track_ms, fuse_ms,
-      reason.empty() ? "" : " | ", reason);
+      iterations, overlap_fraction, consistent_fraction, in_front_fraction, behind_fraction,
+      final_step, fusion.created, fusion.updated,
+      fusion.removed_unstable + fusion.removed_free_space, fusion.merged, fusion.surfels, total_ms,
+      preprocess_ms, predict_ms, track_ms, fuse_ms, reason.empty() ? "" : " | ", reason);
 }
 
 SlamSystem::SlamSystem(const SlamParams& params)

@@ -81,7 +81,7 @@ struct SurfelFusion::Frame {
   const DepthImage& depth;  ///< raw depth at level 0, else the level's filtered depth
   const NormalImage& normal;
   const ColorImage& color;
-  const float color_gain;  ///< the live image's brightness relative to the map's (multiplies it)
+  const float color_gain;  ///< the map's brightness over the frame's (multiplies the colours)
   const RigidF T_wc;
   const int W, H, level;
   const float fx, fy, cx, cy, f_mean, max_z, g_norm, inv_2sig2;

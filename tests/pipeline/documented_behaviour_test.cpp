@@ -165,7 +165,14 @@ TEST(DocumentedBehaviour, AMergedInstancesPoseTrackMovesToTheSurvivor) {
   const auto reader =
       open_dataset(test::synthetic_scene("merge", test::small_scene_params(160, 120, frames, 3, 5)),
                    DatasetParams{});
-  ObjectRpePipeline pipeline(exact_mask_params(), reader->info());
+  ObjectRpeParams params = exact_mask_params();
+  // The split at frame b_frame is a matter of a pixel or two at 160 x 120: with the photometric
+  // brightness gain (session 25) the camera is tracked as well (ATE 2.06 mm against 2.12 mm
+  // without, 12 frames) but B's segment overlaps A's rendered surfels by more than
+  // association_min_overlap and joins A at once, so the scene no longer has two instances to merge.
+  // This test is about the merge, not the tracking: it keeps the tracking the scene was made with.
+  params.slam.tracker.rgb_estimate_gain = false;
+  ObjectRpePipeline pipeline(params, reader->info());
   auto shared = std::make_shared<test::RecordingEstimator::Shared>();
   shared->record_images = false;
   shared->translation_noise_m = 0.002;

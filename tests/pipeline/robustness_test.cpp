@@ -87,15 +87,19 @@ TEST(TrackingSelfCheck, CameraJumpsAreNeverReportedOk) {
 }
 
 // What the free-space test adds: without it the wrong alignments of the jump scene pass every other
-// gate (inlier fraction 0.54-0.59, RMS 6-8 mm) and most frames are reported OK, far off.
+// gate (inlier fraction 0.54-0.59, RMS 6-8 mm) and most frames are accepted far off: reported OK,
+// or DEGRADED by the convergence gate alone and fused all the same (session 25, with the
+// photometric brightness gain: 3 OK and 4 DEGRADED, all 13-138 degrees off; before it 4 or more
+// OK).
 TEST(TrackingSelfCheck, WithoutTheFreeSpaceTestJumpsAreReportedOk) {
   SynthParams p = test::small_scene_params(320, 240, 8, 3, 1);
   p.span_deg = 140;
   const auto frames = track(test::synthetic_scene("jump", p), without_free_space_check());
-  int ok_and_wrong = 0;
+  int accepted_and_wrong = 0;
   for (size_t i = 1; i < frames.size(); ++i)
-    ok_and_wrong += frames[i].r.status == slam::TrackingStatus::kOk && frames[i].err_deg > 3.0;
-  EXPECT_GE(ok_and_wrong, 4);
+    accepted_and_wrong += frames[i].r.status != slam::TrackingStatus::kLost && frames[i].r.fused &&
+                          frames[i].err_deg > 3.0;
+  EXPECT_GE(accepted_and_wrong, 4);
 }
 
 // The same motion, sampled 4x as densely (~4.7 degrees per frame): every frame is tracked and OK.

@@ -81,16 +81,18 @@ struct SurfelFusion::Frame {
   const DepthImage& depth;  ///< raw depth at level 0, else the level's filtered depth
   const NormalImage& normal;
   const ColorImage& color;
+  const float color_gain;  ///< the map's brightness over the frame's (multiplies the colours)
   const RigidF T_wc;
   const int W, H, level;
   const float fx, fy, cx, cy, f_mean, max_z, g_norm, inv_2sig2;
 
   /// Level `lvl` of `frame` (L = frame.levels[lvl]), with its colour.
   Frame(const FramePyramid& frame, int lvl, const FrameLevel& L, const ColorImage& color_at_level,
-        const SE3& T_world_cam, const FusionParams& p)
+        float gain, const SE3& T_world_cam, const FusionParams& p)
       : depth(lvl == 0 ? frame.raw_depth : L.depth),
         normal(L.normal),
         color(color_at_level),
+        color_gain(gain),
         T_wc(T_world_cam),
         W(L.K.width),
         H(L.K.height),
@@ -105,6 +107,16 @@ struct SurfelFusion::Frame {
                    ? static_cast<float>(p.confidence_radius_px)
                    : 0.5f * std::sqrt(static_cast<float>(W) * W + static_cast<float>(H) * H)),
         inv_2sig2(static_cast<float>(1.0 / (2.0 * p.confidence_sigma * p.confidence_sigma))) {}
+
+  /// Colour of pixel (u, v) at the map's brightness (x color_gain).
+  Rgb8 colour(int u, int v) const {
+    const Rgb8 c = color.at(u, v);
+    if (color_gain == 1.0f) return c;
+    auto scale = [&](std::uint8_t x) {
+      return static_cast<std::uint8_t>(std::clamp(x * color_gain + 0.5f, 0.0f, 255.0f));
+    };
+    return Rgb8{scale(c.r), scale(c.g), scale(c.b)};
+  }
 
   /// Observation of pixel (u, v): world point, world normal, weight, radius. False if unusable.
   bool observe(int u, int v, Vec3f* p_w, Vec3f* n_w, float* a, float* r) const {
@@ -125,7 +137,7 @@ struct SurfelFusion::Frame {
 };
 
 FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam, std::int32_t now,
-                               SurfelMap* map, IndexImage* pixel_surfel) {
+                               SurfelMap* map, IndexImage* pixel_surfel, float color_gain) {
   const auto t0 = std::chrono::steady_clock::now();
   auto lap = [t = t0]() mutable {
     const auto now_t = std::chrono::steady_clock::now();
@@ -139,7 +151,8 @@ FusionStats SurfelFusion::fuse(const FramePyramid& frame, const SE3& T_world_cam
   const int level = std::min(params_.fusion_level, static_cast<int>(frame.levels.size()) - 1);
   if (level > 0) downsample_color(frame.color, level, &color_lowres_);
   const FrameLevel& L = frame.levels.at(static_cast<size_t>(level));
-  const Frame f(frame, level, L, level == 0 ? frame.color : color_lowres_, T_world_cam, params_);
+  const Frame f(frame, level, L, level == 0 ? frame.color : color_lowres_, color_gain, T_world_cam,
+                params_);
   const PinholeIntrinsics& K = L.K;
   RenderOptions opt;
   opt.active_window_frames = params_.active_window_frames;
@@ -255,7 +268,7 @@ size_t SurfelFusion::update_surfels(const Frame& f, std::int32_t now, SurfelMap*
         Vec3f n = c * map->normal_world[i] + a * n_w;
         const float len = n.norm();
         if (len > 1e-6f) map->normal_world[i] = n / len;
-        map->color[i] = blend(map->color[i], c, f.color.at(u, v), a);
+        map->color[i] = blend(map->color[i], c, f.colour(u, v), a);
         map->radius_m[i] = (c * map->radius_m[i] + a * r) * inv;
       }
       map->confidence[i] = c + a;
@@ -291,7 +304,7 @@ size_t SurfelFusion::add_new_surfels(const Frame& f, std::int32_t now, SurfelMap
       f.observe(u, v, &p_w, &n_w, &a, &r);  // true: checked during association
       map->position_world[k] = p_w;
       map->normal_world[k] = n_w;
-      map->color[k] = f.color.at(u, v);
+      map->color[k] = f.colour(u, v);
       map->radius_m[k] = r;
       map->confidence[k] = a;
       map->init_time[k] = now;

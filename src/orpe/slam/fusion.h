@@ -114,9 +114,11 @@ class SurfelFusion {
   /// Fuses the preprocessed frame seen from `T_world_cam` into `map` at frame counter `now`.
   /// When `pixel_surfel` is non-null it receives, per full-resolution pixel, the index of the
   /// surfel the pixel (its block at a coarser fusion level) updated, created or is covered by
-  /// (valid after this frame's removals), or -1.
+  /// (valid after this frame's removals), or -1. The frame's colours are fused multiplied by
+  /// `color_gain` (the tracker's estimate of the map's brightness over the frame's,
+  /// AlignmentResult::rgb_gain), so that the map keeps one brightness through exposure changes.
   FusionStats fuse(const FramePyramid& frame, const SE3& T_world_cam, std::int32_t now,
-                   SurfelMap* map, IndexImage* pixel_surfel = nullptr);
+                   SurfelMap* map, IndexImage* pixel_surfel = nullptr, float color_gain = 1.0f);
 
   /// The index map of the last fuse() (before cleaning; indices refer to the map before removals).
   const IndexMap& last_index_map() const { return index_map_; }

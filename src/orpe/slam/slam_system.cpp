@@ -85,14 +85,15 @@ bool SlamParams::IsValid(std::string* why) const {
 
 std::string SlamFrameResult::report() const {
   return fmt::format(
-      "frame {:5d} {:<8} inliers {:6d} ({:4.2f}) icp_rms {:6.4f} m rgb_rms {:5.2f} it {:2d} "
+      "frame {:5d} {:<8} inliers {:6d} ({:4.2f}) icp_rms {:6.4f} m rgb_rms {:5.2f} gain {:5.3f} "
+      "it {:2d} "
       "overlap {:4.2f} agree {:4.2f} front {:5.3f} behind {:5.3f} step {:.1e} | +{} ~{} -{} "
       "merged {} surfels {} | {:5.1f} ms (pre {:4.1f} pred {:4.1f} track {:5.1f} fuse {:5.1f}){}{}",
-      frame_index, to_string(status), icp_inliers, inlier_fraction, icp_rms_m, rgb_rms, iterations,
-      overlap_fraction, consistent_fraction, in_front_fraction, behind_fraction, final_step,
-      fusion.created, fusion.updated, fusion.removed_unstable + fusion.removed_free_space,
-      fusion.merged, fusion.surfels, total_ms, preprocess_ms, predict_ms, track_ms, fuse_ms,
-      reason.empty() ? "" : " | ", reason);
+      frame_index, to_string(status), icp_inliers, inlier_fraction, icp_rms_m, rgb_rms, rgb_gain,
+      iterations, overlap_fraction, consistent_fraction, in_front_fraction, behind_fraction,
+      final_step, fusion.created, fusion.updated,
+      fusion.removed_unstable + fusion.removed_free_space, fusion.merged, fusion.surfels, total_ms,
+      preprocess_ms, predict_ms, track_ms, fuse_ms, reason.empty() ? "" : " | ", reason);
 }
 
 SlamSystem::SlamSystem(const SlamParams& params)
@@ -155,6 +156,7 @@ AlignmentResult SlamSystem::align_into(const SE3& init, SlamFrameResult& res) {
   res.inlier_fraction = a.icp_overlap > 0 ? double(a.icp_inliers) / a.icp_overlap : 0.0;
   res.icp_rms_m = a.icp_rms_m;
   res.rgb_rms = a.rgb_rms;
+  res.rgb_gain = a.rgb_gain;
   res.iterations = a.iterations;
   res.overlap_fraction = a.overlap_fraction;
   res.consistent_fraction = a.consistent_fraction;
@@ -452,7 +454,11 @@ void SlamSystem::fuse_frame(const RgbdFrame& frame, std::int32_t now, bool fuse,
     return;
   }
   auto t = std::chrono::steady_clock::now();
-  res.fusion = fusion_.fuse(pyramid_, T_world_cam_, now, &map_, &pixel_surfel_);
+  // The colours at the map's brightness: the tracker's gain (1 for the first frame; against the
+  // previous frame the gain is not the map's).
+  const bool map_gain = !params_.options.rgb_against_previous_frame;
+  res.fusion = fusion_.fuse(pyramid_, T_world_cam_, now, &map_, &pixel_surfel_,
+                            map_gain ? static_cast<float>(res.rgb_gain) : 1.0f);
   res.fuse_ms = ms_since(t);
   res.fused = true;
   last_fused_time_ = now;

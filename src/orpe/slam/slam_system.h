@@ -120,6 +120,7 @@ struct SlamFrameResult {
   double inlier_fraction = 0;
   double icp_rms_m = 0;
   double rgb_rms = 0;
+  double rgb_gain = 1;  ///< the map's brightness over the frame's (AlignmentResult::rgb_gain)
   int iterations = 0;
   double overlap_fraction = 0;     ///< self-check (AlignmentResult)
   double consistent_fraction = 0;  ///< self-check (AlignmentResult)

@@ -31,6 +31,14 @@ struct RowSums {
   }
 };
 
+// Per-row sums of the photometric step's brightness-gain terms (rgb_step): with r = live - model
+// at gain 1, w the Huber weight and J the Jacobian of the live intensity,
+// bl = sum w J live, rl = sum w r live, ll = sum w live^2 (and rl, ll unweighted, for sum_sq).
+struct GainRowSums {
+  double bl[6];
+  double rl, ll, rl_u, ll_u;
+};
+
 inline void accumulate(float (&a)[21], float (&b)[6], const float (&J)[6], float r, float w) {
   float wJ[6];
   for (int i = 0; i < 6; ++i) wJ[i] = w * J[i];
@@ -84,6 +92,27 @@ float gradient_for_level(const TrackerParams& p, int level) {
   if (level == 0) return static_cast<float>(p.rgb_min_gradient_level0);
   if (level == 1) return static_cast<float>(p.rgb_min_gradient_level1);
   return static_cast<float>(p.rgb_min_gradient_level2);
+}
+
+// The photometric step with the live image's brightness gain g solved jointly with the pose:
+// residuals g live - model = r + (g - 1) live. `ne` holds the sums at g = 1; they become those at
+// the least-squares gain (d sum_sq / d g = 0), with the gain eliminated from the pose's normal
+// equations (Schur complement): A = g^2 (A1 - bl bl^T / ll), b = g (b1 + (g - 1) bl).
+void solve_gain(const std::vector<GainRowSums>& rows, NormalEquations& ne) {
+  Vec6 bl = Vec6::Zero();
+  double rl = 0, ll = 0, rl_u = 0, ll_u = 0;
+  for (const GainRowSums& g : rows) {
+    for (int k = 0; k < 6; ++k) bl[k] += g.bl[k];
+    rl += g.rl, ll += g.ll, rl_u += g.rl_u, ll_u += g.ll_u;
+  }
+  if (ne.count < 6 || !(ll > 0)) return;
+  // A numerical guard only: brightness between a frame and the map within a factor of 5.
+  const double d = std::clamp(-rl / ll, 0.2 - 1.0, 5.0 - 1.0);  // g - 1
+  const double g = 1.0 + d;
+  ne.gain = g;
+  ne.A = g * g * (ne.A - bl * bl.transpose() / ll);
+  ne.b = g * (ne.b + d * bl);
+  ne.sum_sq = std::max(0.0, ne.sum_sq + 2.0 * d * rl_u + d * d * ll_u);
 }
 
 }  // namespace
@@ -338,7 +367,8 @@ NormalEquations Tracker::icp_step(const FrameLevel& live, const ModelLevel& mode
 
 NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& model,
                                   const SE3& T_ref_cam, float min_gradient, int pixel_step,
-                                  float huber_delta, const MaskImage* usable) const {
+                                  float huber_delta, const MaskImage* usable,
+                                  float prior_gain) const {
   const RigidF T_cam_ref(T_ref_cam.inverse());
   const int W = live.depth.width(), H = live.depth.height();
   const int MW = model.depth.width(), MH = model.depth.height();
@@ -351,11 +381,13 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
   const int step = std::max(1, pixel_step);
   const int rows = (MH + step - 1) / step;
   std::vector<RowSums> sums(static_cast<size_t>(rows));
+  std::vector<GainRowSums> gain_sums(static_cast<size_t>(rows));
 
 #pragma omp parallel for schedule(static)
   for (int ri = 0; ri < rows; ++ri) {
     const int y = ri * step;
     float a[21] = {}, b[6] = {}, ss = 0.0f;
+    float bl[6] = {}, rl = 0.0f, ll = 0.0f, rl_u = 0.0f, ll_u = 0.0f;
     int count = 0;
     const Vec3f* vrow = model.color_point.row(y);
     const float* irow = model.intensity.row(y);
@@ -380,19 +412,31 @@ NormalEquations Tracker::rgb_step(const FrameLevel& live, const ModelLevel& mode
       // sequence.
       const float gu = bilinear(live.grad_u, u, v), gv = bilinear(live.grad_v, u, v);
       if (gu * gu + gv * gv < min_g2) continue;
-      const float r = bilinear(live.intensity, u, v) - irow[x];
+      const float il = bilinear(live.intensity, u, v);
+      const float r = il - irow[x];
       // d r / d p = grad . d project / d p
       const Vec3f dp(gu * fx * iz, gv * fy * iz, -(gu * fx * p.x() + gv * fy * p.y()) * iz * iz);
       const Vec3f c = T_cam_ref.rotate_inverse(dp);
       const Vec3f cxv = c.cross(vm);
       const float J[6] = {-c.x(), -c.y(), -c.z(), cxv.x(), cxv.y(), cxv.z()};
-      accumulate(a, b, J, r, huber_weight(r, rgb_huber));
+      const float w = huber_weight(prior_gain * il - irow[x], rgb_huber);
+      accumulate(a, b, J, r, w);
+      for (int k = 0; k < 6; ++k) bl[k] += w * J[k] * il;
+      rl += w * r * il;
+      ll += w * il * il;
+      rl_u += r * il;
+      ll_u += il * il;
       ss += r * r;
       ++count;
     }
     sums[static_cast<size_t>(ri)].set(a, b, ss, count, 0);
+    GainRowSums& g = gain_sums[static_cast<size_t>(ri)];
+    for (int k = 0; k < 6; ++k) g.bl[k] = bl[k];
+    g.rl = rl, g.ll = ll, g.rl_u = rl_u, g.ll_u = ll_u;
   }
-  return reduce(sums);
+  NormalEquations ne = reduce(sums);
+  if (params_.rgb_estimate_gain) solve_gain(gain_sums, ne);
+  return ne;
 }
 
 AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& model,
@@ -415,6 +459,7 @@ AlignmentResult Tracker::align(const FramePyramid& live, const ModelPyramid& mod
   if (params_.use_rgb) {
     res.rgb_count = last.rgb.count;
     res.rgb_rms = last.rgb.count > 0 ? std::sqrt(last.rgb.sum_sq / last.rgb.count) : 0.0;
+    res.rgb_gain = last.rgb.gain;
   }
   const int step = std::max(2, params_.level0_pixel_step);
   const DepthConsistency dc = depth_consistency(
@@ -434,6 +479,7 @@ SE3 Tracker::iterate(const FramePyramid& live, const ModelPyramid& model, const 
   const int levels = static_cast<int>(
       std::min(live.levels.size(), model.levels.size() + static_cast<size_t>(model.first_level)));
   float rgb_sigma = 0.0f;  // RMS photometric residual of the previous iteration (0: none yet)
+  float rgb_gain = 1.0f;   // brightness gain of the previous iteration (Huber weights only)
   for (int level = levels - 1; level >= 0 && !*numerically_failed; --level) {
     const FrameLevel& L = live.levels[static_cast<size_t>(level)];
     const int model_level = std::max(0, level - model.first_level);
@@ -454,7 +500,7 @@ SE3 Tracker::iterate(const FramePyramid& live, const ModelPyramid& model, const 
     for (int it = 0; it < iters; ++it) {
       ++res.iterations;
       Vec6 xi;
-      if (!gauss_newton_step(in, T, last, rgb_sigma, &xi, &res.reason)) {
+      if (!gauss_newton_step(in, T, last, rgb_sigma, rgb_gain, &xi, &res.reason)) {
         *numerically_failed = true;
         break;
       }
@@ -475,7 +521,8 @@ SE3 Tracker::iterate(const FramePyramid& live, const ModelPyramid& model, const 
 }
 
 bool Tracker::gauss_newton_step(const LevelInputs& in, const SE3& T, LastTerms& last,
-                                float& rgb_sigma, Vec6* xi, std::string* why) const {
+                                float& rgb_sigma, float& rgb_gain, Vec6* xi,
+                                std::string* why) const {
   const int step = in.level == 0 ? params_.level0_pixel_step : 1;
   // The photometric loop runs over model pixels: sparser already when the model is coarser.
   const int rgb_step_px =
@@ -491,7 +538,8 @@ bool Tracker::gauss_newton_step(const LevelInputs& in, const SE3& T, LastTerms& 
   if (params_.use_rgb) {
     const float delta = static_cast<float>(params_.rgb_huber_sigmas) * rgb_sigma;
     last.rgb = rgb_step(in.live, in.model, T, gradient_for_level(params_, in.level), rgb_step_px,
-                        delta, in.usable);
+                        delta, in.usable, rgb_gain);
+    rgb_gain = static_cast<float>(last.rgb.gain);
     if (last.rgb.count > 0) {
       const double sigma2 = std::max(last.rgb.sum_sq / last.rgb.count, 1.0);
       rgb_sigma = static_cast<float>(std::sqrt(sigma2));

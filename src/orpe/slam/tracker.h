@@ -51,6 +51,11 @@ struct TrackerParams {
   /// "Photometric term near depth edges"). 0 = every pixel (ElasticFusion). Typical 1-2. Applied at
   /// full resolution (pyramid level 0) only.
   int rgb_edge_margin_px = 1;
+  /// Photometric term: estimate the live image's brightness gain against the map's colours (one
+  /// factor per frame, solved jointly with the pose at each iteration) and compare gain x live
+  /// intensity with the map's. A change of exposure or lighting otherwise shows as residuals that
+  /// the pose absorbs (docs/SLAM.md, "Session 25"). Off = raw intensities (ElasticFusion).
+  bool rgb_estimate_gain = true;
   /// A depth discontinuity: 8-neighbours differ by more than rgb_edge_jump_m + rgb_edge_jump_per_m
   /// x z x (the level's pixel size in full-resolution pixels) (m).
   double rgb_edge_jump_m = 0.01;
@@ -136,6 +141,9 @@ struct TrackerParams {
     v("rgb_edge_margin_px", rgb_edge_margin_px,
       "Photometric: skip reference pixels within this many pixels of a depth discontinuity "
       "(mixed colours bias the motion); 0 = off (EF)");
+    v("rgb_estimate_gain", rgb_estimate_gain,
+      "Photometric: estimate the live image's brightness gain against the map with the pose "
+      "(exposure / lighting changes); off = raw intensities (EF)");
     v("rgb_edge_jump_m", rgb_edge_jump_m,
       "Photometric: a depth discontinuity is a neighbour depth difference above this (m) ...");
     v("rgb_edge_jump_per_m", rgb_edge_jump_per_m,
@@ -227,6 +235,7 @@ struct AlignmentResult {
   int rgb_count = 0;          ///< photometric residuals used, level 0
   double icp_rms_m = 0;       ///< point-to-plane RMS, level 0
   double rgb_rms = 0;         ///< photometric RMS (0..255), level 0
+  double rgb_gain = 1;        ///< live image brightness / the map's (rgb_estimate_gain), level 0
   double min_eigenvalue = 0;  ///< smallest eigenvalue of A_icp / inliers
   int iterations = 0;         ///< total over levels
   double final_step = 0;      ///< norm of the last level-0 update
@@ -259,6 +268,7 @@ struct NormalEquations {
   double sum_sq = 0;      ///< sum r^2
   int count = 0;
   int overlap = 0;  ///< ICP only: projected onto a valid model pixel
+  double gain = 1;  ///< photometric only: the live image's brightness gain used (rgb_step)
 };
 
 class Tracker {
@@ -274,10 +284,13 @@ class Tracker {
   NormalEquations icp_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
                            int pixel_step) const;
   /// `huber_delta` (0..255; <= 0 off) down-weights large photometric residuals. `usable` (optional,
-  /// the model level's size): only model pixels where it is non-zero are used.
+  /// the model level's size): only model pixels where it is non-zero are used. With
+  /// rgb_estimate_gain the residuals are gain x live - model at the least-squares gain of this
+  /// linearisation (NormalEquations::gain), and A, b are those of the pose with the gain solved
+  /// jointly (the gain eliminated); `prior_gain` only sets the Huber weights.
   NormalEquations rgb_step(const FrameLevel& live, const ModelLevel& model, const SE3& T_ref_cam,
                            float min_gradient, int pixel_step, float huber_delta = 0.0f,
-                           const MaskImage* usable = nullptr) const;
+                           const MaskImage* usable = nullptr, float prior_gain = 1.0f) const;
 
  private:
   // The steps of align().
@@ -299,7 +312,7 @@ class Tracker {
               AlignmentResult& res, LastTerms& last, bool* numerically_failed) const;
   /// The update xi of one iteration at T (both terms weighted, damped); false with `why`.
   bool gauss_newton_step(const LevelInputs& in, const SE3& T, LastTerms& last, float& rgb_sigma,
-                         Vec6* xi, std::string* why) const;
+                         float& rgb_gain, Vec6* xi, std::string* why) const;
   /// res.failed / res.weak and their reason from the result's figures and the `motion` from the
   /// initial estimate.
   void apply_quality_gates(const PinholeIntrinsics& K0, const SE3& motion, bool numerically_failed,

@@ -71,8 +71,10 @@ struct PipelineParams {
   /// decisive (geometry or colour singled its pose out: pose_registration.colour_learn_min_*
   /// margins): the rest could not outvote them, so they are fused as later views and estimated
   /// from the fused pose (prior fast path) instead of by global searches. false = always collect
-  /// all ekf_init_views (session 24). Measured: docs/PIPELINE.md, "EKF: consensus start".
-  bool ekf_init_majority_stop = true;
+  /// all ekf_init_views (the default). Off by default: on the three YCB clips it kept the accuracy
+  /// but saved little, and on a synthetic textured table scene (test FusionGain.*) it cost the
+  /// fused poses ~1 point of ADD AUC. Measured: docs/PIPELINE.md, "EKF: consensus start".
+  bool ekf_init_majority_stop = false;
   /// Prior fast path (EKF variants; a deviation, docs/PIPELINE.md): an object whose filter has a
   /// state gives the single-view estimator its fused pose, moved into the camera, as the prior;
   /// with pose_registration.prior_refinement the estimator refines it locally and runs the global

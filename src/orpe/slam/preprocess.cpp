@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 #include "orpe/core/error.h"
 
@@ -9,6 +11,63 @@ namespace orpe::slam {
 namespace {
 
 constexpr int kRangeLutMm = 1000;  // range weights tabulated per millimetre up to this difference
+
+using Float4 = float __attribute__((vector_size(16)));
+using Int4 = std::int32_t __attribute__((vector_size(16)));
+
+// The bilateral filter's tabulated weights and half-window.
+struct BilateralKernel {
+  const float* range_lut;  // per millimetre of depth difference
+  const float* space_lut;  // per window offset, (2r+1)^2
+  int r;
+};
+
+// Filtered depth of pixel (u, v) with depth zc > 0: neighbours without depth or farther than the
+// range table do not contribute.
+float bilateral_pixel(const DepthImage& src, const BilateralKernel& k, int u, int v, float zc) {
+  const int w = src.width(), h = src.height(), r = k.r, side = 2 * r + 1;
+  float sw = 0.0f, sz = 0.0f;
+  const int y0 = std::max(0, v - r), y1 = std::min(h - 1, v + r);
+  const int x0 = std::max(0, u - r), x1 = std::min(w - 1, u + r);
+  for (int y = y0; y <= y1; ++y) {
+    const float* row = src.row(y);
+    const float* srow = k.space_lut + (y - v + r) * side + r - u;
+    for (int x = x0; x <= x1; ++x) {
+      const float z = row[x];
+      const int mm = static_cast<int>(std::fabs(z - zc) * 1000.0f + 0.5f);
+      if (z <= 0.0f || mm > kRangeLutMm) continue;
+      const float wgt = srow[x] * k.range_lut[mm];
+      sw += wgt;
+      sz += wgt * z;
+    }
+  }
+  return sz / sw;  // sw >= 1 (the centre pixel)
+}
+
+// bilateral_pixel for pixels u..u+3 of row v, whose windows lie inside the image. Each lane sums
+// the same terms in the same order (a skipped neighbour adds +0), so the results are identical.
+Float4 bilateral_4(const DepthImage& src, const BilateralKernel& k, int u, int v, Float4 zc) {
+  const int r = k.r, side = 2 * r + 1;
+  Float4 sw = {}, sz = {};
+  for (int y = v - r; y <= v + r; ++y) {
+    const float* row = src.row(y) + u;
+    const float* srow = k.space_lut + (y - v + r) * side + r;
+    for (int dx = -r; dx <= r; ++dx) {
+      Float4 z;
+      std::memcpy(&z, row + dx, sizeof z);
+      const Float4 d = z - zc;
+      const Float4 ad = (Float4)((Int4)d & 0x7fffffff);  // |d|
+      const Int4 mm = __builtin_convertvector(ad * 1000.0f + 0.5f, Int4);
+      const Int4 ok = (z > 0.0f) & (mm >= 0) & (mm <= kRangeLutMm);
+      const Int4 i = mm & ok;
+      const Float4 range = {k.range_lut[i[0]], k.range_lut[i[1]], k.range_lut[i[2]], k.range_lut[i[3]]};
+      const Float4 wgt = (Float4)((Int4)(srow[dx] * range) & ok);
+      sw += wgt;
+      sz += wgt * z;
+    }
+  }
+  return sz / sw;
+}
 
 }  // namespace
 
@@ -27,7 +86,8 @@ bool PreprocessParams::IsValid(std::string* why) const {
   return true;
 }
 
-FramePreprocessor::FramePreprocessor(const PreprocessParams& params) : params_(params) {
+FramePreprocessor::FramePreprocessor(const PreprocessParams& params, int level0_normal_step)
+    : params_(params), level0_normal_step_(std::max(1, level0_normal_step)) {
   std::string why;
   if (!params_.IsValid(&why)) throw ConfigError("slam_preprocess: " + why);
   const double sd = params_.bilateral_sigma_depth_m;
@@ -134,14 +194,18 @@ void compute_vertex_map(const DepthImage& depth, const PinholeIntrinsics& K, Ver
   }
 }
 
-void compute_normal_map(const VertexImage& vertex, double max_depth_jump_per_m, NormalImage* normal) {
+void compute_normal_map(const VertexImage& vertex, double max_depth_jump_per_m, NormalImage* normal,
+                        int step) {
   const int w = vertex.width(), h = vertex.height();
   ensure_size(*normal, w, h);
   const float jump = static_cast<float>(max_depth_jump_per_m);
+  step = std::max(1, step);
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < h; ++v) {
     Vec3f* o = normal->row(v);
-    for (int u = 0; u < w; ++u) {
+    if (step > 1) std::fill(o, o + w, Vec3f::Zero());
+    if (v % step != 0) continue;
+    for (int u = 0; u < w; u += step) {
       o[u].setZero();
       if (u == 0 || v == 0 || u == w - 1 || v == h - 1) continue;
       const Vec3f& c = vertex.at(u, v);
@@ -164,6 +228,30 @@ void compute_normal_map(const VertexImage& vertex, double max_depth_jump_per_m, 
       if (n.dot(c) > 0.0f) n = -n;  // face the camera
       o[u] = n;
     }
+  }
+}
+
+void FramePreprocessor::bilateral(const DepthImage& src, DepthImage* out) const {
+  const int w = src.width(), h = src.height(), r = params_.bilateral_radius_px;
+  const BilateralKernel k{range_lut_.data(), space_lut_.data(), r};
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < h; ++v) {
+    const float* zrow = src.row(v);
+    float* o = out->row(v);
+    int u = 0;
+    if (v >= r && v < h - r) {  // four pixels at a time between the left and right borders
+      for (; u < r; ++u) o[u] = zrow[u] > 0.0f ? bilateral_pixel(src, k, u, v, zrow[u]) : 0.0f;
+      for (; u + 4 <= w - r; u += 4) {
+        Float4 zc;
+        std::memcpy(&zc, zrow + u, sizeof zc);
+        const Int4 valid = zc > 0.0f;
+        Float4 z = {};
+        if (valid[0] | valid[1] | valid[2] | valid[3])
+          z = (Float4)((Int4)bilateral_4(src, k, u, v, zc) & valid);
+        std::memcpy(o + u, &z, sizeof z);
+      }
+    }
+    for (; u < w; ++u) o[u] = zrow[u] > 0.0f ? bilateral_pixel(src, k, u, v, zrow[u]) : 0.0f;
   }
 }
 
@@ -198,37 +286,7 @@ void FramePreprocessor::process(const RgbdFrame& frame, FramePyramid* out) const
   if (r == 0) {
     L0.depth = out->raw_depth;
   } else {
-    const DepthImage& src = out->raw_depth;
-    const float* lut = range_lut_.data();
-    const float* slut = space_lut_.data();
-    const int side = 2 * r + 1;
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < h; ++v) {
-      float* o = L0.depth.row(v);
-      for (int u = 0; u < w; ++u) {
-        const float zc = src.at(u, v);
-        if (zc <= 0.0f) {
-          o[u] = 0.0f;
-          continue;
-        }
-        float sw = 0.0f, sz = 0.0f;
-        const int y0 = std::max(0, v - r), y1 = std::min(h - 1, v + r);
-        const int x0 = std::max(0, u - r), x1 = std::min(w - 1, u + r);
-        for (int y = y0; y <= y1; ++y) {
-          const float* row = src.row(y);
-          const float* srow = slut + (y - v + r) * side + r - u;
-          for (int x = x0; x <= x1; ++x) {
-            const float z = row[x];
-            const int mm = static_cast<int>(std::fabs(z - zc) * 1000.0f + 0.5f);
-            if (z <= 0.0f || mm > kRangeLutMm) continue;
-            const float wgt = srow[x] * lut[mm];
-            sw += wgt;
-            sz += wgt * z;
-          }
-        }
-        o[u] = sz / sw;  // sw >= 1 (the centre pixel)
-      }
-    }
+    bilateral(out->raw_depth, &L0.depth);
   }
   color_to_intensity(frame.color, &L0.intensity);
 
@@ -239,9 +297,11 @@ void FramePreprocessor::process(const RgbdFrame& frame, FramePyramid* out) const
     downsample_depth(prev.depth, static_cast<float>(params_.pyramid_max_depth_jump_m), &cur.depth);
     downsample_intensity(prev.intensity, &cur.intensity);
   }
-  for (auto& L : out->levels) {
+  for (size_t l = 0; l < out->levels.size(); ++l) {
+    FrameLevel& L = out->levels[l];
     compute_vertex_map(L.depth, L.K, &L.vertex);
-    compute_normal_map(L.vertex, params_.normal_max_depth_jump_m, &L.normal);
+    compute_normal_map(L.vertex, params_.normal_max_depth_jump_m, &L.normal,
+                       l == 0 ? level0_normal_step_ : 1);
     compute_gradients(L.intensity, &L.grad_u, &L.grad_v);
   }
 }

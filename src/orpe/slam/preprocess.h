@@ -64,7 +64,9 @@ struct FramePyramid {
 
 class FramePreprocessor {
  public:
-  explicit FramePreprocessor(const PreprocessParams& params = {});
+  /// `level0_normal_step` n > 1: level-0 normals only at every n-th row and column (the rest
+  /// zero), for a tracker that reads level 0 at that pixel step when nothing else reads its normals.
+  explicit FramePreprocessor(const PreprocessParams& params = {}, int level0_normal_step = 1);
   const PreprocessParams& params() const { return params_; }
 
   /// Fills `out` from an RGB-D frame. Colour and depth must have the intrinsics' size (else
@@ -72,14 +74,20 @@ class FramePreprocessor {
   void process(const RgbdFrame& frame, FramePyramid* out) const;
 
  private:
+  /// Bilateral filter of the cut depth (invalid pixels stay invalid and do not contribute).
+  void bilateral(const DepthImage& src, DepthImage* out) const;
+
   PreprocessParams params_;
+  int level0_normal_step_ = 1;
   std::vector<float> range_lut_;  // range weight per millimetre of depth difference
   std::vector<float> space_lut_;  // spatial weight per window offset
 };
 
 /// Vertex and normal maps from a depth image (used for the frame and for rendered model levels).
 void compute_vertex_map(const DepthImage& depth, const PinholeIntrinsics& K, VertexImage* vertex);
-void compute_normal_map(const VertexImage& vertex, double max_depth_jump_per_m, NormalImage* normal);
+/// `step` n > 1: normals only at every n-th row and column (from 0); the other pixels get zero.
+void compute_normal_map(const VertexImage& vertex, double max_depth_jump_per_m, NormalImage* normal,
+                        int step = 1);
 /// 2x2 block average of depth, skipping invalid pixels and pixels far from the block's first depth.
 void downsample_depth(const DepthImage& in, float max_jump_m, DepthImage* out);
 /// 2x2 block average of an intensity image (all pixels valid).

@@ -98,7 +98,9 @@ std::string SlamFrameResult::report() const {
 
 SlamSystem::SlamSystem(const SlamParams& params)
     : params_(params),
-      preprocessor_(params.preprocess),
+      // With fusion at a coarser level, only the tracker reads level-0 normals, at its pixel step.
+      preprocessor_(params.preprocess,
+                    params.fusion.fusion_level > 0 ? params.tracker.level0_pixel_step : 1),
       tracker_(params.tracker),
       fusion_(params.fusion),
       relocaliser_(params.reloc) {

@@ -149,6 +149,7 @@ TEST(Config, PresetsAreValidAndOverridable) {
   apply_config_preset(c, "realtime");
   EXPECT_EQ(c.slam_tracking.level0_pixel_step, 2);
   EXPECT_EQ(c.slam_tracking.iterations_level1, 1);
+  EXPECT_GT(c.slam_tracking.convergence_step, OrpeConfig().slam_tracking.convergence_step);
   EXPECT_EQ(c.slam_fusion.fusion_level, 1);
   EXPECT_FALSE(c.slam_loop.enabled);
   EXPECT_EQ(c.slam.prediction_surface_band_m, 0);

@@ -58,6 +58,7 @@ void downsample_color(const ColorImage& in, int level, ColorImage* out) {
   const int w = in.width() / f, h = in.height() / f;
   ensure_size(*out, w, h);
   const int inv_n = f * f;
+  const int shift = 2 * level;  // dividing the non-negative sums by f * f: a shift, not an idiv
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u) {
@@ -69,9 +70,9 @@ void downsample_color(const ColorImage& in, int level, ColorImage* out) {
           g += c.g;
           b += c.b;
         }
-      out->at(u, v) = Rgb8{static_cast<std::uint8_t>((r + inv_n / 2) / inv_n),
-                           static_cast<std::uint8_t>((g + inv_n / 2) / inv_n),
-                           static_cast<std::uint8_t>((b + inv_n / 2) / inv_n)};
+      out->at(u, v) = Rgb8{static_cast<std::uint8_t>((r + inv_n / 2) >> shift),
+                           static_cast<std::uint8_t>((g + inv_n / 2) >> shift),
+                           static_cast<std::uint8_t>((b + inv_n / 2) >> shift)};
     }
 }
 

@@ -217,42 +217,6 @@ TEST(ObjectModel, GridNearestIsWithinOneCellOfTheExactNearest) {
   EXPECT_GT(exact, 250);  // most cells have the query's own nearest point
 }
 
-// grid_hint: the grid's point for the query's cell (what nearest_approx returns) inside the box,
-// kNone outside it; as a start for nearest_near it leaves the answer the bounded search's.
-TEST(ObjectModel, GridHintIsTheCellsPointAndLeavesTheHintedSearchExact) {
-  const test::SurfaceSamples s = test::sample_cylinder(0.03f, 0.08f, 0.006f);
-  const ModelSearchIndex index(s.points);
-  const float cell = 0.004f, margin = 0.02f;
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<float> u(-0.09f, 0.09f);
-  int inside = 0, outside = 0;
-  for (int i = 0; i < 1000; ++i) {
-    const Eigen::Vector3f q(u(rng), u(rng), u(rng));
-    const std::uint32_t hint = index.grid_hint(q, cell, margin);
-    const bool in_box = std::abs(q.x()) < 0.03f + margin - 1e-4f &&
-                        std::abs(q.y()) < 0.03f + margin - 1e-4f &&
-                        std::abs(q.z()) < 0.04f + margin - 1e-4f;
-    if (in_box) {
-      ASSERT_NE(hint, ModelSearchIndex::kNone) << "query " << i;
-      EXPECT_EQ(hint, index.nearest_approx(q, nullptr, cell, margin));
-      ++inside;
-    } else if (std::abs(q.x()) > 0.03f + margin + 1e-4f) {
-      EXPECT_EQ(hint, ModelSearchIndex::kNone) << "query " << i;
-      ++outside;
-    }
-    const float bound = i % 2 ? 1e-4f : 4e-4f;
-    float want = 0, got = 0;
-    const std::uint32_t j_tree = index.nearest_within(q, bound, &want);
-    const std::uint32_t j = index.nearest_near(q, hint, bound, &got);
-    ASSERT_EQ(j == ModelSearchIndex::kNone, j_tree == ModelSearchIndex::kNone) << "query " << i;
-    if (j != ModelSearchIndex::kNone) {
-      EXPECT_FLOAT_EQ(got, want) << "query " << i;
-    }
-  }
-  EXPECT_GT(inside, 120);  // about a fifth of the cube is the grid's box
-  EXPECT_GT(outside, 100);
-}
-
 TEST(ObjectModel, DetectsCylinderBoxAndNoSymmetry) {
   const ObjectModel cyl = test::make_model(test::sample_cylinder(0.035f, 0.10f, 0.004f), true);
   EXPECT_EQ(cyl.symmetry.kind(), SymmetryKind::kContinuous) << cyl.symmetry.describe();

@@ -207,13 +207,7 @@ class Registration {
  public:
   Registration(const ModelRegistrationParams& p, const ObjectModel& model,
                const ScoringContext& ctx)
-      : p_(p),
-        model_(model),
-        index_(*model.search_index),
-        ctx_(ctx),
-        grid_cell_m_(static_cast<float>(model.diameter_m / std::max(1, p.coarse_grid_cells))),
-        grid_margin_m_(static_cast<float>(p.coarse_max_corr_factor * model.diameter_m) +
-                       grid_cell_m_) {}
+      : p_(p), model_(model), index_(*model.search_index), ctx_(ctx) {}
 
   /// Robust point-to-plane ICP of the observed points `obs` (camera frame) onto the model.
   /// The association distance shrinks geometrically from corr_start to corr_end.
@@ -222,6 +216,8 @@ class Registration {
     const std::vector<Vec3f>& model_subset = coarse ? ctx_.coarse_model_subset : ctx_.model_subset;
     SE3 A = T_cam_obj.inverse();  // T_obj_cam: update A <- exp(delta) A
     const bool grid = coarse && p_.coarse_grid_cells > 0;
+    const float cell = static_cast<float>(model_.diameter_m / std::max(1, p_.coarse_grid_cells));
+    const float margin = static_cast<float>(p_.coarse_max_corr_factor * model_.diameter_m) + cell;
     // Per observed point / free-space model point: its nearest point of the previous iteration.
     std::vector<std::uint32_t> prev(grid ? 0 : obs.size(), kNone);
     std::vector<std::uint32_t> prev_free(model_subset.size(), kNone);
@@ -243,13 +239,8 @@ class Registration {
       for (size_t k = 0; k < obs.size(); ++k) {
         const Vec3f pt = R * obs[k] + t;
         float d2 = 0;
-        std::uint32_t j;
-        if (grid) {
-          j = index_.nearest_approx(pt, &d2, grid_cell_m_, grid_margin_m_);
-        } else {  // from last iteration's point, else the grid's
-          j = index_.nearest_near(pt, prev[k] != kNone ? prev[k] : grid_hint(pt), corr2, &d2);
-          prev[k] = j;
-        }
+        const std::uint32_t j = grid ? index_.nearest_approx(pt, &d2, cell, margin)
+                                     : nearest_warm(index_, pt, corr2, prev[k], &d2);
         if (j == kNone || d2 > corr2) continue;
         const Vec3f& n = model_.normals[j];
         const Vec3f& m = model_.points[j];
@@ -331,7 +322,7 @@ class Registration {
     for (const auto& q : obs) {
       const Vec3f pt = R * q + t;
       float d2 = 0;
-      const std::uint32_t j = index_.nearest_near(pt, grid_hint(pt), reach2, &d2);
+      const std::uint32_t j = index_.nearest_within(pt, reach2, &d2);
       if (j == kNone) continue;
       // Distance to the surface: the plane distance, unless the point is farther from the nearest
       // sample than the sampling explains.
@@ -381,13 +372,6 @@ class Registration {
     return z > 0 && pc.z() < z - static_cast<float>(p_.free_space_margin_m);
   }
 
-  /// A start for the exact search of the model point nearest `pt` (object frame): the grid's
-  /// point for its cell (ModelSearchIndex::grid_hint), kNone without a grid. The answer does not
-  /// depend on it, only the time to find it.
-  std::uint32_t grid_hint(const Vec3f& pt) const {
-    return p_.coarse_grid_cells > 0 ? index_.grid_hint(pt, grid_cell_m_, grid_margin_m_) : kNone;
-  }
-
   /// Translation that puts the centroid of the model's camera-facing half (under rotation R) on
   /// the observed centroid.
   Vec3 initial_translation(const Mat3& R, const Vec3f& centroid) const {
@@ -412,8 +396,6 @@ class Registration {
   const ObjectModel& model_;
   const ModelSearchIndex& index_;
   const ScoringContext& ctx_;
-  const float grid_cell_m_;    ///< the model's approximate-nearest grid (coarse stage, hints)
-  const float grid_margin_m_;  ///< its margin around the model's box
 };
 
 /// Fraction of the mask's boundary pixels that have, within 4 px outside the mask, a valid depth

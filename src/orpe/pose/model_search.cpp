@@ -57,7 +57,8 @@ std::uint32_t ModelSearchIndex::nearest_within(const Eigen::Vector3f& query, flo
   return index;
 }
 
-void ModelSearchIndex::lay_out_grid(float cell_m, float margin_m) const {
+std::uint32_t ModelSearchIndex::nearest_approx(const Eigen::Vector3f& query, float* distance_sq,
+                                               float cell_m, float margin_m) const {
   std::call_once(grid_once_, [&] {
     Eigen::Vector3f lo = points_.front(), hi = points_.front();
     for (const auto& p : points_) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
@@ -76,50 +77,26 @@ void ModelSearchIndex::lay_out_grid(float cell_m, float margin_m) const {
     grid_.nearest = std::make_unique<std::atomic<std::uint32_t>[]>(cells);
     for (size_t i = 0; i < cells; ++i) grid_.nearest[i].store(kNone, std::memory_order_relaxed);
   });
-}
-
-long ModelSearchIndex::grid_cell(const Eigen::Vector3f& query) const {
   const Eigen::Vector3f r = (query - grid_.origin) * grid_.inv_cell;
   const int x = static_cast<int>(std::floor(r.x())), y = static_cast<int>(std::floor(r.y())),
             z = static_cast<int>(std::floor(r.z()));
-  if (x < 0 || y < 0 || z < 0 || x >= grid_.nx || y >= grid_.ny || z >= grid_.nz) return -1;
-  return (static_cast<long>(z) * grid_.ny + y) * grid_.nx + x;
-}
-
-std::uint32_t ModelSearchIndex::cell_point(long c) const {
+  if (x < 0 || y < 0 || z < 0 || x >= grid_.nx || y >= grid_.ny || z >= grid_.nz)
+    return nearest(query, distance_sq);
   // A cell's point is found on its first query (a search covers a small part of the grid) and kept.
   // It is the exact nearest point of the cell's centre whichever thread stores it first, so the
   // result does not depend on the order of the queries.
-  std::atomic<std::uint32_t>& slot = grid_.nearest[static_cast<size_t>(c)];
+  std::atomic<std::uint32_t>& slot =
+      grid_.nearest[(static_cast<size_t>(z) * grid_.ny + y) * grid_.nx + x];
   std::uint32_t j = slot.load(std::memory_order_relaxed);
   if (j == kNone) {
-    const long x = c % grid_.nx, y = (c / grid_.nx) % grid_.ny, z = c / grid_.nx / grid_.ny;
     const Eigen::Vector3f centre =
-        grid_.origin + grid_.cell * Eigen::Vector3f(static_cast<float>(x) + 0.5f,
-                                                    static_cast<float>(y) + 0.5f,
-                                                    static_cast<float>(z) + 0.5f);
+        grid_.origin + grid_.cell * Eigen::Vector3f(x + 0.5f, y + 0.5f, z + 0.5f);
     float d2 = 0;
     j = nearest(centre, &d2);
     slot.store(j, std::memory_order_relaxed);
   }
-  return j;
-}
-
-std::uint32_t ModelSearchIndex::nearest_approx(const Eigen::Vector3f& query, float* distance_sq,
-                                               float cell_m, float margin_m) const {
-  lay_out_grid(cell_m, margin_m);
-  const long c = grid_cell(query);
-  if (c < 0) return nearest(query, distance_sq);  // outside the box: the exact nearest point
-  const std::uint32_t j = cell_point(c);
   if (distance_sq) *distance_sq = (points_[j] - query).squaredNorm();
   return j;
-}
-
-std::uint32_t ModelSearchIndex::grid_hint(const Eigen::Vector3f& query, float cell_m,
-                                          float margin_m) const {
-  lay_out_grid(cell_m, margin_m);
-  const long c = grid_cell(query);
-  return c < 0 ? kNone : cell_point(c);
 }
 
 std::uint32_t ModelSearchIndex::nearest_near(const Eigen::Vector3f& query, std::uint32_t hint,

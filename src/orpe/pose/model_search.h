@@ -47,11 +47,6 @@ class ModelSearchIndex {
   /// to the returned point (>= the true nearest distance, by at most the cell's diagonal).
   std::uint32_t nearest_approx(const Eigen::Vector3f& query, float* distance_sq, float cell_m,
                                float margin_m) const;
-  /// A start for nearest_near when there is no better one: the point nearest_approx gives for the
-  /// query's cell (same grid, laid out by the first call of either), or kNone outside the grid's
-  /// box (no tree search there). Within a cell's diagonal of the nearest point, so nearest_near
-  /// usually certifies its answer from the point's list instead of descending the tree.
-  std::uint32_t grid_hint(const Eigen::Vector3f& query, float cell_m, float margin_m) const;
 
   size_t size() const { return points_.size(); }
   const std::vector<Eigen::Vector3f>& points() const { return points_; }
@@ -73,11 +68,6 @@ class ModelSearchIndex {
     std::vector<float> radius_sq;      ///< per point: squared distance of its k-th neighbour
   };
   void build_neighbour_lists() const;
-  void lay_out_grid(float cell_m, float margin_m) const;
-  /// The grid's cell of `query` (x fastest), or -1 outside the box.
-  long grid_cell(const Eigen::Vector3f& query) const;
-  /// The nearest point of cell `c`'s centre, found on the cell's first query.
-  std::uint32_t cell_point(long c) const;
   mutable std::once_flag lists_once_;
   mutable NeighbourLists lists_;
   mutable std::once_flag grid_once_;

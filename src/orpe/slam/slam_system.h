@@ -173,7 +173,9 @@ class SlamSystem {
   std::int32_t frame_count() const { return frame_count_; }
   /// Frame counter of the last process() (the `now` of its surfel updates).
   std::int32_t last_time() const { return frame_count_ - 1; }
-  /// Preprocessed last frame.
+  /// Preprocessed last frame. With slam_fusion.fusion_level > 0 (the realtime preset) level 0's
+  /// normals are computed only at the tracker's level0_pixel_step (the other pixels are zero):
+  /// nothing else reads them then (FramePreprocessor, `level0_normal_step`).
   const FramePyramid& last_frame() const { return pyramid_; }
   /// Per pixel of the last frame: surfel it updated or created, -1 none (empty if not fused).
   const IndexImage& last_pixel_surfel() const { return pixel_surfel_; }

@@ -54,5 +54,6 @@ def write_scene(clip, out_clip, frames):
                 os.symlink(os.path.join(clip, f), os.path.join(out_clip, f"{k + 1:06d}{suffix}"))
     print(f"{out_clip}: {len(order)} frames of {clip} ({len(stems)} frames), back and forth")
 
+
 if __name__ == "__main__":
     main()
